@@ -1,0 +1,240 @@
+#include "daemon/instrument_service.h"
+
+#include <chrono>
+
+#include <spdlog/spdlog.h>
+
+#include "daemon/controller.h"
+#include "daemon/protocol_validator.h"
+#include "daemon/run_loop.h"
+#include "daemon/run_recorder.h"
+#include "daemon/safety_supervisor.h"
+#include "hal/backend_factory.h"
+
+namespace tribo::daemon {
+
+namespace {
+
+constexpr std::size_t kQueueCapacity = 1 << 16;
+constexpr int kBlockSamples = 1024;                        // samples per published block
+constexpr auto kPublishInterval = std::chrono::milliseconds(50);  // or sooner when full
+
+v1::Error make_error(v1::ErrorCode code, std::string field, std::string message) {
+  v1::Error e;
+  e.set_code(code);
+  e.set_field(std::move(field));
+  e.set_message(std::move(message));
+  return e;
+}
+
+}  // namespace
+
+struct InstrumentService::ActiveRun {
+  v1::RunStart start;
+  std::unique_ptr<hal::Transducer> transducer;
+  LoadFunction load_function;
+  RunLoopConfig loop_config;
+  SpscQueue<Sample> queue{kQueueCapacity};
+  std::atomic<bool> abort_requested{false};
+  std::atomic<bool> loop_finished{false};
+  std::string abort_reason;  // guarded by the service mutex
+  RunTelemetry telemetry;
+  std::unique_ptr<RunRecorder> recorder;
+  std::uint64_t published = 0;  // drain thread only
+};
+
+InstrumentService::InstrumentService(v1::DaemonConfig config, std::string software_version,
+                                     RunEventSink& sink)
+    : config_(std::move(config)), software_version_(std::move(software_version)), sink_(sink) {}
+
+InstrumentService::~InstrumentService() { shutdown("daemon shutting down"); }
+
+std::optional<v1::Error> InstrumentService::load_protocol(const v1::Protocol& protocol,
+                                                          v1::LoadProtocolReply& reply) {
+  ProtocolCheck check = validate_protocol(protocol, config_.limits(), config_.controller());
+  if (!check.ok()) {
+    std::string message = check.errors.front().message;
+    if (check.errors.size() > 1) {
+      message += " (and " + std::to_string(check.errors.size() - 1) + " more:";
+      for (std::size_t i = 1; i < check.errors.size(); ++i) message += " " + check.errors[i].message + ";";
+      message += ")";
+    }
+    return make_error(v1::INVALID_ARGUMENT, check.errors.front().field, message);
+  }
+  std::lock_guard lock(mutex_);
+  if (state_ == v1::RUNNING) {
+    return make_error(v1::WRONG_STATE, "", "a run is in progress; abort it before loading");
+  }
+  protocol_ = protocol;
+  load_function_ = std::move(check.load_function);
+  state_ = v1::ARMED;
+  reply.set_protocol_name(protocol.name());
+  reply.set_duration_s(check.duration_s);
+  reply.set_expected_samples(load_function_.expected_samples());
+  for (auto& w : check.warnings) reply.add_warnings(std::move(w));
+  return std::nullopt;
+}
+
+std::optional<v1::Error> InstrumentService::start_run(std::optional<std::uint64_t> seed,
+                                                      v1::StartRunReply& reply) {
+  std::lock_guard lock(mutex_);
+  if (state_ == v1::RUNNING) return make_error(v1::WRONG_STATE, "", "a run is already in progress");
+  if (state_ == v1::FAULTED) {
+    return make_error(v1::WRONG_STATE, "", "the instrument is faulted; load a protocol to re-arm");
+  }
+  if (!protocol_) return make_error(v1::WRONG_STATE, "", "no protocol loaded");
+  join_finished_run();
+
+  auto run = std::make_unique<ActiveRun>();
+  const std::uint64_t run_seed = seed.value_or(config_.sim().seed());
+  v1::RunStart& start = run->start;
+  *start.mutable_protocol() = *protocol_;
+  *start.mutable_config() = config_;
+  *start.mutable_lateral_gains() = config_.controller().lateral_displacement();
+  start.set_seed(run_seed);
+  start.set_software_version(software_version_);
+  start.set_start_time_utc(utc_timestamp_iso8601());
+  start.set_loop_rate_hz(config_.controller().loop_rate_hz());
+
+  std::string error;
+  run->recorder = RunRecorder::create(config_.recorder().data_dir(), start, error);
+  if (!run->recorder) return make_error(v1::INTERNAL, "recorder.data_dir", error);
+  run->transducer = hal::make_transducer(config_, run_seed);
+  if (!run->transducer) return make_error(v1::INTERNAL, "backend", "cannot create the backend");
+  run->load_function = load_function_;
+  run->loop_config.controller = controller_params_from_config(config_.controller());
+  run->loop_config.limits = safety_limits_from_config(config_.limits());
+  // Only the simulated backend running as fast as possible may wait for the
+  // consumer: its plant waits with it. Paced or real loops never wait.
+  run->loop_config.backpressure =
+      config_.backend_case() == v1::DaemonConfig::kSim && !config_.controller().pace_to_wall_clock();
+
+  reply.set_run_id(start.run_id());
+  last_run_id_ = start.run_id();
+  state_ = v1::RUNNING;
+  sink_.on_run_start(start);
+  spdlog::info("run {} started: protocol '{}', seed {}", start.run_id(), protocol_->name(), run_seed);
+  run_ = std::move(run);
+  run_thread_ = std::thread([this, r = run_.get()] { run_main(*r); });
+  return std::nullopt;
+}
+
+std::optional<v1::Error> InstrumentService::abort_run(const std::string& reason) {
+  std::lock_guard lock(mutex_);
+  if (state_ != v1::RUNNING || !run_) return make_error(v1::WRONG_STATE, "", "no run in progress");
+  run_->abort_reason = reason.empty() ? "aborted by client" : reason;
+  run_->abort_requested.store(true);
+  return std::nullopt;
+}
+
+v1::StatusReply InstrumentService::status() const {
+  std::lock_guard lock(mutex_);
+  v1::StatusReply s;
+  s.set_state(state_);
+  s.set_run_id(last_run_id_);
+  s.set_cycle_count(run_ ? run_->telemetry.cycles.load() : last_cycle_count_);
+  if (protocol_) s.set_loaded_protocol(protocol_->name());
+  return s;
+}
+
+void InstrumentService::run_main(ActiveRun& run) {
+  std::thread drain([this, &run] { drain_samples(run); });
+  const RunOutcome outcome = execute_run(*run.transducer, run.load_function, run.loop_config,
+                                         run.queue, run.abort_requested, run.telemetry);
+  run.loop_finished.store(true, std::memory_order_release);
+  drain.join();
+
+  v1::RunStop stop;
+  stop.set_run_id(run.start.run_id());
+  stop.set_sample_count(run.published);
+  stop.set_cycle_count(outcome.cycles);
+  stop.set_stop_time_utc(utc_timestamp_iso8601());
+  {
+    std::lock_guard lock(mutex_);
+    switch (outcome.end) {
+      case RunEnd::kCompleted:
+        stop.set_exit_status(v1::SUCCESS);
+        break;
+      case RunEnd::kAborted:
+        stop.set_exit_status(v1::ABORT);
+        stop.set_reason(run.abort_reason);
+        break;
+      case RunEnd::kTripped:
+        stop.set_exit_status(v1::FAULT);
+        stop.set_reason(std::string(trip_reason_text(outcome.trip)));
+        break;
+    }
+  }
+  if (const auto dropped = run.telemetry.samples_dropped.load(); dropped > 0) {
+    stop.set_reason(stop.reason() + (stop.reason().empty() ? "" : "; ") +
+                    std::to_string(dropped) + " samples dropped: the recorder fell behind");
+  }
+  if (!run.recorder->finish(stop)) {
+    spdlog::error("run {}: writing the recording failed", stop.run_id());
+  }
+  sink_.on_run_stop(stop);
+  spdlog::info("run {} stopped: {} ({} samples) {}", stop.run_id(), v1::ExitStatus_Name(stop.exit_status()),
+               stop.sample_count(), stop.reason());
+
+  std::lock_guard lock(mutex_);
+  last_cycle_count_ = outcome.cycles;
+  state_ = outcome.end == RunEnd::kTripped ? v1::FAULTED : v1::ARMED;
+}
+
+void InstrumentService::drain_samples(ActiveRun& run) {
+  v1::SampleBlock block;
+  auto last_publish = std::chrono::steady_clock::now();
+  const auto publish = [&] {
+    if (sample_count(block) == 0) return;
+    block.set_run_id(run.start.run_id());
+    block.set_first_sequence(run.published);
+    run.published += sample_count(block);
+    sink_.on_samples(block);
+    block.Clear();
+    last_publish = std::chrono::steady_clock::now();
+  };
+  for (;;) {
+    const bool finished = run.loop_finished.load(std::memory_order_acquire);
+    Sample s;
+    bool any = false;
+    while (run.queue.try_pop(s)) {
+      any = true;
+      run.recorder->append(s);
+      append_sample(s, block);
+      if (sample_count(block) >= kBlockSamples) publish();
+    }
+    if (finished) break;  // everything pushed before the flag was set is drained
+    if (std::chrono::steady_clock::now() - last_publish >= kPublishInterval) publish();
+    if (!any) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  publish();
+}
+
+void InstrumentService::join_finished_run() {
+  if (run_thread_.joinable()) run_thread_.join();
+  run_.reset();
+}
+
+void InstrumentService::shutdown(const std::string& reason) {
+  {
+    std::lock_guard lock(mutex_);
+    if (run_ && state_ == v1::RUNNING) {
+      run_->abort_reason = reason;
+      run_->abort_requested.store(true);
+    }
+  }
+  wait_until_idle();
+}
+
+void InstrumentService::wait_until_idle() {
+  std::thread finished;
+  {
+    std::lock_guard lock(mutex_);
+    finished = std::move(run_thread_);
+  }
+  if (finished.joinable()) finished.join();
+  std::lock_guard lock(mutex_);
+  run_.reset();
+}
+
+}  // namespace tribo::daemon

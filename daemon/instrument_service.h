@@ -1,0 +1,69 @@
+// The daemon's core, independent of the transport: holds the loaded protocol,
+// runs it (a real-time loop thread plus a drain thread that records samples and
+// publishes them), and tracks the state machine IDLE -> ARMED -> RUNNING ->
+// ARMED (or FAULTED after a safety trip). Thread-safe; the API server calls it
+// from its I/O thread, run documents leave through RunEventSink.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include "daemon/load_function.h"
+#include "tribo/v1/api.pb.h"
+
+namespace tribo::daemon {
+
+// Receives run documents in order: start, sample blocks, stop. Called from the
+// service's threads; implementations must not block for long.
+class RunEventSink {
+ public:
+  virtual ~RunEventSink() = default;
+  virtual void on_run_start(const v1::RunStart& start) = 0;
+  virtual void on_samples(const v1::SampleBlock& block) = 0;
+  virtual void on_run_stop(const v1::RunStop& stop) = 0;
+};
+
+class InstrumentService {
+ public:
+  InstrumentService(v1::DaemonConfig config, std::string software_version, RunEventSink& sink);
+  ~InstrumentService();
+
+  std::optional<v1::Error> load_protocol(const v1::Protocol& protocol, v1::LoadProtocolReply& reply);
+  std::optional<v1::Error> start_run(std::optional<std::uint64_t> seed, v1::StartRunReply& reply);
+  std::optional<v1::Error> abort_run(const std::string& reason);
+  v1::StatusReply status() const;
+
+  // Aborts a running run (safe unload) and waits until it is recorded.
+  void shutdown(const std::string& reason);
+  // Waits until no run is active (tests).
+  void wait_until_idle();
+
+  const v1::DaemonConfig& config() const { return config_; }
+  const std::string& software_version() const { return software_version_; }
+
+ private:
+  struct ActiveRun;
+  void run_main(ActiveRun& run);
+  void drain_samples(ActiveRun& run);
+  void join_finished_run();
+
+  const v1::DaemonConfig config_;
+  const std::string software_version_;
+  RunEventSink& sink_;
+
+  mutable std::mutex mutex_;  // guards everything below; never taken by the tick path
+  v1::DaemonState state_ = v1::IDLE;
+  std::optional<v1::Protocol> protocol_;
+  LoadFunction load_function_;
+  std::unique_ptr<ActiveRun> run_;
+  std::string last_run_id_;
+  std::uint64_t last_cycle_count_ = 0;
+  std::thread run_thread_;
+};
+
+}  // namespace tribo::daemon

@@ -1,0 +1,38 @@
+// The simulated backend: the instrument of sim/ behind the Transducer
+// interface, stepped in lock-step with the controller (one plant period per
+// tick), optionally paced to the wall clock.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+
+#include "hal/transducer.h"
+#include "hal/wall_clock_pacer.h"
+#include "sim/instrument.h"
+
+namespace tribo::hal {
+
+class SimTransducer : public Transducer {
+ public:
+  SimTransducer(const sim::InstrumentParams& params, std::uint64_t seed, double loop_rate_hz,
+                bool pace_to_wall_clock);
+
+  std::string_view backend_name() const override { return "sim"; }
+  double period_s() const override { return period_s_; }
+  IoResult read(SensorFrame& frame) override;
+  IoResult write(const DriveCommand& command) override;
+  void wait_next_tick() override;
+  std::uint64_t overruns() const override { return pacer_ ? pacer_->overruns() : 0; }
+
+  // The plant's true state: for tests and diagnostics, never for control.
+  const sim::SimInstrument& instrument() const { return instrument_; }
+
+ private:
+  sim::SimInstrument instrument_;
+  double period_s_;
+  DriveCommand command_;
+  std::uint32_t status_bits_ = 0;
+  std::unique_ptr<WallClockPacer> pacer_;
+};
+
+}  // namespace tribo::hal

@@ -1,0 +1,94 @@
+#include "sim/instrument.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "sim/noise_source.h"
+#include "sim/normal_contact.h"
+#include "tests/sim/sim_test_support.h"
+
+namespace tribo::sim {
+namespace {
+
+TEST(NoiseSource, SameSeedSameSequenceAndStreamsDiffer) {
+  NoiseSource a(derive_seed(7, 1)), b(derive_seed(7, 1)), c(derive_seed(7, 2));
+  for (int i = 0; i < 100; ++i) {
+    const double x = a.gaussian();
+    EXPECT_EQ(x, b.gaussian());
+    EXPECT_NE(x, c.gaussian());
+  }
+}
+
+TEST(NoiseSource, GaussianHasUnitVariance) {
+  NoiseSource noise(123);
+  double sum = 0, sum_sq = 0;
+  const int n = 200000;
+  for (int i = 0; i < n; ++i) {
+    const double x = noise.gaussian();
+    sum += x;
+    sum_sq += x * x;
+  }
+  EXPECT_NEAR(sum / n, 0.0, 0.01);
+  EXPECT_NEAR(sum_sq / n, 1.0, 0.01);
+}
+
+TEST(NormalContact, ActuatorForceSplitsIntoSpringAndHertzContact) {
+  const NormalAxisParams p{100, 50e-6, 18e9};
+  for (double force : {1e-6, 1e-3, 10e-3}) {
+    const NormalEquilibrium eq = solve_normal_equilibrium(p, force);
+    const double hertz = 4.0 / 3.0 * 18e9 * std::sqrt(50e-6) * std::pow(eq.displacement_m, 1.5);
+    EXPECT_NEAR(eq.contact_load_n, hertz, 1e-12 * force);
+    EXPECT_NEAR(100 * eq.displacement_m + eq.contact_load_n, force, 1e-12 * force);
+    EXPECT_LT(eq.contact_load_n, force) << "the springs absorb part of the load";
+  }
+  const NormalEquilibrium lifted = solve_normal_equilibrium(p, -1e-4);
+  EXPECT_EQ(lifted.contact_load_n, 0.0);
+  EXPECT_LT(lifted.displacement_m, 0.0);
+}
+
+TEST(NormalContact, HertzDepthOfTheFiftyMicronTipMatchesFigure432) {
+  // Fig. 4.32: ~150 nm maximum depth at 10 mN; §4.4: contact radius 2.33 µm.
+  const NormalAxisParams p{100, 50e-6, 18e9};
+  EXPECT_NEAR(hertz_depth_m(p, 10e-3), 150e-9, 10e-9);
+  const double a = hertz_contact_radius_m(p, 6e-3);
+  EXPECT_NEAR(a, 2.33e-6, 0.05e-6);
+  // a = (3 N R / (4 E*))^(1/3), delta = a^2 / R
+  EXPECT_NEAR(a, std::cbrt(3 * 6e-3 * 50e-6 / (4 * 18e9)), 1e-12);
+}
+
+TEST(SimInstrument, SameSeedGivesBitIdenticalMeasurementsAndOtherSeedsDiffer) {
+  const InstrumentParams params =
+      instrument_params_from_config(testing::default_config().sim());
+  SimInstrument a(params, 5), b(params, 5), c(params, 6);
+  bool any_difference = false;
+  for (int k = 0; k < 20000; ++k) {
+    const DriveInput drive{k < 10000 ? 1e-7 * k : 1e-3, 3e-4};
+    a.step(drive, 1e-4);
+    b.step(drive, 1e-4);
+    c.step(drive, 1e-4);
+    ASSERT_EQ(a.measurement().lateral_force_n, b.measurement().lateral_force_n);
+    ASSERT_EQ(a.measurement().lateral_position_m, b.measurement().lateral_position_m);
+    ASSERT_EQ(a.truth().lateral.bristle_m, b.truth().lateral.bristle_m);
+    any_difference |= a.measurement().lateral_force_n != c.measurement().lateral_force_n;
+  }
+  EXPECT_TRUE(any_difference);
+}
+
+TEST(SimInstrument, SensorNoiseHasTheConfiguredSpread) {
+  InstrumentParams params = instrument_params_from_config(testing::default_config().sim());
+  params.sensors.lateral_force_n = {10e-6, 0};
+  SimInstrument sim(params, 9);
+  double sum = 0, sum_sq = 0;
+  const int n = 50000;
+  for (int k = 0; k < n; ++k) {
+    sim.step(DriveInput{0, 0}, 1e-4);  // at rest, unloaded: the true force is zero
+    const double f = sim.measurement().lateral_force_n;
+    sum += f;
+    sum_sq += f * f;
+  }
+  EXPECT_NEAR(std::sqrt(sum_sq / n - (sum / n) * (sum / n)), 10e-6, 0.2e-6);
+}
+
+}  // namespace
+}  // namespace tribo::sim

@@ -1,0 +1,59 @@
+// Shared set-up for sim tests: the default config's instrument, optionally
+// without sensor noise, and a closed loop (controller + simulated backend)
+// driven by explicit setpoint functions.
+#pragma once
+
+#include <cmath>
+#include <functional>
+#include <string>
+
+#include "daemon/controller.h"
+#include "daemon/daemon_config.h"
+#include "hal/sim_transducer.h"
+#include "sim/instrument_params.h"
+#include "tests/support/daemon_process.h"
+
+namespace tribo::testing {
+
+inline v1::DaemonConfig default_config() {
+  v1::DaemonConfig config;
+  if (auto error = daemon::load_daemon_config(DaemonProcess::default_config_path(), config)) {
+    throw std::runtime_error(*error);
+  }
+  return config;
+}
+
+inline void silence_sensors(v1::DaemonConfig& config) {
+  config.mutable_sim()->mutable_sensors()->Clear();
+}
+
+struct LoopSetpoints {
+  double normal_force_n;
+  double lateral_position_m;
+};
+
+// Runs controller and simulated instrument in lock-step for duration_s;
+// observe(time, transducer) is called after every tick.
+inline void run_closed_loop(const v1::DaemonConfig& config, std::uint64_t seed, double duration_s,
+                            const std::function<LoopSetpoints(double)>& setpoints,
+                            const std::function<void(double, const hal::SimTransducer&)>& observe) {
+  hal::SimTransducer transducer(sim::instrument_params_from_config(config.sim()), seed,
+                                config.controller().loop_rate_hz(), false);
+  daemon::Controller controller(daemon::controller_params_from_config(config.controller()));
+  const double dt = transducer.period_s();
+  const auto ticks = static_cast<long>(std::llround(duration_s / dt));
+  for (long k = 0; k < ticks; ++k) {
+    const double t = static_cast<double>(k) * dt;
+    const LoopSetpoints sp = setpoints(t);
+    daemon::Setpoints s;
+    s.normal_force_n = sp.normal_force_n;
+    s.lateral_position_m = sp.lateral_position_m;
+    hal::SensorFrame frame;
+    transducer.read(frame);
+    transducer.write(controller.step(s, frame).drive);
+    transducer.wait_next_tick();
+    observe(t + dt, transducer);
+  }
+}
+
+}  // namespace tribo::testing
