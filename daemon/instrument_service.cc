@@ -172,13 +172,16 @@ void InstrumentService::run_main(ActiveRun& run) {
   if (!run.recorder->finish(stop)) {
     spdlog::error("run {}: writing the recording failed", stop.run_id());
   }
-  sink_.on_run_stop(stop);
+  {
+    // The state changes before the stop document goes out: a client that
+    // starts the next run as soon as it sees it must find the daemon ready.
+    std::lock_guard lock(mutex_);
+    last_cycle_count_ = outcome.cycles;
+    state_ = outcome.end == RunEnd::kTripped ? v1::FAULTED : v1::ARMED;
+  }
   spdlog::info("run {} stopped: {} ({} samples) {}", stop.run_id(), v1::ExitStatus_Name(stop.exit_status()),
                stop.sample_count(), stop.reason());
-
-  std::lock_guard lock(mutex_);
-  last_cycle_count_ = outcome.cycles;
-  state_ = outcome.end == RunEnd::kTripped ? v1::FAULTED : v1::ARMED;
+  sink_.on_run_stop(stop);
 }
 
 void InstrumentService::drain_samples(ActiveRun& run) {
