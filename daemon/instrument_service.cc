@@ -163,6 +163,7 @@ std::optional<v1::Error> InstrumentService::start_run(std::optional<std::uint64_
 std::optional<v1::Error> InstrumentService::abort_run(const std::string& reason) {
   std::lock_guard lock(mutex_);
   if (state_ != v1::RUNNING || !run_) return make_error(v1::WRONG_STATE, "", "no run in progress");
+  if (run_->abort_requested.load()) return std::nullopt;  // the first reason stands
   run_->abort_reason = reason.empty() ? "aborted by client" : reason;
   run_->abort_requested.store(true);
   return std::nullopt;

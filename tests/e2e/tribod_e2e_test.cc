@@ -18,6 +18,13 @@ namespace tribo {
 namespace {
 
 using testing::DaemonProcess;
+
+client::SessionOptions controller_options() {
+  client::SessionOptions s;
+  s.role = v1::CONTROLLER;
+  return s;
+}
+const client::SessionOptions controller = controller_options();
 using testing::TempDir;
 
 const std::string kStandard =
@@ -30,7 +37,7 @@ v1::Protocol standard_protocol() {
 }
 
 client::RunResult run_standard(const DaemonProcess& daemon, std::optional<std::uint64_t> seed) {
-  client::TriboClient client({"127.0.0.1", daemon.port()});
+  client::TriboClient client({"127.0.0.1", daemon.port()}, controller);
   return client::run_protocol(client, standard_protocol(), seed);
 }
 
@@ -123,7 +130,7 @@ TEST(TribodEndToEnd, SameSeedGivesIdenticalSampleFilesAndAnotherSeedDoesNot) {
 TEST(TribodEndToEnd, OutOfLimitProtocolIsRejectedBeforeAnythingMoves) {
   TempDir data;
   DaemonProcess daemon(data.path());
-  client::TriboClient client({"127.0.0.1", daemon.port()});
+  client::TriboClient client({"127.0.0.1", daemon.port()}, controller);
   v1::Protocol p = standard_protocol();
   p.mutable_segments(1)->mutable_normal()->set_end_un(20000);  // 20 mN
   p.mutable_segments(2)->mutable_normal()->set_end_un(20000);
@@ -196,7 +203,7 @@ namespace {
 TEST(TribodEndToEnd, SigtermMidRunUnloadsSafelyAndFinalizesTheRecording) {
   TempDir data;
   DaemonProcess daemon(data.path());
-  client::TriboClient client({"127.0.0.1", daemon.port()});
+  client::TriboClient client({"127.0.0.1", daemon.port()}, controller);
   v1::Protocol p = standard_protocol();
   // A 50 min loaded dwell at +2 µm: still running when the signal comes.
   p.mutable_segments(2)->set_duration_s(3000);
