@@ -237,6 +237,13 @@ TEST(TribodEndToEnd, SigtermMidRunUnloadsSafelyAndFinalizesTheRecording) {
   ASSERT_GT(sample_count(b), 10000);
   EXPECT_EQ(b.normal_setpoint_n(sample_count(b) - 1), 0.0) << "unloaded before exiting";
   EXPECT_TRUE(b.status_flags(sample_count(b) - 1) & v1::SAFE_UNLOAD);
+  // The finalized metadata keeps the descriptor and where the unload began.
+  EXPECT_EQ(run->metadata.run_descriptor().channels_size(), 9);
+  ASSERT_GT(run->metadata.segment_events_size(), 0);
+  const auto& unload = run->metadata.segment_events(run->metadata.segment_events_size() - 1);
+  EXPECT_EQ(unload.kind(), v1::UNLOAD_BEGIN);
+  EXPECT_TRUE(b.status_flags(static_cast<int>(unload.sequence())) & v1::SAFE_UNLOAD);
+  EXPECT_FALSE(b.status_flags(static_cast<int>(unload.sequence()) - 1) & v1::SAFE_UNLOAD);
 }
 
 }  // namespace
