@@ -341,3 +341,45 @@ TEST(ApiStreaming, ControllerLossWithContinuePolicyFinishesTheRun) {
 
 }  // namespace
 }  // namespace tribo::testing
+
+namespace tribo::testing {
+namespace {
+
+TEST(ApiStreaming, ASafetyTripSendsAFaultBeforeTheStop) {
+  TempDir data, cfg;
+  v1::DaemonConfig config = default_config();
+  config.mutable_limits()->set_max_lateral_force_n(100e-6);  // the scratch needs ~128 µN
+  DaemonProcess daemon(data.path(), write_config(cfg, config));
+  RawClient observer(daemon.port());
+  observer.request(hello_message());
+  v1::ClientMessage sub;
+  sub.mutable_subscribe();
+  observer.request(sub);
+  client::TriboClient controller({"127.0.0.1", daemon.port()}, controller_session());
+  const auto run = client::run_protocol(controller, standard_protocol(), std::nullopt);
+  const StreamLog log = read_until_stop(observer);
+  ASSERT_TRUE(log.stop);
+  EXPECT_EQ(log.stop->exit_status(), v1::FAULT);
+  ASSERT_EQ(log.faults.size(), 1u);
+  const v1::Fault& fault = log.faults[0];
+  EXPECT_EQ(fault.reason(), "lateral force beyond the limit");
+  EXPECT_TRUE(log.documents[log.documents.size() - 2].has_fault()) << "the fault comes right before the stop";
+  ASSERT_FALSE(log.events.empty());
+  EXPECT_EQ(log.events.back().kind(), v1::UNLOAD_BEGIN);
+  EXPECT_EQ(log.events.back().sequence(), fault.sequence());
+  EXPECT_TRUE(run.samples.status_flags(static_cast<int>(fault.sequence())) & v1::SAFE_UNLOAD);
+  EXPECT_DOUBLE_EQ(run.samples.time_s(static_cast<int>(fault.sequence())), fault.time_s());
+  EXPECT_EQ(check_coverage(log, log.stop->sample_count(), 1), "");
+
+  std::string error;
+  const auto metadata = wire::read_run_metadata(data.path() / run.start.run_id(), error);
+  ASSERT_TRUE(metadata) << error;
+  ASSERT_EQ(metadata->faults_size(), 1);
+  EXPECT_EQ(metadata->faults(0).sequence(), fault.sequence());
+  v1::ClientMessage status;
+  status.mutable_get_status();
+  EXPECT_EQ(controller.request(status).status().state(), v1::FAULTED);
+}
+
+}  // namespace
+}  // namespace tribo::testing
