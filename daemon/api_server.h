@@ -21,6 +21,7 @@
 #include <asio.hpp>
 
 #include "daemon/instrument_service.h"
+#include "daemon/run_archive.h"
 #include "tribo/v1/daemon_config.pb.h"
 
 namespace tribo::daemon {
@@ -43,7 +44,10 @@ class ApiServer : public RunEventSink {
   ApiServer(asio::io_context& io, const v1::ServerConfig& config, std::string control_token);
   ~ApiServer() override;
 
-  void attach(InstrumentService& service) { service_ = &service; }
+  void attach(InstrumentService& service) {
+    service_ = &service;
+    archive_.emplace(service.config().recorder().data_dir());
+  }
   void start_accepting();
   std::uint16_t port() const { return acceptor_.local_endpoint().port(); }
 
@@ -76,12 +80,14 @@ class ApiServer : public RunEventSink {
   void catch_up(ClientSession& session);
   void count_gap_notice() { ++gap_notices_; }
   void fill_status(const ClientSession& session, v1::StatusReply& status) const;
+  RunArchive& archive() { return *archive_; }
 
   asio::io_context& io_;
   asio::ip::tcp::acceptor acceptor_;
   v1::ServerConfig config_;
   std::string control_token_;
   InstrumentService* service_ = nullptr;
+  std::optional<RunArchive> archive_;
   std::list<std::shared_ptr<ClientSession>> sessions_;
   ClientSession* controller_ = nullptr;
   asio::steady_timer close_deadline_;

@@ -141,7 +141,6 @@ void ClientSession::dispatch(const v1::ClientMessage& request, v1::ServerMessage
     return set_error(reply, v1::PERMISSION_DENIED, "role",
                      "this session is an observer; control commands need the CONTROLLER role");
   }
-  const std::filesystem::path data_dir = service_.config().recorder().data_dir();
   std::optional<v1::Error> error;
   switch (body) {
     case v1::ClientMessage::kLoadProtocol:
@@ -176,16 +175,16 @@ void ClientSession::dispatch(const v1::ClientMessage& request, v1::ServerMessage
       reply.mutable_release_control();
       break;
     case v1::ClientMessage::kListRuns:
-      *reply.mutable_list_runs() = list_runs(data_dir, request.list_runs());
+      *reply.mutable_list_runs() = server_.archive().list_runs(request.list_runs());
       break;
     case v1::ClientMessage::kGetRun:
-      error = get_run(data_dir, request.get_run(), *reply.mutable_get_run());
+      error = server_.archive().get_run(request.get_run(), *reply.mutable_get_run());
       break;
     case v1::ClientMessage::kFetchSamples:
-      error = fetch_samples(data_dir, request.fetch_samples(), *reply.mutable_fetch_samples());
+      error = server_.archive().fetch_samples(request.fetch_samples(), *reply.mutable_fetch_samples());
       break;
     case v1::ClientMessage::kExportCsv:
-      error = export_csv(data_dir, request.export_csv(), *reply.mutable_export_csv());
+      error = server_.archive().export_csv(request.export_csv(), *reply.mutable_export_csv());
       break;
     default:
       error = v1::Error();

@@ -42,21 +42,27 @@ wire::SampleRange page(std::uint64_t from, std::uint64_t asked, std::uint64_t li
   return wire::SampleRange{from, asked == 0 ? limit : std::min(asked, limit)};
 }
 
+constexpr std::size_t kIndexedRuns = 16;
+
 }  // namespace
 
-v1::ListRunsReply list_runs(const fs::path& data_dir, const v1::ListRuns& request) {
+wire::RowIndex& RunArchive::index_of(const std::string& run_id) {
+  if (indexes_.size() >= kIndexedRuns && indexes_.count(run_id) == 0) indexes_.clear();
+  return indexes_[run_id];
+}
+
+v1::ListRunsReply RunArchive::list_runs(const v1::ListRuns& request) const {
   v1::ListRunsReply reply;
-  for (auto& run : wire::list_recorded_runs(data_dir)) {
+  for (auto& run : wire::list_recorded_runs(data_dir_)) {
     if (request.max_runs() > 0 && reply.runs_size() >= static_cast<int>(request.max_runs())) break;
     *reply.add_runs() = std::move(run);
   }
   return reply;
 }
 
-std::optional<v1::Error> get_run(const fs::path& data_dir, const v1::GetRun& request,
-                                 v1::GetRunReply& reply) {
+std::optional<v1::Error> RunArchive::get_run(const v1::GetRun& request, v1::GetRunReply& reply) const {
   fs::path dir;
-  if (auto e = run_directory(data_dir, request.run_id(), "get_run.run_id", dir)) return e;
+  if (auto e = run_directory(data_dir_, request.run_id(), "get_run.run_id", dir)) return e;
   std::string error;
   auto metadata = wire::read_run_metadata(dir, error);
   if (!metadata) return make_error(v1::INTERNAL, "get_run.run_id", error);
@@ -65,17 +71,17 @@ std::optional<v1::Error> get_run(const fs::path& data_dir, const v1::GetRun& req
   return std::nullopt;
 }
 
-std::optional<v1::Error> fetch_samples(const fs::path& data_dir, const v1::FetchSamples& request,
-                                       v1::FetchSamplesReply& reply) {
+std::optional<v1::Error> RunArchive::fetch_samples(const v1::FetchSamples& request,
+                                                   v1::FetchSamplesReply& reply) {
   fs::path dir;
-  if (auto e = run_directory(data_dir, request.run_id(), "fetch_samples.run_id", dir)) return e;
+  if (auto e = run_directory(data_dir_, request.run_id(), "fetch_samples.run_id", dir)) return e;
   // Read "finished" first: a run finalized after this still has every row read below.
   reply.set_run_finished(finalized(dir));
   std::string error;
   wire::RowsRead read;
   v1::SampleBlock* block = reply.mutable_samples();
   if (!wire::read_sample_rows(dir, page(request.from_sequence(), request.max_samples(), kMaxFetchSamples),
-                              *block, read, error)) {
+                              *block, read, error, &index_of(request.run_id()))) {
     return make_error(v1::INTERNAL, "fetch_samples.run_id", error);
   }
   block->set_run_id(request.run_id());
@@ -84,15 +90,14 @@ std::optional<v1::Error> fetch_samples(const fs::path& data_dir, const v1::Fetch
   return std::nullopt;
 }
 
-std::optional<v1::Error> export_csv(const fs::path& data_dir, const v1::ExportCsv& request,
-                                    v1::ExportCsvReply& reply) {
+std::optional<v1::Error> RunArchive::export_csv(const v1::ExportCsv& request, v1::ExportCsvReply& reply) {
   fs::path dir;
-  if (auto e = run_directory(data_dir, request.run_id(), "export_csv.run_id", dir)) return e;
+  if (auto e = run_directory(data_dir_, request.run_id(), "export_csv.run_id", dir)) return e;
   reply.set_run_finished(finalized(dir));
   std::string error;
   wire::RowsRead read;
   if (!wire::read_csv_rows(dir, page(request.from_sequence(), request.max_samples(), kMaxExportRows),
-                           *reply.mutable_csv(), read, error)) {
+                           *reply.mutable_csv(), read, error, &index_of(request.run_id()))) {
     return make_error(v1::INTERNAL, "export_csv.run_id", error);
   }
   reply.set_next_sequence(request.from_sequence() + read.rows);

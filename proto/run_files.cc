@@ -60,21 +60,25 @@ bool write_run_directory(const fs::path& dir, const v1::RunMetadata& metadata,
 
 namespace {
 
-// Calls on_row(row, index) for each complete data row of samples.csv (the
-// header checked and skipped) until it returns false. Reads in chunks: a
-// recording may be far larger than memory should hold.
+// Calls on_row(row, index, offset) for each complete data row of samples.csv
+// (the header checked and skipped when starting at the beginning) until it
+// returns false. Reads in chunks: a recording may be far larger than memory
+// should hold. Can start at a known row's byte offset.
 class CsvRows {
  public:
   explicit CsvRows(const fs::path& path) : file_(std::fopen(path.c_str(), "rb"), &std::fclose) {}
 
   bool open() const { return file_ != nullptr; }
 
-  // Returns false if the header is missing or wrong.
-  bool for_each(const std::function<bool(std::string_view, std::uint64_t)>& on_row) {
+  // Returns false if the header is missing or wrong, or the start cannot be reached.
+  bool for_each(std::uint64_t start_row, std::uint64_t start_offset,
+                const std::function<bool(std::string_view, std::uint64_t, std::uint64_t)>& on_row) {
+    bool header = start_offset == 0;
+    if (!header && std::fseek(file_.get(), static_cast<long>(start_offset), SEEK_SET) != 0) return false;
     std::string buffer;
     std::vector<char> chunk(1 << 20);
-    bool header = true;
-    std::uint64_t index = 0;
+    std::uint64_t index = start_row;
+    std::uint64_t buffer_offset = start_offset;  // file offset of buffer[0]
     std::size_t n;
     while ((n = std::fread(chunk.data(), 1, chunk.size(), file_.get())) > 0) {
       buffer.append(chunk.data(), n);
@@ -84,15 +88,17 @@ class CsvRows {
         if (nl == nullptr) break;
         const std::size_t end = static_cast<std::size_t>(static_cast<const char*>(nl) - buffer.data());
         const std::string_view row(buffer.data() + begin, end - begin + 1);  // with the newline
+        const std::uint64_t row_offset = buffer_offset + begin;
         begin = end + 1;
         if (header) {
           if (std::string(row) != csv_header()) return false;
           header = false;
           continue;
         }
-        if (!on_row(row, index++)) return true;
+        if (!on_row(row, index++, row_offset)) return true;
       }
       buffer.erase(0, begin);  // keeps a torn last line until more arrives, or forever
+      buffer_offset += begin;
     }
     return !header;
   }
@@ -103,7 +109,7 @@ class CsvRows {
 
 bool scan_rows(const fs::path& dir, SampleRange range,
                const std::function<bool(std::string_view)>& take, RowsRead& read,
-               std::string& error) {
+               std::string& error, RowIndex* index) {
   CsvRows rows(dir / kSamplesFile);
   if (!rows.open()) {
     error = "cannot read " + (dir / kSamplesFile).string();
@@ -112,14 +118,25 @@ bool scan_rows(const fs::path& dir, SampleRange range,
   const std::uint64_t end = range.max_samples == 0 || range.max_samples > ~range.from
                                 ? ~std::uint64_t{0}
                                 : range.from + range.max_samples;
+  // Start from the last indexed row at or before the range.
+  std::uint64_t start_row = 0, start_offset = 0;
+  if (index != nullptr && !index->offsets.empty()) {
+    const std::uint64_t k = std::min<std::uint64_t>(range.from / RowIndex::kStride, index->offsets.size() - 1);
+    start_row = k * RowIndex::kStride;
+    start_offset = index->offsets[k];
+  }
   bool ok = true;
   read = RowsRead{0, true};
-  const bool header_ok = rows.for_each([&](std::string_view row, std::uint64_t index) {
-    if (index >= end) {  // a row beyond the range: stop reading
+  const bool header_ok = rows.for_each(start_row, start_offset,
+                                       [&](std::string_view row, std::uint64_t i, std::uint64_t offset) {
+    if (index != nullptr && i % RowIndex::kStride == 0 && i / RowIndex::kStride == index->offsets.size()) {
+      index->offsets.push_back(offset);
+    }
+    if (i >= end) {  // a row beyond the range: stop reading
       read.end_of_file = false;
       return false;
     }
-    if (index >= range.from) {
+    if (i >= range.from) {
       ok = take(row);
       ++read.rows;
     }
@@ -139,30 +156,30 @@ bool scan_rows(const fs::path& dir, SampleRange range,
 }  // namespace
 
 bool read_csv_rows(const fs::path& dir, SampleRange range, std::string& csv, RowsRead& read,
-                   std::string& error) {
+                   std::string& error, RowIndex* index) {
   if (range.from == 0) csv += csv_header();
   return scan_rows(dir, range, [&](std::string_view row) {
     csv.append(row);
     return true;
-  }, read, error);
+  }, read, error, index);
 }
 
 bool read_sample_rows(const fs::path& dir, SampleRange range, v1::SampleBlock& block,
-                      RowsRead& read, std::string& error) {
+                      RowsRead& read, std::string& error, RowIndex* index) {
   block.set_first_sequence(range.from);
   return scan_rows(dir, range, [&](std::string_view row) {
     Sample s;
     if (!parse_csv_row(row.substr(0, row.size() - 1), s)) return false;
     append_sample(s, block);
     return true;
-  }, read, error);
+  }, read, error, index);
 }
 
 std::uint64_t count_recorded_samples(const fs::path& dir) {
   std::uint64_t count = 0;
   std::string error;
   RowsRead read;
-  scan_rows(dir, SampleRange{}, [&](std::string_view) { ++count; return true; }, read, error);
+  scan_rows(dir, SampleRange{}, [&](std::string_view) { ++count; return true; }, read, error, nullptr);
   return count;
 }
 

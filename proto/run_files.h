@@ -59,10 +59,17 @@ struct RowsRead {
   std::uint64_t rows = 0;         // rows taken
   bool end_of_file = false;       // no complete row after them
 };
+// Byte offsets of every kStride-th row of one samples.csv, filled in as rows
+// are read, so that paging through a long recording does not rescan it from
+// the start. Valid as long as the file only grows (it does).
+struct RowIndex {
+  static constexpr std::uint64_t kStride = 8192;
+  std::vector<std::uint64_t> offsets;  // offsets[k]: row k * kStride
+};
 bool read_csv_rows(const std::filesystem::path& dir, SampleRange range, std::string& csv,
-                   RowsRead& read, std::string& error);
+                   RowsRead& read, std::string& error, RowIndex* index = nullptr);
 bool read_sample_rows(const std::filesystem::path& dir, SampleRange range, v1::SampleBlock& block,
-                      RowsRead& read, std::string& error);
+                      RowsRead& read, std::string& error, RowIndex* index = nullptr);
 
 // The recorded runs under data_dir, newest first (run ids sort by time).
 std::vector<v1::RunListing> list_recorded_runs(const std::filesystem::path& data_dir);

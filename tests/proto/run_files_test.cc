@@ -66,6 +66,33 @@ TEST(RunFiles, CsvPagesConcatenateToTheFile) {
   EXPECT_TRUE(csv == file);
 }
 
+TEST(RunFiles, PagingWithARowIndexSeeksAndReadsTheSameRows) {
+  RunDir run(20000);
+  const v1::SampleBlock all = samples(20000);
+  RowIndex index;
+  std::string error;
+  RowsRead read;
+  // Pages in order build the index as they go...
+  for (std::uint64_t from = 0; from < 20000; from += 3000) {
+    v1::SampleBlock page;
+    ASSERT_TRUE(read_sample_rows(run.path, SampleRange{from, 3000}, page, read, error, &index)) << error;
+    for (int i = 0; i < sample_count(page); ++i) {
+      ASSERT_EQ(sample_at(page, i), sample_at(all, static_cast<int>(from) + i)) << from + static_cast<std::uint64_t>(i);
+    }
+  }
+  ASSERT_EQ(index.offsets.size(), 3u);  // rows 0, 8192, 16384
+  // ...and a later read starts from the nearest indexed row.
+  v1::SampleBlock late;
+  ASSERT_TRUE(read_sample_rows(run.path, SampleRange{17000, 5}, late, read, error, &index)) << error;
+  ASSERT_EQ(sample_count(late), 5);
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(sample_at(late, i), sample_at(all, 17000 + i));
+  std::string csv;
+  ASSERT_TRUE(read_csv_rows(run.path, SampleRange{16384, 1}, csv, read, error, &index));
+  std::string expected;
+  append_csv_row(sample_at(all, 16384), expected);
+  EXPECT_EQ(csv, expected);
+}
+
 // A crash can cut the last row anywhere, even inside its last number, which
 // would still parse: only rows that end in a newline count.
 TEST(RunFiles, ATornLastRowIsNotASample) {
