@@ -275,8 +275,8 @@ TEST(ApiStreaming, LateSubscriberGetsStartDescriptorAndAGapForWhatCameBefore) {
 
 // The controlling client disconnects mid-run; server.on_controller_loss says
 // what happens. Paced runs, so that the run is still going when it does.
-v1::RunStop run_and_drop_the_controller(v1::ControllerLossPolicy policy, StreamLog& log,
-                                        bool& controller_gone_while_running) {
+v1::RunStop run_and_drop_the_controller(v1::ControllerLossPolicy policy, std::uint32_t drop_in_segment,
+                                        StreamLog& log, bool& controller_gone_while_running) {
   TempDir data, cfg;
   v1::DaemonConfig config = paced_config();
   config.mutable_server()->set_on_controller_loss(policy);
@@ -289,12 +289,12 @@ v1::RunStop run_and_drop_the_controller(v1::ControllerLossPolicy policy, StreamL
     EXPECT_EQ(controller.request(hello_message(v1::CONTROLLER)).hello().role(), v1::CONTROLLER);
     controller.request(load(short_protocol()));
     controller.request(start_run());
-    // Wait for the first samples (0.05 s of a 3 s run), then vanish.
+    // Wait until the run is in the given segment, then vanish.
     for (;;) {
       auto d = observer.read();
       if (!d) break;
       log.add(*d);
-      if (d->has_samples()) break;
+      if (d->has_samples() && d->samples().segment_index(sample_count(d->samples()) - 1) >= drop_in_segment) break;
     }
   }
   // The observer asks while the run goes on (continue) or unloads (abort).
@@ -315,12 +315,17 @@ v1::RunStop run_and_drop_the_controller(v1::ControllerLossPolicy policy, StreamL
 
 TEST(ApiStreaming, ControllerLossWithAbortPolicyUnloadsSafely) {
   StreamLog log;
-  bool gone_while_running = false;
-  const v1::RunStop stop = run_and_drop_the_controller(v1::ABORT_RUN, log, gone_while_running);
-  EXPECT_TRUE(gone_while_running);
+  bool gone_while_running = false;  // the unload may be over before anyone asks
+  const v1::RunStop stop = run_and_drop_the_controller(v1::ABORT_RUN, 2, log, gone_while_running);
   EXPECT_EQ(stop.exit_status(), v1::ABORT);
   EXPECT_EQ(stop.reason(), "the controlling client disconnected");
   ASSERT_FALSE(log.blocks.empty());
+  // It was scratching under load, and unloaded to zero.
+  double loaded_n = 0;
+  for (const auto& b : log.blocks) {
+    for (int i = 0; i < sample_count(b); ++i) loaded_n = std::max(loaded_n, b.normal_setpoint_n(i));
+  }
+  EXPECT_GT(loaded_n, 900e-6);
   const auto& last = log.blocks.back();
   EXPECT_EQ(last.normal_setpoint_n(sample_count(last) - 1), 0.0);
   EXPECT_TRUE(last.status_flags(sample_count(last) - 1) & v1::SAFE_UNLOAD);
@@ -332,7 +337,7 @@ TEST(ApiStreaming, ControllerLossWithAbortPolicyUnloadsSafely) {
 TEST(ApiStreaming, ControllerLossWithContinuePolicyFinishesTheRun) {
   StreamLog log;
   bool gone_while_running = false;
-  const v1::RunStop stop = run_and_drop_the_controller(v1::CONTINUE_RUN, log, gone_while_running);
+  const v1::RunStop stop = run_and_drop_the_controller(v1::CONTINUE_RUN, 0, log, gone_while_running);
   EXPECT_TRUE(gone_while_running);
   EXPECT_EQ(stop.exit_status(), v1::SUCCESS) << stop.reason();
   EXPECT_EQ(stop.sample_count(), 3000u);
