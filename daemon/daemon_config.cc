@@ -43,6 +43,9 @@ std::optional<std::string> validate_daemon_config(const v1::DaemonConfig& c) {
   if (c.server().bind_address().empty()) return "server.bind_address is empty";
   if (auto e = out_of_range("server.port", c.server().port(), 0, 65535)) return e;
   if (auto e = out_of_range("server.max_frame_bytes", c.server().max_frame_bytes(), 1024, 64 << 20)) return e;
+  if (c.server().client_queue_bytes() != 0) {
+    if (auto e = out_of_range("server.client_queue_bytes", c.server().client_queue_bytes(), 64 << 10, 1u << 30)) return e;
+  }
   if (c.recorder().data_dir().empty()) return "recorder.data_dir is empty";
   if (auto e = out_of_range("controller.loop_rate_hz", ctl.loop_rate_hz(), 1, 50000)) return e;
   if (auto e = out_of_range("controller.default_acquisition_rate_hz", ctl.default_acquisition_rate_hz(),

@@ -41,7 +41,42 @@ struct InstrumentService::ActiveRun {
   RunTelemetry telemetry;
   std::unique_ptr<RunRecorder> recorder;
   std::uint64_t published = 0;  // drain thread only
+  // Drain thread: where the safe unload began (the fault's sequence).
+  std::optional<std::uint64_t> unload_sequence;
+  double unload_time_s = 0;
+  // Published by the drain thread for status requests.
+  std::atomic<std::uint64_t> recorded{0};
+  std::atomic<std::uint64_t> sensor_invalid{0};
+  std::atomic<double> latest_time_s{0};
 };
+
+namespace {
+
+std::uint64_t unix_time_ns() {
+  return static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                        std::chrono::system_clock::now().time_since_epoch())
+                                        .count());
+}
+
+v1::RunDescriptor make_descriptor(const v1::Protocol& protocol, const LoadFunction& load_function) {
+  v1::RunDescriptor d;
+  describe_channels(d);
+  d.set_expected_samples(load_function.expected_samples());
+  d.set_duration_s(static_cast<double>(load_function.total_ticks()) / load_function.loop_rate_hz());
+  for (const auto& segment : protocol.segments()) d.add_segment_names(segment.name());
+  return d;
+}
+
+}  // namespace
+
+std::string InstrumentService::backend_name() const {
+  switch (config_.backend_case()) {
+    case v1::DaemonConfig::kSim:
+      return "sim";
+    default:
+      return "other";
+  }
+}
 
 InstrumentService::InstrumentService(v1::DaemonConfig config, std::string software_version,
                                      RunEventSink& sink)
@@ -67,6 +102,7 @@ std::optional<v1::Error> InstrumentService::load_protocol(const v1::Protocol& pr
   }
   protocol_ = protocol;
   load_function_ = std::move(check.load_function);
+  loaded_duration_s_ = check.duration_s;
   state_ = v1::ARMED;
   reply.set_protocol_name(protocol.name());
   reply.set_duration_s(check.duration_s);
@@ -90,6 +126,7 @@ std::optional<v1::Error> InstrumentService::start_run(std::optional<std::uint64_
   v1::RunStart& start = run->start;
   *start.mutable_protocol() = *protocol_;
   *start.mutable_config() = config_;
+  start.mutable_config()->mutable_server()->clear_control_token();  // the run documents are public
   *start.mutable_lateral_gains() = config_.controller().lateral_displacement();
   start.set_seed(run_seed);
   start.set_software_version(software_version_);
@@ -112,7 +149,11 @@ std::optional<v1::Error> InstrumentService::start_run(std::optional<std::uint64_
   reply.set_run_id(start.run_id());
   last_run_id_ = start.run_id();
   state_ = v1::RUNNING;
+  v1::RunDescriptor descriptor = make_descriptor(*protocol_, load_function_);
+  descriptor.set_run_id(start.run_id());
+  run->recorder->describe(descriptor);
   sink_.on_run_start(start);
+  sink_.on_descriptor(descriptor);
   spdlog::info("run {} started: protocol '{}', seed {}", start.run_id(), protocol_->name(), run_seed);
   run_ = std::move(run);
   run_thread_ = std::thread([this, r = run_.get()] { run_main(*r); });
@@ -122,6 +163,7 @@ std::optional<v1::Error> InstrumentService::start_run(std::optional<std::uint64_
 std::optional<v1::Error> InstrumentService::abort_run(const std::string& reason) {
   std::lock_guard lock(mutex_);
   if (state_ != v1::RUNNING || !run_) return make_error(v1::WRONG_STATE, "", "no run in progress");
+  if (run_->abort_requested.load()) return std::nullopt;  // the first reason stands
   run_->abort_reason = reason.empty() ? "aborted by client" : reason;
   run_->abort_requested.store(true);
   return std::nullopt;
@@ -134,6 +176,25 @@ v1::StatusReply InstrumentService::status() const {
   s.set_run_id(last_run_id_);
   s.set_cycle_count(run_ ? run_->telemetry.cycles.load() : last_cycle_count_);
   if (protocol_) s.set_loaded_protocol(protocol_->name());
+  DrainCounters counters = last_counters_;
+  if (run_) {
+    counters.recorded = run_->recorded.load();
+    counters.dropped = run_->telemetry.samples_dropped.load();
+    counters.sensor_invalid = run_->sensor_invalid.load();
+    counters.time_s = run_->latest_time_s.load();
+  }
+  s.set_samples_recorded(counters.recorded);
+  s.set_samples_dropped(counters.dropped);
+  s.set_run_time_s(counters.time_s);
+  s.set_run_duration_s(loaded_duration_s_);
+  v1::BackendHealth* health = s.mutable_backend_health();
+  health->set_backend(backend_name());
+  health->set_sensor_invalid_samples(counters.sensor_invalid);
+  health->set_healthy(counters.sensor_invalid == 0);
+  health->set_detail(counters.sensor_invalid == 0
+                         ? "no invalid sensor reading in the current or last run"
+                         : std::to_string(counters.sensor_invalid) +
+                               " recorded samples flagged SENSOR_INVALID in the current or last run");
   return s;
 }
 
@@ -149,6 +210,15 @@ void InstrumentService::run_main(ActiveRun& run) {
   stop.set_sample_count(run.published);
   stop.set_cycle_count(outcome.cycles);
   stop.set_stop_time_utc(utc_timestamp_iso8601());
+  if (outcome.end == RunEnd::kTripped) {
+    v1::Fault fault;
+    fault.set_run_id(run.start.run_id());
+    fault.set_sequence(run.unload_sequence.value_or(run.published));
+    fault.set_time_s(run.unload_time_s);
+    fault.set_reason(std::string(trip_reason_text(outcome.trip)));
+    run.recorder->record(fault);
+    sink_.on_fault(fault);
+  }
   {
     std::lock_guard lock(mutex_);
     switch (outcome.end) {
@@ -177,6 +247,8 @@ void InstrumentService::run_main(ActiveRun& run) {
     // starts the next run as soon as it sees it must find the daemon ready.
     std::lock_guard lock(mutex_);
     last_cycle_count_ = outcome.cycles;
+    last_counters_ = DrainCounters{run.recorded.load(), run.telemetry.samples_dropped.load(),
+                                   run.sensor_invalid.load(), run.latest_time_s.load()};
     state_ = outcome.end == RunEnd::kTripped ? v1::FAULTED : v1::ARMED;
   }
   spdlog::info("run {} stopped: {} ({} samples) {}", stop.run_id(), v1::ExitStatus_Name(stop.exit_status()),
@@ -184,26 +256,61 @@ void InstrumentService::run_main(ActiveRun& run) {
   sink_.on_run_stop(stop);
 }
 
+// Records every sample, then publishes it: the recorder is flushed before a
+// block goes out, so whatever a client has missed is already on disk. Segment
+// events go out between the samples before and after them.
 void InstrumentService::drain_samples(ActiveRun& run) {
   v1::SampleBlock block;
   auto last_publish = std::chrono::steady_clock::now();
   const auto publish = [&] {
     if (sample_count(block) == 0) return;
+    run.recorder->flush();
     block.set_run_id(run.start.run_id());
     block.set_first_sequence(run.published);
     run.published += sample_count(block);
+    run.recorded.store(run.published, std::memory_order_relaxed);
+    run.latest_time_s.store(block.time_s(sample_count(block) - 1), std::memory_order_relaxed);
+    block.set_publish_time_unix_ns(unix_time_ns());
     sink_.on_samples(block);
     block.Clear();
     last_publish = std::chrono::steady_clock::now();
   };
+  const auto segment_event = [&](v1::SegmentEventKind kind, const Sample& s, std::uint64_t sequence) {
+    publish();
+    v1::SegmentEvent event;
+    event.set_run_id(run.start.run_id());
+    event.set_sequence(sequence);
+    event.set_time_s(s.time_s);
+    event.set_kind(kind);
+    event.set_segment_index(s.segment_index);
+    const auto& segments = run.start.protocol().segments();
+    if (static_cast<int>(s.segment_index) < segments.size()) {
+      event.set_segment_name(segments[static_cast<int>(s.segment_index)].name());
+    }
+    run.recorder->record(event);
+    sink_.on_segment_event(event);
+  };
+  std::optional<std::uint32_t> segment;
+  std::uint64_t sequence = 0;  // of the next sample popped
   for (;;) {
     const bool finished = run.loop_finished.load(std::memory_order_acquire);
     Sample s;
     bool any = false;
     while (run.queue.try_pop(s)) {
       any = true;
+      const bool unloading = (s.status_flags & v1::SAFE_UNLOAD) != 0;
+      if (unloading && !run.unload_sequence) {
+        run.unload_sequence = sequence;
+        run.unload_time_s = s.time_s;
+        segment_event(v1::UNLOAD_BEGIN, s, sequence);
+      } else if (!unloading && segment != s.segment_index) {
+        segment_event(v1::SEGMENT_BEGIN, s, sequence);
+      }
+      segment = s.segment_index;
+      if (s.status_flags & v1::SENSOR_INVALID) run.sensor_invalid.fetch_add(1, std::memory_order_relaxed);
       run.recorder->append(s);
       append_sample(s, block);
+      ++sequence;
       if (sample_count(block) >= kBlockSamples) publish();
     }
     if (finished) break;  // everything pushed before the flag was set is drained
