@@ -104,7 +104,10 @@ TEST(InstrumentService, AbortUnloadsSafelyHoldsTheTipAndRecordsTheReason) {
     EXPECT_DOUBLE_EQ(b.lateral_setpoint_m(i), held);
   }
   EXPECT_EQ(b.normal_setpoint_n(sample_count(b) - 1), 0.0);
-  EXPECT_LT(b.time_s(sample_count(b) - 1), 13.0) << "unloaded within a second";
+  // The abort reaches the loop whenever the drain thread publishes (in
+  // lock-step mode it may lag by up to a queue of samples); from then on the
+  // 1 mN load must be off within a second at the 10 mN/s unload rate.
+  EXPECT_LT(b.time_s(sample_count(b) - 1) - b.time_s(first_unload), 1.0) << "unloaded within a second";
 
   // The recording holds the same samples and the stop document.
   std::string error;
