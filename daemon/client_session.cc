@@ -4,6 +4,7 @@
 
 #include "daemon/api_server.h"
 #include "daemon/instrument_service.h"
+#include "hal/backend_factory.h"
 #include "proto/api_defaults.h"
 
 namespace tribo::daemon {
@@ -84,7 +85,7 @@ void ClientSession::dispatch(const v1::ClientMessage& request, v1::ServerMessage
       }
       reply.mutable_hello()->set_api_version(kApiVersion);
       reply.mutable_hello()->set_software_version(service_.software_version());
-      reply.mutable_hello()->set_backend(service_.config().backend_case() == v1::DaemonConfig::kSim ? "sim" : "other");
+      reply.mutable_hello()->set_backend(hal::backend_name(service_.config()));
       return;
     case v1::ClientMessage::kLoadProtocol:
       error = service_.load_protocol(request.load_protocol().protocol(), *reply.mutable_load_protocol());

@@ -27,6 +27,22 @@ v1::Error make_error(v1::ErrorCode code, std::string field, std::string message)
   return e;
 }
 
+v1::BackendHealth health_message(std::string_view backend, const hal::BackendHealth& h) {
+  v1::BackendHealth m;
+  m.set_backend(std::string(backend));
+  m.set_connected(h.connected);
+  m.set_transactions(h.transactions);
+  m.set_timeouts(h.timeouts);
+  m.set_exceptions(h.exceptions);
+  m.set_bad_frames(h.bad_frames);
+  m.set_link_losses(h.link_losses);
+  m.set_reconnect_attempts(h.reconnect_attempts);
+  m.set_last_io_s(h.last_io_s);
+  m.set_max_io_s(h.max_io_s);
+  m.set_last_error(h.last_error);
+  return m;
+}
+
 }  // namespace
 
 struct InstrumentService::ActiveRun {
@@ -134,6 +150,11 @@ v1::StatusReply InstrumentService::status() const {
   s.set_run_id(last_run_id_);
   s.set_cycle_count(run_ ? run_->telemetry.cycles.load() : last_cycle_count_);
   if (protocol_) s.set_loaded_protocol(protocol_->name());
+  if (run_ && run_->transducer) {
+    *s.mutable_backend_health() = health_message(run_->transducer->backend_name(), run_->transducer->health());
+  } else {
+    *s.mutable_backend_health() = last_backend_health_;
+  }
   return s;
 }
 
@@ -165,6 +186,21 @@ void InstrumentService::run_main(ActiveRun& run) {
         break;
     }
   }
+  // A real backend says what its link did; a run that did not complete
+  // because of it records why.
+  const hal::BackendHealth health = run.transducer->health();
+  *stop.mutable_backend_health() = health_message(run.transducer->backend_name(), health);
+  if (outcome.end != RunEnd::kCompleted && health.errors() > 0 && !health.last_error.empty()) {
+    stop.set_reason(stop.reason() + "; backend " + std::string(run.transducer->backend_name()) + ": " +
+                    health.last_error);
+  }
+  if (health.errors() > 0 || health.max_io_s > 0) {
+    spdlog::info("run {} backend {}: {} transactions, {} timeouts, {} exceptions, {} bad frames, {} link losses, "
+                 "{} reconnect attempts, max I/O {:.3f} ms",
+                 stop.run_id(), run.transducer->backend_name(), health.transactions, health.timeouts,
+                 health.exceptions, health.bad_frames, health.link_losses, health.reconnect_attempts,
+                 health.max_io_s * 1e3);
+  }
   if (const auto dropped = run.telemetry.samples_dropped.load(); dropped > 0) {
     stop.set_reason(stop.reason() + (stop.reason().empty() ? "" : "; ") +
                     std::to_string(dropped) + " samples dropped: the recorder fell behind");
@@ -177,6 +213,7 @@ void InstrumentService::run_main(ActiveRun& run) {
     // starts the next run as soon as it sees it must find the daemon ready.
     std::lock_guard lock(mutex_);
     last_cycle_count_ = outcome.cycles;
+    last_backend_health_ = stop.backend_health();
     state_ = outcome.end == RunEnd::kTripped ? v1::FAULTED : v1::ARMED;
   }
   spdlog::info("run {} stopped: {} ({} samples) {}", stop.run_id(), v1::ExitStatus_Name(stop.exit_status()),

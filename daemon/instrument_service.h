@@ -63,6 +63,7 @@ class InstrumentService {
   std::unique_ptr<ActiveRun> run_;
   std::string last_run_id_;
   std::uint64_t last_cycle_count_ = 0;
+  v1::BackendHealth last_backend_health_;
   std::thread run_thread_;
 };
 

@@ -14,6 +14,7 @@
 #include "daemon/api_server.h"
 #include "daemon/daemon_config.h"
 #include "daemon/instrument_service.h"
+#include "hal/backend_factory.h"
 #include "tribo/version.h"
 
 namespace {
@@ -109,7 +110,7 @@ int main(int argc, char** argv) {
   std::fflush(stdout);
   spdlog::info("tribo {} serving on {}:{} (backend: {}, loop {} Hz, data in {})",
                tribo::kSoftwareVersion, config.server().bind_address(), server->port(),
-               config.backend_case() == tribo::v1::DaemonConfig::kSim ? "sim" : "other",
+               tribo::hal::backend_name(config),
                config.controller().loop_rate_hz(), config.recorder().data_dir());
   io.run();
   if (stopper.joinable()) stopper.join();
