@@ -40,6 +40,7 @@ v1::BackendHealth health_message(std::string_view backend, const hal::BackendHea
   m.set_last_io_s(h.last_io_s);
   m.set_max_io_s(h.max_io_s);
   m.set_last_error(h.last_error);
+  m.set_first_error(h.first_error);
   return m;
 }
 
@@ -190,9 +191,9 @@ void InstrumentService::run_main(ActiveRun& run) {
   // because of it records why.
   const hal::BackendHealth health = run.transducer->health();
   *stop.mutable_backend_health() = health_message(run.transducer->backend_name(), health);
-  if (outcome.end != RunEnd::kCompleted && health.errors() > 0 && !health.last_error.empty()) {
+  if (outcome.end != RunEnd::kCompleted && !health.first_error.empty()) {
     stop.set_reason(stop.reason() + "; backend " + std::string(run.transducer->backend_name()) + ": " +
-                    health.last_error);
+                    health.first_error);
   }
   if (health.errors() > 0 || health.max_io_s > 0) {
     spdlog::info("run {} backend {}: {} transactions, {} timeouts, {} exceptions, {} bad frames, {} link losses, "

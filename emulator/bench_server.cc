@@ -216,7 +216,11 @@ bool BenchServer::reply_write(const std::uint8_t* query, int length) {
     const std::uint16_t words[2] = {static_cast<std::uint16_t>(be16(data + 2 * d.sequence_offset)),
                                     static_cast<std::uint16_t>(be16(data + 2 * (d.sequence_offset + 1)))};
     const std::uint32_t sequence = hal::uint32_from_registers(words, map_.low_word_first);
-    if (!instrument_.drive_sequence_ok(sequence)) {
+    if (instrument_.drive_repeats(sequence)) {
+      modbus_reply(ctx_, query, length, instrument_.mapping());
+      return true;
+    }
+    if (!instrument_.drive_steps(sequence)) {
       if (out_of_sequence_++ % 1000 == 0) {
         spdlog::warn("drive write with sequence {} refused: the plant is at {} ({} refused so far)", sequence,
                      instrument_.sequence(), out_of_sequence_);

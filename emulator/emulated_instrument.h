@@ -2,8 +2,9 @@
 // tribo-bench serves it: the registers a Modbus client sees, and the
 // lock-step rule. Each drive block written with sequence = ours + 1 steps the
 // plant once by the loop period and refreshes the sensor block with
-// sequence + 1; any other sequence is refused, so a repeated or late write can
-// never step the plant twice. A session write (seed, reset) puts the plant at
+// sequence + 1; a repeat of the present sequence is acknowledged without a
+// step and any other is refused, so a repeated or late write can never step
+// the plant twice. A session write (seed, reset) puts the plant at
 // rest with that seed at sequence 0, as a new simulated run would.
 #pragma once
 
@@ -34,8 +35,11 @@ class EmulatedInstrument {
   std::uint32_t sequence() const { return sequence_; }
   std::uint64_t steps() const { return steps_; }
 
-  // Whether a drive block carrying this sequence may step the plant.
-  bool drive_sequence_ok(std::uint32_t sequence) const { return sequence == sequence_ + 1; }
+  // A drive block carrying sequence + 1 steps the plant; one carrying the
+  // present sequence repeats the last accepted write (the client did not see
+  // the step, e.g. its read failed) and is acknowledged without a step.
+  bool drive_steps(std::uint32_t sequence) const { return sequence == sequence_ + 1; }
+  bool drive_repeats(std::uint32_t sequence) const { return sequence == sequence_; }
   // The drive block in the holding registers was just written: step once.
   void step_from_drive_block();
 

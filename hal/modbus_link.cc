@@ -142,8 +142,8 @@ ModbusLink::ModbusLink(LinkSettings settings) : settings_(std::move(settings)), 
                        : modbus_new_tcp(settings_.host.c_str(), settings_.port);
   if (ctx_ == nullptr) {
     refused_ = true;
-    last_error_.store(pack(LinkOp::kConnect, static_cast<std::uint8_t>(Failure::kConnect), 0,
-                           static_cast<std::uint32_t>(errno)));
+    set_error(pack(LinkOp::kConnect, static_cast<std::uint8_t>(Failure::kConnect), 0,
+                   static_cast<std::uint32_t>(errno)));
     spdlog::error("modbus {}: cannot create the context: {}", describe_link(settings_), modbus_strerror(errno));
     return;
   }
@@ -249,8 +249,7 @@ void ModbusLink::close_link(LinkOp op, Failure why, int detail) {
 
 void ModbusLink::report_frame_fault(LinkOp op, FrameFault fault, std::uint32_t detail) {
   bad_frames_.fetch_add(1, std::memory_order_relaxed);
-  last_error_.store(pack(op, static_cast<std::uint8_t>(Failure::kFrame), static_cast<std::uint8_t>(fault), detail),
-                    std::memory_order_relaxed);
+  set_error(pack(op, static_cast<std::uint8_t>(Failure::kFrame), static_cast<std::uint8_t>(fault), detail));
   note_failure(op, Failure::kFrame, -1);
 }
 
@@ -262,39 +261,45 @@ void ModbusLink::refuse(LinkOp op, FrameFault fault, std::uint32_t detail) {
   }
   const std::uint64_t packed =
       pack(op, static_cast<std::uint8_t>(Failure::kRefused), static_cast<std::uint8_t>(fault), detail);
-  last_error_.store(packed, std::memory_order_relaxed);
+  set_error(packed);
   spdlog::error("modbus {}: {}; the link stays closed", describe_link(settings_), error_text(packed));
 }
 
 void ModbusLink::note_failure(LinkOp op, Failure failure, std::int64_t detail) {
-  if (detail >= 0) {
-    last_error_.store(pack(op, static_cast<std::uint8_t>(failure), 0, static_cast<std::uint32_t>(detail)),
-                      std::memory_order_relaxed);
-  }
+  if (detail >= 0) set_error(pack(op, static_cast<std::uint8_t>(failure), 0, static_cast<std::uint32_t>(detail)));
   const std::int64_t now = now_ns();
   if (failures_in_a_row_++ == 0) failing_since_ns_ = now;
   // While the link keeps failing, one line per log interval says how many were not logged.
-  if (failures_in_a_row_ > 1 && now - last_log_ns_ < to_ns(settings_.log_interval_s)) {
+  if (now - last_log_ns_ < to_ns(settings_.log_interval_s)) {
     ++suppressed_logs_;
     return;
   }
   last_log_ns_ = now;
   const std::string text = error_text(last_error_.load(std::memory_order_relaxed));
   if (suppressed_logs_ > 0) {
-    spdlog::warn("modbus {}: {} ({} more failures since the last report, {} failures in a row)",
-                 describe_link(settings_), text, suppressed_logs_, failures_in_a_row_);
+    spdlog::warn("modbus {}: {} ({} more failures since the last report, {} in a row)", describe_link(settings_),
+                 text, suppressed_logs_, failures_in_a_row_);
   } else {
     spdlog::warn("modbus {}: {}", describe_link(settings_), text);
   }
   suppressed_logs_ = 0;
 }
 
+void ModbusLink::set_error(std::uint64_t packed) {
+  last_error_.store(packed, std::memory_order_relaxed);
+  std::uint64_t none = 0;
+  first_error_.compare_exchange_strong(none, packed, std::memory_order_relaxed);
+}
+
 void ModbusLink::note_success() {
   if (failures_in_a_row_ == 0) return;
-  spdlog::info("modbus {}: answering again after {} failures in {:.3f} s", describe_link(settings_),
-               failures_in_a_row_, static_cast<double>(now_ns() - failing_since_ns_) * 1e-9);
+  const std::int64_t now = now_ns();
+  if (now - last_recovery_log_ns_ >= to_ns(settings_.log_interval_s)) {
+    last_recovery_log_ns_ = now;
+    spdlog::info("modbus {}: answering again after {} failures in {:.3f} s", describe_link(settings_),
+                 failures_in_a_row_, static_cast<double>(now - failing_since_ns_) * 1e-9);
+  }
   failures_in_a_row_ = 0;
-  suppressed_logs_ = 0;
 }
 
 std::string ModbusLink::error_text(std::uint64_t packed) const {
@@ -349,6 +354,7 @@ BackendHealth ModbusLink::health() const {
   h.last_io_s = static_cast<double>(last_io_ns_.load(std::memory_order_relaxed)) * 1e-9;
   h.max_io_s = static_cast<double>(max_io_ns_.load(std::memory_order_relaxed)) * 1e-9;
   h.last_error = error_text(last_error_.load(std::memory_order_relaxed));
+  h.first_error = error_text(first_error_.load(std::memory_order_relaxed));
   return h;
 }
 

@@ -99,6 +99,7 @@ class ModbusLink {
   LinkResult finish(LinkOp op, int rc, std::int64_t started_ns);
   void close_link(LinkOp op, Failure why, int detail);
   void note_failure(LinkOp op, Failure failure, std::int64_t detail);
+  void set_error(std::uint64_t packed);
   void note_success();
   std::string error_text(std::uint64_t packed) const;
 
@@ -111,7 +112,8 @@ class ModbusLink {
   std::int64_t next_attempt_ns_ = 0;
 
   // Rate-limited logging (loop thread only).
-  std::int64_t last_log_ns_ = 0;
+  std::int64_t last_log_ns_ = INT64_MIN / 2;
+  std::int64_t last_recovery_log_ns_ = INT64_MIN / 2;
   std::uint64_t suppressed_logs_ = 0;
   std::uint64_t failures_in_a_row_ = 0;
   std::int64_t failing_since_ns_ = 0;
@@ -127,6 +129,7 @@ class ModbusLink {
   std::atomic<std::int64_t> last_io_ns_{0};
   std::atomic<std::int64_t> max_io_ns_{0};
   std::atomic<std::uint64_t> last_error_{0};  // op, failure and detail packed
+  std::atomic<std::uint64_t> first_error_{0};
 };
 
 }  // namespace tribo::hal

@@ -53,7 +53,8 @@ struct BackendHealth {
   std::uint64_t reconnect_attempts = 0;
   double last_io_s = 0;                  // duration of the last transaction
   double max_io_s = 0;
-  std::string last_error;                // why the last failure happened; empty if none
+  std::string first_error;               // the first failure: the cause of what followed
+  std::string last_error;                // the latest failure; empty if none
 
   std::uint64_t errors() const { return timeouts + exceptions + bad_frames + link_losses; }
 };

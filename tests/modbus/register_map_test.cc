@@ -82,7 +82,7 @@ TEST(ModbusConfig, ValidationNamesTheEntry) {
       {[](auto& m) { m.mutable_tcp()->set_host("localhost"); },
        "modbus.tcp.host = \"localhost\": must be a numeric IPv4 address"},
       {[](auto& m) { m.set_unit_id(0); }, "modbus.unit_id = 0: must be in [1, 247]"},
-      {[](auto& m) { m.set_byte_timeout_s(1); }, "modbus.byte_timeout_s = 1: must be in [1e-05, 0.02]"},
+      {[](auto& m) { m.set_byte_timeout_s(1); }, "modbus.byte_timeout_s = 1: must be in [1e-05, 0.05]"},
       {[](auto& m) { m.clear_tcp(); }, "modbus: no link (set tcp { ... } or rtu { ... })"},
       {[](auto& m) { m.clear_register_map(); }, "modbus.register_map: missing"},
   };
