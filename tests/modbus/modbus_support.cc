@@ -62,6 +62,8 @@ BenchProcess::BenchProcess(const std::filesystem::path& bench_config) {
   char line[256] = {0};
   const bool got = std::fgets(line, sizeof line, stream) != nullptr;
   std::fclose(stream);
+  // Or, serving RTU, the device: "tribo-bench listening on /dev/pts/N".
+  if (got && std::strstr(line, "listening on /") != nullptr) return;
   unsigned port = 0;
   const char* colon = got ? std::strrchr(line, ':') : nullptr;
   if (colon == nullptr || std::sscanf(colon + 1, "%u", &port) != 1 || port == 0) {
@@ -83,7 +85,7 @@ int BenchProcess::terminate() {
 BenchProcess::~BenchProcess() { terminate(); }
 
 std::filesystem::path write_bench_config(const std::filesystem::path& dir, const v1::DaemonConfig& modbus_config,
-                                         const std::vector<v1::BenchFault>& faults) {
+                                         const std::vector<v1::BenchFault>& faults, const v1::ModbusRtuLink* rtu) {
   write_text_proto(dir / "tribod-modbus.textproto", modbus_config);
   v1::BenchConfig bench;
   bench.set_bind_address("127.0.0.1");
@@ -91,6 +93,7 @@ std::filesystem::path write_bench_config(const std::filesystem::path& dir, const
   bench.set_modbus_config_file("tribod-modbus.textproto");
   bench.set_physics_config_file(std::string(TRIBO_SOURCE_DIR) + "/config/tribod.textproto");
   for (const auto& f : faults) *bench.add_faults() = f;
+  if (rtu != nullptr) *bench.mutable_rtu() = *rtu;
   const auto path = dir / "tribo-bench.textproto";
   write_text_proto(path, bench);
   return path;

@@ -24,8 +24,8 @@ v1::DaemonConfig sim_daemon_config();     // config/tribod.textproto
 void write_text_proto(const std::filesystem::path& path, const google::protobuf::Message& message);
 
 // tribo-bench with the given bench config, TCP on 127.0.0.1 and an ephemeral
-// port; stopped (SIGTERM, wait) when destroyed, and by the kernel if the test
-// process dies first.
+// port (or RTU if the config says so: port() is then 0); stopped (SIGTERM,
+// wait) when destroyed, and by the kernel if the test process dies first.
 class BenchProcess {
  public:
   explicit BenchProcess(const std::filesystem::path& bench_config);
@@ -43,9 +43,11 @@ class BenchProcess {
 };
 
 // A bench config in dir that serves modbus_config (written next to it) with
-// the physics of config/tribod.textproto and the given faults.
+// the physics of config/tribod.textproto and the given faults; over TCP, or
+// over RTU on rtu's device if given.
 std::filesystem::path write_bench_config(const std::filesystem::path& dir, const v1::DaemonConfig& modbus_config,
-                                         const std::vector<v1::BenchFault>& faults = {});
+                                         const std::vector<v1::BenchFault>& faults = {},
+                                         const v1::ModbusRtuLink* rtu = nullptr);
 
 // The daemon config pointed at a bench on this port.
 v1::DaemonConfig with_port(v1::DaemonConfig config, std::uint16_t port);
