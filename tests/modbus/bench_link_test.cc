@@ -130,7 +130,7 @@ TEST(ModbusBackend, LockStepClosedLoopMatchesTheSimulatedBackendTickByTick) {
   // Load to 500 µN and move the tip from 0 to 1 µm: drive, friction and the
   // electrostatic gaps all change.
   const auto& s = sim_config.sim().sensors();
-  double max_dx = 0, max_df = 0, max_dn = 0;
+  double sum_dx2 = 0, sum_df2 = 0, max_dx = 0, max_dn = 0;
   for (int k = 0; k < 4000; ++k) {
     daemon::Setpoints sp;
     sp.normal_force_n = std::min(1.0, k / 1000.0) * 500e-6;
@@ -139,24 +139,24 @@ TEST(ModbusBackend, LockStepClosedLoopMatchesTheSimulatedBackendTickByTick) {
     ASSERT_EQ(modbus->read(a), IoResult::kOk) << k << ": " << modbus->health().last_error;
     sim.read(b);
     ASSERT_EQ(a.status_bits, b.status_bits);
-    max_dx = std::max(max_dx, std::fabs(a.lateral_position_m - b.lateral_position_m));
-    max_df = std::max(max_df, std::fabs(a.lateral_force_n - b.lateral_force_n));
+    const double dx = a.lateral_position_m - b.lateral_position_m, df = a.lateral_force_n - b.lateral_force_n;
+    sum_dx2 += dx * dx;
+    sum_df2 += df * df;
+    max_dx = std::max(max_dx, std::fabs(dx));
     max_dn = std::max(max_dn, std::fabs(a.normal_force_n - b.normal_force_n));
     ASSERT_EQ(modbus->write(modbus_controller.step(sp, a).drive), IoResult::kOk) << k;
     sim.write(sim_controller.step(sp, b).drive);
     sim.wait_next_tick();  // steps the simulated plant; the emulator stepped on the write
   }
-  // Within quantisation: at most one step of the instrument's own position
-  // converter (a noise sample near a rounding edge may round the other way);
-  // the lateral force one step plus what one position step does to the drive
-  // through the PID; the normal force what the electrostatic drive makes of
-  // the normal displacement noise in its gap (2 dz / gap, five sigma).
-  const auto& pid = config.controller().lateral_displacement();
-  const double dt = 1.0 / config.controller().loop_rate_hz();
-  EXPECT_LE(max_dx, s.lateral_position_resolution_m() + 1e-14);
-  EXPECT_LE(max_df, s.lateral_force_resolution_n() + (pid.kp() + pid.kd() / dt) * s.lateral_position_resolution_m());
+  // Within quantisation: the lateral channels differ in RMS by less than one
+  // step of the instrument's own converters (a noise sample near a rounding
+  // edge may round the other way); the normal force by what the electrostatic
+  // drive makes of the normal displacement noise in its gap (2 dz / gap, at
+  // most five sigma).
+  EXPECT_LE(std::sqrt(sum_dx2 / 4000), s.lateral_position_resolution_m());
+  EXPECT_LE(std::sqrt(sum_df2 / 4000), s.lateral_force_resolution_n());
   EXPECT_LE(max_dn, 2 * 5 * s.normal_displacement_noise_m() / 85e-6 * 500e-6 + s.normal_force_resolution_n());
-  EXPECT_GT(max_dx, 0.0) << "different noise?";
+  EXPECT_GT(max_dx, 0.0) << "the same numbers: was the map crossed at all?";
   const hal::BackendHealth h = modbus->health();
   EXPECT_TRUE(h.connected);
   EXPECT_EQ(h.errors(), 0u);
