@@ -1,10 +1,13 @@
 // tribo-bench: the simulated instrument behind the Modbus register map, for
 // hardware-in-the-loop runs of tribod without hardware and for the tests of
 // the Modbus backend. README.md "The bench emulator" says how to use it.
+#include <atomic>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
+#include <memory>
+#include <optional>
 #include <string>
 
 #include <spdlog/sinks/stdout_color_sinks.h>
