@@ -27,6 +27,23 @@ v1::Error make_error(v1::ErrorCode code, std::string field, std::string message)
   return e;
 }
 
+v1::BackendHealth health_message(std::string_view backend, const hal::BackendHealth& h) {
+  v1::BackendHealth m;
+  m.set_backend(std::string(backend));
+  m.set_connected(h.connected);
+  m.set_transactions(h.transactions);
+  m.set_timeouts(h.timeouts);
+  m.set_exceptions(h.exceptions);
+  m.set_bad_frames(h.bad_frames);
+  m.set_link_losses(h.link_losses);
+  m.set_reconnect_attempts(h.reconnect_attempts);
+  m.set_last_io_s(h.last_io_s);
+  m.set_max_io_s(h.max_io_s);
+  m.set_last_error(h.last_error);
+  m.set_first_error(h.first_error);
+  return m;
+}
+
 }  // namespace
 
 struct InstrumentService::ActiveRun {
@@ -69,14 +86,7 @@ v1::RunDescriptor make_descriptor(const v1::Protocol& protocol, const LoadFuncti
 
 }  // namespace
 
-std::string InstrumentService::backend_name() const {
-  switch (config_.backend_case()) {
-    case v1::DaemonConfig::kSim:
-      return "sim";
-    default:
-      return "other";
-  }
-}
+std::string InstrumentService::backend_name() const { return hal::backend_name(config_); }
 
 InstrumentService::InstrumentService(v1::DaemonConfig config, std::string software_version,
                                      RunEventSink& sink)
@@ -187,10 +197,14 @@ v1::StatusReply InstrumentService::status() const {
   s.set_samples_dropped(counters.dropped);
   s.set_run_time_s(counters.time_s);
   s.set_run_duration_s(loaded_duration_s_);
+  // The link's own record (issue 6) plus what the recorded samples say.
   v1::BackendHealth* health = s.mutable_backend_health();
+  *health = run_ && run_->transducer
+                ? health_message(run_->transducer->backend_name(), run_->transducer->health())
+                : last_backend_health_;
   health->set_backend(backend_name());
   health->set_sensor_invalid_samples(counters.sensor_invalid);
-  health->set_healthy(counters.sensor_invalid == 0);
+  health->set_healthy(counters.sensor_invalid == 0 && health->first_error().empty());
   health->set_detail(counters.sensor_invalid == 0
                          ? "no invalid sensor reading in the current or last run"
                          : std::to_string(counters.sensor_invalid) +
@@ -235,6 +249,21 @@ void InstrumentService::run_main(ActiveRun& run) {
         break;
     }
   }
+  // A real backend says what its link did; a run that did not complete
+  // because of it records why.
+  const hal::BackendHealth health = run.transducer->health();
+  *stop.mutable_backend_health() = health_message(run.transducer->backend_name(), health);
+  if (outcome.end != RunEnd::kCompleted && !health.first_error.empty()) {
+    stop.set_reason(stop.reason() + "; backend " + std::string(run.transducer->backend_name()) + ": " +
+                    health.first_error);
+  }
+  if (health.errors() > 0 || health.max_io_s > 0) {
+    spdlog::info("run {} backend {}: {} transactions, {} timeouts, {} exceptions, {} bad frames, {} link losses, "
+                 "{} reconnect attempts, max I/O {:.3f} ms",
+                 stop.run_id(), run.transducer->backend_name(), health.transactions, health.timeouts,
+                 health.exceptions, health.bad_frames, health.link_losses, health.reconnect_attempts,
+                 health.max_io_s * 1e3);
+  }
   if (const auto dropped = run.telemetry.samples_dropped.load(); dropped > 0) {
     stop.set_reason(stop.reason() + (stop.reason().empty() ? "" : "; ") +
                     std::to_string(dropped) + " samples dropped: the recorder fell behind");
@@ -249,6 +278,7 @@ void InstrumentService::run_main(ActiveRun& run) {
     last_cycle_count_ = outcome.cycles;
     last_counters_ = DrainCounters{run.recorded.load(), run.telemetry.samples_dropped.load(),
                                    run.sensor_invalid.load(), run.latest_time_s.load()};
+    last_backend_health_ = stop.backend_health();
     state_ = outcome.end == RunEnd::kTripped ? v1::FAULTED : v1::ARMED;
   }
   spdlog::info("run {} stopped: {} ({} samples) {}", stop.run_id(), v1::ExitStatus_Name(stop.exit_status()),

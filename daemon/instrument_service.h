@@ -76,6 +76,7 @@ class InstrumentService {
     double time_s = 0;
   };
   DrainCounters last_counters_;  // of the last finished run
+  v1::BackendHealth last_backend_health_;
   std::thread run_thread_;
 };
 

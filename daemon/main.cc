@@ -14,6 +14,7 @@
 #include "daemon/api_server.h"
 #include "daemon/daemon_config.h"
 #include "daemon/instrument_service.h"
+#include "hal/backend_factory.h"
 #include "tribo/version.h"
 
 namespace {
