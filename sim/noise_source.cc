@@ -1,7 +1,6 @@
 #include "sim/noise_source.h"
 
 #include <cmath>
-#include <numbers>
 
 namespace tribo::sim {
 
@@ -47,13 +46,18 @@ double NoiseSource::gaussian() {
     has_spare_ = false;
     return spare_;
   }
-  const double u1 = 1.0 - uniform();  // (0, 1]: log is finite
-  const double u2 = uniform();
-  const double r = std::sqrt(-2.0 * std::log(u1));
-  const double angle = 2.0 * std::numbers::pi * u2;
-  spare_ = r * std::sin(angle);
+  // Polar method: a uniform point in the unit disc gives two independent
+  // normals with one log and one sqrt (no trigonometry).
+  double u, v, r2;
+  do {
+    u = 2.0 * uniform() - 1.0;
+    v = 2.0 * uniform() - 1.0;
+    r2 = u * u + v * v;
+  } while (r2 >= 1.0 || r2 == 0.0);
+  const double scale = std::sqrt(-2.0 * std::log(r2) / r2);
+  spare_ = v * scale;
   has_spare_ = true;
-  return r * std::cos(angle);
+  return u * scale;
 }
 
 }  // namespace tribo::sim

@@ -1,8 +1,9 @@
 // Seeded, platform-independent random numbers for the simulated instrument.
 // One NoiseSource per noise channel, each seeded from (run seed, channel id),
 // so adding a channel never shifts another channel's sequence. The generator
-// (xoshiro256**) and the Gaussian transform (Box-Muller) are written out here
-// because std::normal_distribution differs between standard libraries.
+// (xoshiro256**) and the Gaussian transform (Marsaglia's polar method) are
+// written out here because std::normal_distribution differs between standard
+// libraries.
 #pragma once
 
 #include <cstdint>

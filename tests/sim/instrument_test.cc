@@ -5,7 +5,7 @@
 #include <cmath>
 
 #include "sim/noise_source.h"
-#include "sim/normal_contact.h"
+#include "sim/normal_axis.h"
 #include "tests/sim/sim_test_support.h"
 
 namespace tribo::sim {
@@ -34,7 +34,7 @@ TEST(NoiseSource, GaussianHasUnitVariance) {
 }
 
 TEST(NormalContact, ActuatorForceSplitsIntoSpringAndHertzContact) {
-  const NormalAxisParams p{100, 50e-6, 18e9};
+  const NormalAxisParams p{100, 50e-6, 18e9, 0.785, 0, 0, 0, 0, 100};
   for (double force : {1e-6, 1e-3, 10e-3}) {
     const NormalEquilibrium eq = solve_normal_equilibrium(p, force);
     const double hertz = 4.0 / 3.0 * 18e9 * std::sqrt(50e-6) * std::pow(eq.displacement_m, 1.5);
@@ -49,7 +49,7 @@ TEST(NormalContact, ActuatorForceSplitsIntoSpringAndHertzContact) {
 
 TEST(NormalContact, HertzDepthOfTheFiftyMicronTipMatchesFigure432) {
   // Fig. 4.32: ~150 nm maximum depth at 10 mN; §4.4: contact radius 2.33 µm.
-  const NormalAxisParams p{100, 50e-6, 18e9};
+  const NormalAxisParams p{100, 50e-6, 18e9, 0.785, 0, 0, 0, 0, 100};
   EXPECT_NEAR(hertz_depth_m(p, 10e-3), 150e-9, 10e-9);
   const double a = hertz_contact_radius_m(p, 6e-3);
   EXPECT_NEAR(a, 2.33e-6, 0.05e-6);
