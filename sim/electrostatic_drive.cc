@@ -61,7 +61,7 @@ double electrostatic_stiffness_n_per_m(const PlateGeometry& plates, const PlateV
          eps_a * v.negative_v * v.negative_v / std::pow(plates.gap_negative_m + x, 3);
 }
 
-PlateVoltages DriveElectronics::command(double force_n, double x, double dt_s) {
+DriveOutput DriveElectronics::command(double force_n, double x, double dt_s) {
   const PlateGeometry& c = p_.calibrated;
   const double gap_pos = c.gap_positive_m - x, gap_neg = c.gap_negative_m + x;
   const double bias_pos = plate_force_n(c.area_m2, p_.bias_voltage_v, gap_pos);
@@ -69,21 +69,21 @@ PlateVoltages DriveElectronics::command(double force_n, double x, double dt_s) {
   const int side = force_n >= bias_pos - bias_neg ? +1 : -1;
   if (side != side_) {
     side_ = side;
-    handover_ticks_left_ = static_cast<int>(std::ceil(p_.handover_time_s / dt_s - 1e-9));
+    handover_left_s_ = p_.handover_time_s;
   }
-  PlateVoltages v{p_.bias_voltage_v, p_.bias_voltage_v};
-  in_handover_ = handover_ticks_left_ > 0;
-  if (in_handover_) {
-    --handover_ticks_left_;
-    return v;
-  }
+  DriveOutput out;
+  out.bias = out.voltages = PlateVoltages{p_.bias_voltage_v, p_.bias_voltage_v};
+  out.dead_time_s = std::min(handover_left_s_, dt_s);
+  handover_left_s_ -= out.dead_time_s;
   // The driven plate must pull with |F| plus the other plate's bias pull.
   if (side > 0) {
-    v.positive_v = std::min(p_.max_voltage_v, plate_voltage_for_force_v(c.area_m2, force_n + bias_neg, gap_pos));
+    out.voltages.positive_v =
+        std::min(p_.max_voltage_v, plate_voltage_for_force_v(c.area_m2, force_n + bias_neg, gap_pos));
   } else {
-    v.negative_v = std::min(p_.max_voltage_v, plate_voltage_for_force_v(c.area_m2, bias_pos - force_n, gap_neg));
+    out.voltages.negative_v =
+        std::min(p_.max_voltage_v, plate_voltage_for_force_v(c.area_m2, bias_pos - force_n, gap_neg));
   }
-  return v;
+  return out;
 }
 
 double DriveElectronics::believed_force_n(const PlateVoltages& v, double x) const {

@@ -13,8 +13,10 @@
 // the command; d+ != d- makes the force constant differ per side.
 //
 // Breakpoint: whenever the driven plate changes, neither plate is driven (only
-// the bias acts) for handover_time_s, rounded up to whole ticks -- the loop
-// briefly loses control of the force.
+// the bias acts) for handover_time_s from the start of that tick (spilling
+// into the next ticks if longer) -- the loop briefly loses control of the
+// force. The plant integrates the dead interval and the rest of the tick
+// separately, so the handover means the same at every loop rate.
 //
 // Snap-down: the electrostatic force has a negative stiffness
 //   k_e(x) = eps0 A V+^2 / (d+ - x)^3 + eps0 A V-^2 / (d- + x)^3,
@@ -69,27 +71,32 @@ DriveField electrostatic_drive_field(const ElectrostaticDriveParams& p, const Pl
 double electrostatic_stiffness_n_per_m(const PlateGeometry& plates, const PlateVoltages& v,
                                        double x_m);
 
+// What the electronics apply over the coming tick: the bias alone for
+// dead_time_s (a handover), then the voltages.
+struct DriveOutput {
+  PlateVoltages voltages;
+  PlateVoltages bias;
+  double dead_time_s = 0;
+};
+
 // The drive electronics: one decision per tick.
 class DriveElectronics {
  public:
   explicit DriveElectronics(const ElectrostaticDriveParams& p) : p_(p) {}
 
   // Voltages for the coming tick to apply force_n at the measured position.
-  PlateVoltages command(double force_n, double measured_position_m, double dt_s);
+  DriveOutput command(double force_n, double measured_position_m, double dt_s);
 
   // The force the electronics believe the voltages apply at the measured
   // position, with their calibration: what the transducer reports.
   double believed_force_n(const PlateVoltages& v, double measured_position_m) const;
 
-  // The last command() fell in a handover: only the bias acted.
-  bool in_handover() const { return in_handover_; }
   int driven_side() const { return side_; }  // +1 or -1
 
  private:
   ElectrostaticDriveParams p_;
   int side_ = +1;
-  int handover_ticks_left_ = 0;
-  bool in_handover_ = false;
+  double handover_left_s_ = 0;
 };
 
 }  // namespace tribo::sim

@@ -63,13 +63,18 @@ StepReport SimInstrument::step(const DriveInput& drive, double dt_s) {
   settle_normal_axis(drive.normal_force_n);
   const double load = truth_.normal.contact_load_n;
 
+  DriveField dead_field;
+  truth_.dead_time_s = 0;
   if (params_.lateral_drive.enabled) {
-    truth_.voltages = electronics_.command(drive.lateral_force_n, measurement_.lateral_position_m, dt_s);
-    truth_.handover = electronics_.in_handover();
-    inputs_.drive = electrostatic_drive_field(params_.lateral_drive, truth_.voltages);
+    const DriveOutput out = electronics_.command(drive.lateral_force_n, measurement_.lateral_position_m, dt_s);
+    truth_.dead_time_s = out.dead_time_s;
+    truth_.voltages = out.dead_time_s < dt_s ? out.voltages : out.bias;
+    dead_field = electrostatic_drive_field(params_.lateral_drive, out.bias);
+    inputs_.drive = electrostatic_drive_field(params_.lateral_drive, out.voltages);
   } else {
     inputs_.drive = ideal_drive_field(drive.lateral_force_n);
   }
+  truth_.handover = truth_.dead_time_s > 0;
 
   LateralState& lateral = truth_.lateral;
   const double sample_x_before = tip_sample_position_m();
@@ -84,17 +89,22 @@ StepReport SimInstrument::step(const DriveInput& drive, double dt_s) {
   inputs_.sample_velocity_m_per_s = truth_.sample_velocity_m_per_s;
   inputs_.sample_offset_m = truth_.sample_offset_m;
 
-  const LateralEvaluation now = lateral_derivative(plant_, inputs_, lateral);
-  const LateralRates rates = lateral_rate_bounds(plant_, inputs_, lateral, now, dt_s);
-  const StepPlan plan = plan_substeps(rates, dt_s, params_.integrator.max_h_lambda,
-                                      params_.integrator.max_substeps);
-  const bool stopped =
-      plan.split ? integrate_lateral_split(plant_, inputs_, dt_s, plan.substeps, lateral)
-                 : integrate_lateral(plant_, inputs_, dt_s, plan.substeps, lateral, &now.rate);
-  if (!params_.lateral.backlash.enabled) {
-    lateral.tip_position_m = lateral.position_m;
-    lateral.tip_velocity_m_per_s = lateral.velocity_m_per_s;
+  // A handover first integrates its dead interval under the bias alone.
+  AdvanceReport report;
+  if (truth_.dead_time_s > 0) {
+    LateralInputs dead = inputs_;
+    dead.drive = dead_field;
+    report = advance_lateral(plant_, dead, params_.integrator, truth_.dead_time_s, lateral);
   }
+  if (truth_.dead_time_s < dt_s) {
+    const AdvanceReport rest = advance_lateral(plant_, inputs_, params_.integrator, dt_s - truth_.dead_time_s, lateral);
+    report = AdvanceReport{report.substeps + rest.substeps, report.split || rest.split,
+                           report.capped || rest.capped, report.stopped || rest.stopped,
+                           report.retried || rest.retried};
+  } else {
+    inputs_.drive = dead_field;
+  }
+  const bool stopped = report.stopped;
 
   truth_.levels = inputs_.levels;
   truth_.friction_n = lateral_derivative(plant_, inputs_, lateral).friction_n;
@@ -111,7 +121,7 @@ StepReport SimInstrument::step(const DriveInput& drive, double dt_s) {
   }
 
   sample_sensors(drive, dt_s);
-  return StepReport{plan.substeps, plan.split, plan.capped, stopped, truth_.handover};
+  return StepReport{report.substeps, report.split, report.capped, stopped, truth_.handover, report.retried};
 }
 
 void SimInstrument::sample_sensors(const DriveInput& drive, double dt_s) {

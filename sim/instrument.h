@@ -22,14 +22,10 @@
 #include "sim/noise_source.h"
 #include "sim/normal_axis.h"
 #include "sim/sensor_model.h"
+#include "sim/step_size.h"
 #include "sim/wear_track.h"
 
 namespace tribo::sim {
-
-struct IntegratorSettings {
-  double max_h_lambda = 1.0;
-  int max_substeps = 1000;
-};
 
 // Tip tilt (§5.2): a lateral force N tan(angle) on the tip, towards +x.
 struct TiltParams {
@@ -91,7 +87,8 @@ struct InstrumentTruth {
   double friction_n = 0;
   double drive_force_n = 0;  // the drive's true force on the plate at the end of the tick
   double tip_force_n = 0;    // tilt
-  PlateVoltages voltages;
+  PlateVoltages voltages;    // at the end of the tick
+  double dead_time_s = 0;    // a handover: only the bias acted for this long
   double sample_offset_m = 0;
   double sample_velocity_m_per_s = 0;
   bool snapped = false;      // the plate sits on a stop
@@ -105,6 +102,7 @@ struct StepReport {
   bool substep_cap_hit = false;
   bool snapped = false;
   bool handover = false;
+  bool retried = false;          // the integrator's safety net redid the tick
 };
 
 class SimInstrument {
@@ -118,7 +116,8 @@ class SimInstrument {
   const InstrumentTruth& truth() const { return truth_; }
   const InstrumentParams& params() const { return params_; }
   const LateralPlant& plant() const { return plant_; }
-  // The inputs the plant was held at during the last tick.
+  // The inputs the plant was held at during the last tick (after its dead
+  // time, if any: truth().dead_time_s).
   const LateralInputs& last_inputs() const { return inputs_; }
   double tip_sample_position_m() const;
 

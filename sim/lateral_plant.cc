@@ -14,6 +14,11 @@ double tip_velocity_m_per_s(const LateralPlant& plant, const LateralState& s) {
 
 namespace {
 
+int slip_elements(const LateralPlant& plant) {
+  const PreslidingHysteresisParams& h = plant.friction.presliding_hysteresis;
+  return h.enabled ? h.elements : 0;
+}
+
 ContactPoint contact_point(const LateralPlant& plant, const LateralInputs& in, const LateralState& s) {
   const double v = tip_velocity_m_per_s(plant, s) - in.sample_velocity_m_per_s;
   return ContactPoint{v, plant.friction.frictional_lag.enabled ? s.lag_velocity_m_per_s : v,
@@ -68,6 +73,8 @@ LateralEvaluation lateral_derivative(const LateralPlant& plant, const LateralInp
     if (m.dwell_stiction.enabled) {
       r.contact_age_s = 1.0 - std::fabs(c.velocity_m_per_s) * s.contact_age_s / m.dwell_stiction.memory_length_m;
     }
+  } else {
+    for (int i = 0; i < slip_elements(plant); ++i) r.slip_m[i] = 0;  // out of contact nothing slips
   }
   if (m.frictional_lag.enabled) {
     r.lag_velocity_m_per_s = (c.velocity_m_per_s - s.lag_velocity_m_per_s) / m.frictional_lag.time_constant_s;
@@ -94,11 +101,6 @@ LateralEvaluation lateral_derivative(const LateralPlant& plant, const LateralInp
 }
 
 namespace {
-
-int slip_elements(const LateralPlant& plant) {
-  const PreslidingHysteresisParams& h = plant.friction.presliding_hysteresis;
-  return h.enabled ? h.elements : 0;
-}
 
 // out = s + h r over the states in use (n Maxwell-slip elements).
 template <class State>

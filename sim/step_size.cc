@@ -109,10 +109,64 @@ double wanted_substeps(double rate, double dt_s, double max_h_lambda) {
 StepPlan plan_substeps(const LateralRates& rates, double dt_s, double max_h_lambda,
                        int max_substeps) {
   const double full = wanted_substeps(rates.full_per_s, dt_s, max_h_lambda);
-  if (full <= max_substeps) return StepPlan{static_cast<int>(full), false, false};
   const double split = wanted_substeps(rates.split_per_s, dt_s, max_h_lambda);
+  // The split scheme is exact in the contact relaxation: take it when that
+  // relaxation is what would make RK4 take many more sub-steps.
+  if (full <= max_substeps && full <= kSplitAdvantage * split) {
+    return StepPlan{static_cast<int>(full), false, false};
+  }
   if (split <= max_substeps) return StepPlan{static_cast<int>(split), true, false};
   return StepPlan{max_substeps, true, true};
+}
+
+namespace {
+
+// A tick's result is sane when it is finite and the bristles stay within a
+// few times their largest possible deflection.
+bool sane(const LateralPlant& plant, const LateralInputs& in, const LateralState& s) {
+  if (!std::isfinite(s.position_m) || !std::isfinite(s.velocity_m_per_s) || !std::isfinite(s.bristle_m) ||
+      !std::isfinite(s.tip_velocity_m_per_s)) {
+    return false;
+  }
+  if (!in.levels.in_contact()) return true;
+  const FrictionModel& m = plant.friction;
+  const double dwell = m.dwell_stiction.enabled ? 1.0 + m.dwell_stiction.gain : 1.0;
+  const double g_max = 4.0 * (std::max(in.levels.static_n * dwell, in.levels.coulomb_n) + in.levels.strengthening_n * 40.0) /
+                       (modulation_floor(m) * m.lugre.sigma0_n_per_m);
+  if (std::fabs(s.bristle_m) > g_max) return false;
+  for (double z : s.slip_m) {
+    if (!std::isfinite(z) || std::fabs(z) > 2.0 * g_max) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+AdvanceReport advance_lateral(const LateralPlant& plant, const LateralInputs& in,
+                              const IntegratorSettings& settings, double dt_s, LateralState& s) {
+  const LateralState start = s;
+  const LateralEvaluation now = lateral_derivative(plant, in, s);
+  const LateralRates rates = lateral_rate_bounds(plant, in, s, now, dt_s);
+  StepPlan plan = plan_substeps(rates, dt_s, settings.max_h_lambda, settings.max_substeps);
+  bool stopped = plan.split ? integrate_lateral_split(plant, in, dt_s, plan.substeps, s)
+                            : integrate_lateral(plant, in, dt_s, plan.substeps, s, &now.rate);
+  bool retried = false;
+  if (!sane(plant, in, s)) {
+    // The rate estimate was beaten (a violent transient): redo the tick with
+    // the split scheme at four times the sub-steps the estimate asked for.
+    s = start;
+    retried = true;
+    const double n = 4.0 * std::max(wanted_substeps(rates.split_per_s, dt_s, settings.max_h_lambda),
+                                    static_cast<double>(plan.substeps));
+    plan = StepPlan{static_cast<int>(std::min<double>(n, settings.max_substeps)), true,
+                    n > settings.max_substeps};
+    stopped = integrate_lateral_split(plant, in, dt_s, plan.substeps, s);
+  }
+  if (!plant.axis.backlash.enabled) {  // without backlash the tip is the plate
+    s.tip_position_m = s.position_m;
+    s.tip_velocity_m_per_s = s.velocity_m_per_s;
+  }
+  return AdvanceReport{plan.substeps, plan.split, plan.capped, stopped, retried};
 }
 
 }  // namespace tribo::sim

@@ -33,10 +33,14 @@
 // the negative real axis, so max_h_lambda = 1 keeps the stiff modes accurate
 // as well as stable (measured: tests/sim/integrator_accuracy_test.cc).
 //
-// If that many RK4 sub-steps fit under max_substeps, the tick uses plain RK4.
-// Otherwise the contact relaxation is what cannot be resolved (light loads),
-// and the tick uses the split scheme, whose contact step is exact: its
-// estimate drops the relaxation and ageing terms and takes d at its bound.
+// If that many RK4 sub-steps fit under max_substeps, and are not more than
+// kSplitAdvantage times what the split scheme needs, the tick uses plain RK4.
+// Otherwise the contact relaxation is what cannot be resolved (light loads,
+// fast arrivals), and the tick uses the split scheme, whose contact step is
+// exact: its estimate drops the relaxation and ageing terms and takes d at
+// its bound. A safety net: a tick whose result is not finite, or whose
+// bristles end far beyond any possible deflection, is redone with the split
+// scheme at four times the sub-steps (reported as `retried`).
 #pragma once
 
 #include "sim/lateral_plant.h"
@@ -52,6 +56,9 @@ struct LateralRates {
 LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs& in,
                                  const LateralState& s, const LateralEvaluation& now, double dt_s);
 
+// The split scheme is preferred once RK4 would need this many times its sub-steps.
+inline constexpr double kSplitAdvantage = 8.0;
+
 struct StepPlan {
   int substeps = 1;
   bool split = false;   // use integrate_lateral_split
@@ -60,5 +67,23 @@ struct StepPlan {
 
 StepPlan plan_substeps(const LateralRates& rates, double dt_s, double max_h_lambda,
                        int max_substeps);
+
+struct IntegratorSettings {
+  double max_h_lambda = 1.0;
+  int max_substeps = 1000;
+};
+
+struct AdvanceReport {
+  int substeps = 0;
+  bool split = false;
+  bool capped = false;
+  bool stopped = false;  // the plate touched a stop
+  bool retried = false;  // the first attempt was not sane; the tick was redone (split, 4x sub-steps)
+};
+
+// Integrates the plant over dt_s under held inputs: estimates the rates,
+// plans the sub-steps and the scheme, and runs them.
+AdvanceReport advance_lateral(const LateralPlant& plant, const LateralInputs& in,
+                              const IntegratorSettings& settings, double dt_s, LateralState& s);
 
 }  // namespace tribo::sim
