@@ -25,10 +25,22 @@ void WearTrack::slide(double from_m, double to_m, double load_n) {
   const double last = static_cast<double>(freshness_.size()) - 1;
   const double first_bin = std::max(0.0, std::floor(lo / p_.bin_width_m));
   const double last_bin = std::min(last, std::floor(hi / p_.bin_width_m));
-  for (double b = first_bin; b <= last_bin; ++b) {
+  // In the direction of motion, so that the contact ends in the bin it is in.
+  const bool forward = to_m > from_m;
+  for (double i = 0; i <= last_bin - first_bin; ++i) {
+    const double b = forward ? first_bin + i : last_bin - i;
     const double overlap = std::min(hi, (b + 1) * p_.bin_width_m) - std::max(lo, b * p_.bin_width_m);
-    if (overlap > 0) freshness_[static_cast<std::size_t>(b)] *= std::exp(-kappa * overlap / p_.bin_width_m);
+    if (overlap > 0) book(static_cast<std::size_t>(b), overlap / p_.bin_width_m, kappa);
   }
+}
+
+void WearTrack::book(std::size_t bin, double fraction_of_pass, double kappa) {
+  if (bin != current_bin_) {
+    freshness_[current_bin_] *= std::exp(-pending_);
+    current_bin_ = bin;
+    pending_ = 0;
+  }
+  pending_ += kappa * fraction_of_pass;
 }
 
 }  // namespace tribo::sim

@@ -9,8 +9,10 @@
 //   W = 1 - (1 - steady_state_ratio) (1 - phi),   kappa(N) = decay_per_pass (N / N_ref)^p
 //
 // so the friction relaxes geometrically from its fresh value to
-// steady_state_ratio times it, faster at higher loads for p > 0. Outside the
-// tracked span (+-50 um on the sample) the surface stays fresh.
+// steady_state_ratio times it, faster at higher loads for p > 0. A bin's
+// wear is booked when the contact leaves it, so a pass feels the surface as
+// the earlier passes left it. Outside the tracked span (+-50 um on the
+// sample) the surface stays fresh.
 #pragma once
 
 #include <vector>
@@ -38,8 +40,13 @@ class WearTrack {
   static constexpr double kSpan_m = 50e-6;
 
  private:
+  void book(std::size_t bin, double fraction_of_pass, double kappa);
+
   WearParams p_;
   std::vector<double> freshness_;
+  // Sliding in the bin under the contact, booked when the contact leaves it.
+  std::size_t current_bin_ = 0;
+  double pending_ = 0;  // sum of kappa * distance / bin width
 };
 
 }  // namespace tribo::sim
