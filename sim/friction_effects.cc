@@ -17,10 +17,10 @@ double orientation_factor(const OrientationAnisotropyParams& p, double rotation_
 }
 
 FrictionLevels contact_levels(const FrictionModel& m, double n, double rotation_deg,
-                              double wear_factor) {
+                              double local_factor) {
   if (!(n > 0)) return {};
   const double scale = effective_load_n(m.load_dependence, n) *
-                       orientation_factor(m.orientation_anisotropy, rotation_deg) * wear_factor;
+                       orientation_factor(m.orientation_anisotropy, rotation_deg) * local_factor;
   const double strengthening =
       m.velocity_strengthening.enabled ? m.velocity_strengthening.coeff * scale : 0.0;
   return FrictionLevels{m.lugre.static_coeff * scale, m.lugre.coulomb_coeff * scale, strengthening};

@@ -13,7 +13,8 @@
 //   Fvs = strengthening_coeff N_eff M_o W
 //   M_o = 1 + a_o cos(2 pi (psi - psi_max) / Psi)       orientation_anisotropy;
 //                                                       psi = sample.rotation_deg
-//   W   = wear factor of the track under the tip         sim/wear_track.h
+//   W   = wear factor of the track under the tip         sim/wear_track.h,
+//         times this run's spot on the sample            sample.heterogeneity
 //
 // At every evaluation (sub-step), at tip position x_s on the sample, relative
 // velocity v, contact age theta and lagged velocity v_L:
@@ -102,9 +103,9 @@ double effective_load_n(const LoadDependenceParams& p, double contact_load_n);
 // M_o at the sample rotation.
 double orientation_factor(const OrientationAnisotropyParams& p, double rotation_deg);
 
-// Fs, Fc, Fvs of the contact for this tick (wear_factor W in (0, 1]).
+// Fs, Fc, Fvs of the contact for this tick (W: wear and site factor).
 FrictionLevels contact_levels(const FrictionModel& m, double contact_load_n, double rotation_deg,
-                              double wear_factor);
+                              double local_factor);
 
 // Where the contact is, for one evaluation of S.
 struct ContactPoint {

@@ -1,5 +1,6 @@
 #include "sim/instrument.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "sim/step_size.h"
@@ -17,6 +18,7 @@ enum NoiseStream : std::uint64_t {
   kNormalDisplacementNoise = 4,
   kLateralPositionLowFrequency = 5,
   kSampleCreep = 6,
+  kSampleSite = 7,
 };
 
 }  // namespace
@@ -37,6 +39,10 @@ SimInstrument::SimInstrument(const InstrumentParams& params, std::uint64_t seed)
       wear_(params.sample.wear) {
   if (params_.sample.drift.enabled) {
     truth_.sample_velocity_m_per_s = params_.sample.drift.rate_m_per_s + sample_creep_.value();
+  }
+  if (params_.sample.heterogeneity.enabled) {
+    NoiseSource site(derive_seed(seed, kSampleSite));
+    truth_.site_factor = std::max(0.1, 1.0 + params_.sample.heterogeneity.rms * site.gaussian());
   }
   inputs_.drive = ideal_drive_field(0.0);
   sample_sensors(DriveInput{}, 0.0);
@@ -79,7 +85,7 @@ StepReport SimInstrument::step(const DriveInput& drive, double dt_s) {
   LateralState& lateral = truth_.lateral;
   const double sample_x_before = tip_sample_position_m();
   inputs_.levels = contact_levels(params_.friction, load, params_.sample.rotation_deg,
-                                  wear_.factor_at(sample_x_before));
+                                  truth_.site_factor * wear_.factor_at(sample_x_before));
   if (!inputs_.levels.in_contact()) {  // lifted off: the contact lets go and forgets
     lateral.bristle_m = 0;
     lateral.slip_m = {};

@@ -42,11 +42,19 @@ struct SampleDriftParams {
   double correlation_time_s = 1;
 };
 
+// Run-to-run variation of the scratched spot: levels times 1 + rms w, w a
+// standard normal drawn once from the run's seed (clamped to stay positive).
+struct HeterogeneityParams {
+  bool enabled = false;
+  double rms = 0;
+};
+
 struct SampleParams {
   double rotation_deg = 0;
   double slope_rad = 0;
   SampleDriftParams drift;
   WearParams wear;
+  HeterogeneityParams heterogeneity;
 };
 
 struct InstrumentParams {
@@ -91,6 +99,7 @@ struct InstrumentTruth {
   double dead_time_s = 0;    // a handover: only the bias acted for this long
   double sample_offset_m = 0;
   double sample_velocity_m_per_s = 0;
+  double site_factor = 1;    // this run's spot on the sample (heterogeneity)
   bool snapped = false;      // the plate sits on a stop
   bool handover = false;     // no plate was driven during the tick
   double time_s = 0;

@@ -87,6 +87,7 @@ InstrumentParams instrument_params_from_config(const v1::SimConfig& c) {
   p.sample.wear = {smp.wear().enabled(),         smp.wear().steady_state_ratio(),
                    smp.wear().decay_per_pass(),  smp.wear().reference_load_n(),
                    smp.wear().load_exponent(),   smp.wear().bin_width_m()};
+  p.sample.heterogeneity = {smp.heterogeneity().enabled(), smp.heterogeneity().rms()};
 
   const auto& sn = c.sensors();
   p.sensors.lateral_force_n = {sn.lateral_force_noise_n(), sn.lateral_force_resolution_n()};
@@ -268,6 +269,9 @@ std::optional<std::string> validate_tip_and_sample(const v1::SimConfig& c) {
     checks.push_back({"sample.wear.reference_load_n", w.reference_load_n(), 0, 1, false});
     checks.push_back({"sample.wear.load_exponent", w.load_exponent(), -3, 3, true});
     checks.push_back({"sample.wear.bin_width_m", w.bin_width_m(), 1e-9, 1e-5, true});
+  }
+  if (c.sample().heterogeneity().enabled()) {
+    checks.push_back({"sample.heterogeneity.rms", c.sample().heterogeneity().rms(), 0, 0.3, true});
   }
   return first_failure(checks);
 }
