@@ -22,9 +22,10 @@ tribo::v1::DaemonConfig default_config() {
 // One simulated second of the standard scratch's sliding part per iteration:
 // 1 mN, 0.5 µm/s back and forth between +2 and +10 µm (one-sided, as the
 // standard scratch), after a 1 s load ramp that is not timed.
-void run_scratch(benchmark::State& state, double max_h_lambda) {
+void run_scratch(benchmark::State& state, double max_h_lambda, tribo::v1::IntegrationMethod method) {
   tribo::v1::DaemonConfig config = default_config();
   config.mutable_sim()->mutable_integrator()->set_max_h_lambda(max_h_lambda);
+  config.mutable_sim()->mutable_integrator()->set_method(method);
   tribo::hal::SimTransducer transducer(tribo::sim::instrument_params_from_config(config.sim()), 1,
                                        config.controller().loop_rate_hz(), false);
   tribo::daemon::Controller controller(
@@ -52,8 +53,10 @@ void run_scratch(benchmark::State& state, double max_h_lambda) {
       benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
 
-void BM_InstrumentAccurate(benchmark::State& state) { run_scratch(state, 1.0); }
-void BM_InstrumentCoarse(benchmark::State& state) { run_scratch(state, 2.5); }
+// Accurate: RK4 at h lambda <= 1 (the default). Coarse: the midpoint rule at
+// h lambda <= 1.2 (accuracy in tests/sim/integrator_accuracy_test.cc).
+void BM_InstrumentAccurate(benchmark::State& state) { run_scratch(state, 1.0, tribo::v1::INTEGRATION_RK4); }
+void BM_InstrumentCoarse(benchmark::State& state) { run_scratch(state, 1.2, tribo::v1::INTEGRATION_MIDPOINT); }
 
 }  // namespace
 

@@ -115,9 +115,10 @@ void add_scaled(State& out, const State& s, const LateralRate& r, double h, int 
   for (int i = 0; i < n; ++i) out.slip_m[i] = s.slip_m[i] + h * r.slip_m[i];
 }
 
-// One classical RK4 step; with frozen_contact the contact states keep their value.
-void rk4_step(const LateralPlant& plant, const LateralInputs& in, double h, bool frozen_contact,
-              LateralState& s, const LateralRate* first = nullptr) {
+// One sub-step (classical RK4 or the explicit midpoint rule); with
+// frozen_contact the contact states keep their value.
+void substep(const LateralPlant& plant, const LateralInputs& in, double h, bool frozen_contact,
+             SubstepScheme scheme, LateralState& s, const LateralRate* first = nullptr) {
   const int n = slip_elements(plant);
   auto rate = [&](const LateralState& at) {
     LateralRate r = lateral_derivative(plant, in, at).rate;
@@ -130,6 +131,11 @@ void rk4_step(const LateralPlant& plant, const LateralInputs& in, double h, bool
   };
   LateralState tmp = s;
   const LateralRate k1 = first ? *first : rate(s);
+  if (scheme == SubstepScheme::kMidpoint) {
+    add_scaled(tmp, s, k1, h / 2, n);
+    add_scaled(s, s, rate(tmp), h, n);
+    return;
+  }
   add_scaled(tmp, s, k1, h / 2, n);
   const LateralRate k2 = rate(tmp);
   add_scaled(tmp, s, k2, h / 2, n);
@@ -199,23 +205,23 @@ void relax_contact(const LateralPlant& plant, const LateralInputs& in, double h,
 }  // namespace
 
 bool integrate_lateral(const LateralPlant& plant, const LateralInputs& in, double dt_s,
-                       int substeps, LateralState& s, const LateralRate* first) {
+                       int substeps, LateralState& s, const LateralRate* first, SubstepScheme scheme) {
   const double h = dt_s / substeps;
   bool stopped = false;
   for (int i = 0; i < substeps; ++i) {
-    rk4_step(plant, in, h, false, s, i == 0 ? first : nullptr);
+    substep(plant, in, h, false, scheme, s, i == 0 ? first : nullptr);
     stopped |= apply_stops(in.drive, s);
   }
   return stopped;
 }
 
 bool integrate_lateral_split(const LateralPlant& plant, const LateralInputs& in, double dt_s,
-                             int substeps, LateralState& s) {
+                             int substeps, LateralState& s, SubstepScheme scheme) {
   const double h = dt_s / substeps;
   bool stopped = false;
   for (int i = 0; i < substeps; ++i) {
     relax_contact(plant, in, h / 2, s);
-    rk4_step(plant, in, h, true, s);
+    substep(plant, in, h, true, scheme, s);
     stopped |= apply_stops(in.drive, s);
     relax_contact(plant, in, h / 2, s);
   }

@@ -112,14 +112,20 @@ struct LateralEvaluation {
 LateralEvaluation lateral_derivative(const LateralPlant& plant, const LateralInputs& in,
                                      const LateralState& s);
 
-// Advances s by dt with n RK4 sub-steps. Returns true if the plate touched a
-// stop. `first`, if given, is lateral_derivative at s (saves one evaluation).
+// The explicit scheme of one sub-step.
+enum class SubstepScheme { kRk4, kMidpoint };
+
+// Advances s by dt with n sub-steps (RK4 or midpoint). Returns true if the
+// plate touched a stop. `first`, if given, is lateral_derivative at s (saves
+// one evaluation).
 bool integrate_lateral(const LateralPlant& plant, const LateralInputs& in, double dt_s,
-                       int substeps, LateralState& s, const LateralRate* first = nullptr);
+                       int substeps, LateralState& s, const LateralRate* first = nullptr,
+                       SubstepScheme scheme = SubstepScheme::kRk4);
 
 // Advances s by dt with n split sub-steps (exact contact relaxation).
 bool integrate_lateral_split(const LateralPlant& plant, const LateralInputs& in, double dt_s,
-                             int substeps, LateralState& s);
+                             int substeps, LateralState& s,
+                             SubstepScheme scheme = SubstepScheme::kRk4);
 
 // Stored energy: kinetic, spring, bristle (or elements), backlash coupling,
 // and the potentials of the held drive field and tip force. With no sample

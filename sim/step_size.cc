@@ -148,8 +148,9 @@ AdvanceReport advance_lateral(const LateralPlant& plant, const LateralInputs& in
   const LateralEvaluation now = lateral_derivative(plant, in, s);
   const LateralRates rates = lateral_rate_bounds(plant, in, s, now, dt_s);
   StepPlan plan = plan_substeps(rates, dt_s, settings.max_h_lambda, settings.max_substeps);
-  bool stopped = plan.split ? integrate_lateral_split(plant, in, dt_s, plan.substeps, s)
-                            : integrate_lateral(plant, in, dt_s, plan.substeps, s, &now.rate);
+  const SubstepScheme scheme = settings.midpoint ? SubstepScheme::kMidpoint : SubstepScheme::kRk4;
+  bool stopped = plan.split ? integrate_lateral_split(plant, in, dt_s, plan.substeps, s, scheme)
+                            : integrate_lateral(plant, in, dt_s, plan.substeps, s, &now.rate, scheme);
   bool retried = false;
   if (!sane(plant, in, s)) {
     // The rate estimate was beaten (a violent transient): redo the tick with
@@ -160,7 +161,7 @@ AdvanceReport advance_lateral(const LateralPlant& plant, const LateralInputs& in
                                     static_cast<double>(plan.substeps));
     plan = StepPlan{static_cast<int>(std::min<double>(n, settings.max_substeps)), true,
                     n > settings.max_substeps};
-    stopped = integrate_lateral_split(plant, in, dt_s, plan.substeps, s);
+    stopped = integrate_lateral_split(plant, in, dt_s, plan.substeps, s, scheme);
   }
   if (!plant.axis.backlash.enabled) {  // without backlash the tip is the plate
     s.tip_position_m = s.position_m;

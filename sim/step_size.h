@@ -71,6 +71,7 @@ StepPlan plan_substeps(const LateralRates& rates, double dt_s, double max_h_lamb
 struct IntegratorSettings {
   double max_h_lambda = 1.0;
   int max_substeps = 1000;
+  bool midpoint = false;  // coarse mode: the explicit midpoint rule instead of RK4
 };
 
 struct AdvanceReport {

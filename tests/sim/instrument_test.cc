@@ -20,17 +20,27 @@ TEST(NoiseSource, SameSeedSameSequenceAndStreamsDiffer) {
   }
 }
 
-TEST(NoiseSource, GaussianHasUnitVariance) {
+// The ziggurat's normals: moments and tail probabilities of N(0, 1).
+TEST(NoiseSource, GaussianIsStandardNormal) {
   NoiseSource noise(123);
-  double sum = 0, sum_sq = 0;
-  const int n = 200000;
+  double sum = 0, sum_sq = 0, sum_4 = 0;
+  int beyond_1 = 0, beyond_3 = 0, beyond_3_44 = 0;
+  const int n = 2000000;
   for (int i = 0; i < n; ++i) {
     const double x = noise.gaussian();
     sum += x;
     sum_sq += x * x;
+    sum_4 += x * x * x * x;
+    beyond_1 += std::fabs(x) > 1;
+    beyond_3 += std::fabs(x) > 3;
+    beyond_3_44 += std::fabs(x) > 3.442619855899;  // the ziggurat's tail
   }
-  EXPECT_NEAR(sum / n, 0.0, 0.01);
-  EXPECT_NEAR(sum_sq / n, 1.0, 0.01);
+  EXPECT_NEAR(sum / n, 0.0, 0.003);
+  EXPECT_NEAR(sum_sq / n, 1.0, 0.003);
+  EXPECT_NEAR(sum_4 / n, 3.0, 0.03);
+  EXPECT_NEAR(static_cast<double>(beyond_1) / n, 0.317311, 0.001);
+  EXPECT_NEAR(static_cast<double>(beyond_3) / n, 0.0026998, 0.0001);
+  EXPECT_NEAR(static_cast<double>(beyond_3_44) / n, 0.000576, 0.00005);
 }
 
 TEST(NormalContact, ActuatorForceSplitsIntoSpringAndHertzContact) {
