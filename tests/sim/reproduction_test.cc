@@ -198,12 +198,14 @@ TEST(Reproduction, StictionRiseIsEarlierAtHigherVelocity) {
                 v * 1e6, t_rise, steady * 1e6, peak * 1e6, 100 * spike.back(), overshoot.back());
   }
   for (std::size_t i = 1; i < rise.size(); ++i) EXPECT_LT(rise[i], rise[i - 1]) << "velocity index " << i;
-  // Not reproduced (README): the dissertation's spike grows with velocity and
-  // the tip overshoots ~3x; this plant (Appendix C's LuGre) under this loop
-  // shows a spike of a few % at most and little overshoot -- as does
-  // Appendix C's own model (bench/lsoda_compare.py). Asserted: it stays so,
-  // so a change that produces spikes is noticed and documented.
-  for (double s : spike) EXPECT_LT(s, 0.05);
+  // Not reproduced (README): the dissertation's spike grows with velocity
+  // (Table 5.1 at 9810 uN: +30, +43, +56 % over the sliding friction at 4,
+  // 18, 36 um/s) and the tip overshoots ~3x; this plant (Appendix C's LuGre)
+  // under this loop shows a spike of a few % (falling with velocity) and
+  // little overshoot -- as does Appendix C's own model integrated by scipy
+  // (bench/lsoda_compare.py). Asserted: it stays so, so that a change that
+  // produces spikes is noticed and documented.
+  for (double s : spike) EXPECT_LT(s, 0.1);
 }
 
 // Fig. 4.22: a longer rest before motion gives a larger spike. Plain LuGre
