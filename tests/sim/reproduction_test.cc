@@ -436,10 +436,14 @@ TEST(Reproduction, SlowFeedbackOscillatesAtLowVelocityAndTheDefaultLoopDoesNot) 
   std::printf("  10 Hz loop: friction wobble %.1f %% of F_ss at 0.05 um/s (largest advance %.1f x commanded per 0.1 s), "
               "%.1f %% at 0.5 um/s (%.1f x); 10 kHz loop: %.1f %% at 0.05 um/s (%.1f x)\n",
               100 * slow_low, slow_low_slip, 100 * slow_high, slow_high_slip, 100 * fast_low, fast_low_slip);
-  EXPECT_GT(slow_low, 0.2) << "stick-slip under the slow loop";
-  EXPECT_GT(slow_low_slip, 5.0);
-  EXPECT_LT(slow_high, 0.1) << "above ~0.1 um/s the slow loop scratches";
-  EXPECT_LT(fast_low, 0.1) << "the default loop holds 0.05 um/s";
+  // Measured: 41 % and 45x (stick-slip) against 8-9 % and 1.3-2.7x; the
+  // default loop's 8 % at 0.05 um/s is the stuck tip following the 10 nm
+  // position wander (sigma0 * 10 nm), not an oscillation of the loop.
+  EXPECT_GT(slow_low, 0.25) << "stick-slip under the slow loop";
+  EXPECT_GT(slow_low_slip, 10.0);
+  EXPECT_LT(slow_high, 0.15) << "above ~0.1 um/s the slow loop scratches";
+  EXPECT_LT(slow_high_slip, 5.0);
+  EXPECT_LT(fast_low, 0.15) << "the default loop holds 0.05 um/s";
   EXPECT_LT(fast_low_slip, 3.0);
 }
 
