@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <optional>
+#include <string>
 
 #include "sim/noise_source.h"
 #include "sim/normal_axis.h"
@@ -98,6 +100,51 @@ TEST(SimInstrument, SensorNoiseHasTheConfiguredSpread) {
     sum_sq += f * f;
   }
   EXPECT_NEAR(std::sqrt(sum_sq / n - (sum / n) * (sum / n)), 10e-6, 0.2e-6);
+}
+
+// Config errors name the field, the value and the limit.
+TEST(SimConfig, DefaultIsValidAndErrorsNameFieldValueAndLimit) {
+  v1::SimConfig c = testing::default_config().sim();
+  EXPECT_EQ(validate_sim_config(c), std::nullopt);
+
+  v1::SimConfig bias = c;
+  bias.mutable_lateral()->mutable_drive()->set_bias_voltage_v(400);  // its negative stiffness > 116 N/m
+  const auto snap = validate_sim_config(bias);
+  ASSERT_TRUE(snap);
+  EXPECT_NE(snap->find("sim.lateral.drive.bias_voltage_v = 400"), std::string::npos) << *snap;
+  EXPECT_NE(snap->find("snaps the plate down"), std::string::npos) << *snap;
+
+  v1::SimConfig hysteresis = c;
+  hysteresis.mutable_friction()->mutable_presliding_hysteresis()->set_enabled(true);
+  hysteresis.mutable_friction()->mutable_presliding_hysteresis()->set_elements(12);
+  const auto elements = validate_sim_config(hysteresis);
+  ASSERT_TRUE(elements);
+  EXPECT_EQ(*elements, "sim.friction.presliding_hysteresis.elements = 12: must be in [2, 8]");
+
+  v1::SimConfig coarse = c;
+  coarse.mutable_integrator()->set_method(v1::INTEGRATION_MIDPOINT);
+  coarse.mutable_integrator()->set_max_h_lambda(2.0);
+  const auto unstable = validate_sim_config(coarse);
+  ASSERT_TRUE(unstable);
+  EXPECT_EQ(*unstable, "sim.integrator.max_h_lambda = 2: must be in (0, 1.8]");
+
+  v1::SimConfig off = c;  // parameters of a disabled effect are not checked
+  off.mutable_friction()->mutable_dwell_stiction()->set_time_constant_s(-1);
+  EXPECT_EQ(validate_sim_config(off), std::nullopt);
+  off.mutable_friction()->mutable_dwell_stiction()->set_enabled(true);
+  EXPECT_TRUE(validate_sim_config(off));
+}
+
+// The simulated backend reports snap-down and drive handovers in its status bits.
+TEST(SimInstrument, SnapDownAndHandoverAreReported) {
+  InstrumentParams p = instrument_params_from_config(testing::default_config().sim());
+  SimInstrument sim(p, 1);
+  bool handover = false, snapped = false;
+  for (int k = 0; k < 200; ++k) handover |= sim.step(DriveInput{0, k < 100 ? 1e-4 : -1e-4}, 1e-4).handover;
+  EXPECT_TRUE(handover) << "the command changed sign: the driven plate changed";
+  for (int k = 0; k < 20000 && !snapped; ++k) snapped = sim.step(DriveInput{0, 0.2}, 1e-4).snapped;  // 200 mN: far past pull-in
+  EXPECT_TRUE(snapped);
+  EXPECT_NEAR(sim.truth().lateral.position_m, p.lateral_drive.plates.gap_positive_m - p.lateral_drive.stop_gap_m, 1e-12);
 }
 
 }  // namespace
