@@ -102,6 +102,31 @@ TEST(SimInstrument, SensorNoiseHasTheConfiguredSpread) {
   EXPECT_NEAR(std::sqrt(sum_sq / n - (sum / n) * (sum / n)), 10e-6, 0.2e-6);
 }
 
+// Open loop (§5.4, Fig. 5.17): the springs take part of the commanded load,
+// more where the sloped surface rises under the tip, so a constant command
+// is not a constant load; at zero command the load follows the surface.
+TEST(NormalAxis, OpenLoopCannotHoldALowLoadConstantOnASlopedSample) {
+  v1::DaemonConfig config = testing::default_config();
+  testing::silence_sensors(config);
+  config.mutable_sim()->mutable_sample()->set_slope_deg(1.0);
+  const double k = config.sim().normal().spring_stiffness_n_per_m(), rise = std::tan(M_PI / 180) * 8e-6;
+  for (double command : {500e-6, 0.0}) {
+    double first = 0, last = 0;
+    testing::run_closed_loop(config, 1, 17,
+                             [&](double t) {
+                               return testing::LoopSetpoints{command, 2e-6 * std::min(1.0, t / 0.5) + 0.5e-6 * std::max(0.0, t - 1)};
+                             },
+                             [&](double t, const hal::SimTransducer& tr) {
+                               if (std::fabs(t - 1.0) < 5e-5) first = tr.instrument().measurement().normal_force_n;
+                               last = tr.instrument().measurement().normal_force_n;
+                             });
+    // 8 um along a 1 deg slope raises the surface 140 nm; the spring
+    // compresses by that much less the Hertz give: the load grows by ~k * 140 nm.
+    EXPECT_GT(last - first, 0.8 * k * rise) << "command " << command;
+    EXPECT_LT(last - first, 1.0 * k * rise) << "command " << command;
+  }
+}
+
 // Config errors name the field, the value and the limit.
 TEST(SimConfig, DefaultIsValidAndErrorsNameFieldValueAndLimit) {
   v1::SimConfig c = testing::default_config().sim();
