@@ -23,7 +23,9 @@ IoResult SimTransducer::write(const DriveCommand& command) {
 void SimTransducer::wait_next_tick() {
   const sim::StepReport report =
       instrument_.step(sim::DriveInput{command_.normal_force_n, command_.lateral_force_n}, period_s_);
-  status_bits_ = report.substep_cap_hit ? kSubstepCapHit : kSensorOk;
+  status_bits_ = (report.substep_cap_hit ? kSubstepCapHit : kSensorOk) |
+                 (report.snapped ? kLateralSnapDown : kSensorOk) |
+                 (report.handover ? kDriveHandover : kSensorOk);
   if (pacer_) pacer_->wait();
 }
 

@@ -25,6 +25,8 @@ struct SensorFrame {
 enum SensorStatus : std::uint32_t {
   kSensorOk = 0,
   kSubstepCapHit = 1u << 0,  // simulated backend: the plant asked for more sub-steps than allowed
+  kLateralSnapDown = 1u << 1,  // the lateral centre plate snapped onto a drive plate's stop
+  kDriveHandover = 1u << 2,    // breakpoint: no lateral drive plate was driven this tick
 };
 
 struct DriveCommand {

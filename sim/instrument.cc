@@ -1,66 +1,156 @@
 #include "sim/instrument.h"
 
+#include <algorithm>
+#include <cmath>
+
 #include "sim/step_size.h"
 
 namespace tribo::sim {
 
 namespace {
 
-// Stream ids of the noise channels; fixed forever so that a seed keeps
-// meaning the same noise when channels are added.
+// Stream ids of the noise sources; fixed forever so that a seed keeps
+// meaning the same noise when sources are added.
 enum NoiseStream : std::uint64_t {
-  kLateralPositionNoise = 1,
+  kLateralPositionWhite = 1,
   kLateralForceNoise = 2,
   kNormalForceNoise = 3,
   kNormalDisplacementNoise = 4,
+  kLateralPositionLowFrequency = 5,
+  kSampleCreep = 6,
+  kSampleSite = 7,
 };
 
 }  // namespace
 
 SimInstrument::SimInstrument(const InstrumentParams& params, std::uint64_t seed)
     : params_(params),
-      lateral_position_noise_(derive_seed(seed, kLateralPositionNoise)),
+      plant_{params.lateral, params.friction},
+      tan_tilt_(params.tilt.enabled ? std::tan(params.tilt.angle_rad) : 0.0),
+      tan_slope_(std::tan(params.sample.slope_rad)),
+      electronics_(params.lateral_drive),
+      lateral_sensor_(params.lateral_sensing, derive_seed(seed, kLateralPositionWhite),
+                      derive_seed(seed, kLateralPositionLowFrequency)),
       lateral_force_noise_(derive_seed(seed, kLateralForceNoise)),
       normal_force_noise_(derive_seed(seed, kNormalForceNoise)),
-      normal_displacement_noise_(derive_seed(seed, kNormalDisplacementNoise)) {
-  sample_sensors(0.0);
+      normal_displacement_noise_(derive_seed(seed, kNormalDisplacementNoise)),
+      sample_creep_(params.sample.drift.enabled ? params.sample.drift.velocity_rms_m_per_s : 0.0,
+                    params.sample.drift.correlation_time_s, derive_seed(seed, kSampleCreep)),
+      wear_(params.sample.wear) {
+  if (params_.sample.drift.enabled) {
+    truth_.sample_velocity_m_per_s = params_.sample.drift.rate_m_per_s + sample_creep_.value();
+  }
+  if (params_.sample.heterogeneity.enabled) {
+    NoiseSource site(derive_seed(seed, kSampleSite));
+    truth_.site_factor = std::max(0.1, 1.0 + params_.sample.heterogeneity.rms * site.gaussian());
+  }
+  inputs_.drive = ideal_drive_field(0.0);
+  sample_sensors(DriveInput{}, 0.0);
+}
+
+double SimInstrument::tip_sample_position_m() const {
+  return tip_position_m(plant_, truth_.lateral) - truth_.sample_offset_m;
+}
+
+void SimInstrument::settle_normal_axis(double command_n) {
+  const double force = normal_actuator_force_n(params_.normal, command_n,
+                                               measurement_.normal_displacement_m,
+                                               truth_.normal.displacement_m);
+  const double surface = tip_sample_position_m() * tan_slope_;
+  // Quasi-static: solve only when the force or the surface under the tip changed.
+  if (force != settled_force_n_ || surface != settled_surface_m_ || truth_.time_s == 0) {
+    truth_.normal = solve_normal_equilibrium(params_.normal, force, surface, truth_.normal.depth_m);
+    settled_force_n_ = force;
+    settled_surface_m_ = surface;
+  }
 }
 
 StepReport SimInstrument::step(const DriveInput& drive, double dt_s) {
-  truth_.normal = solve_normal_equilibrium(params_.normal, drive.normal_force_n);
-  const FrictionLevels levels = friction_levels(params_.friction, truth_.normal.contact_load_n);
-  LateralState& lateral = truth_.lateral;
-  if (!levels.in_contact()) lateral.bristle_m = 0;  // lifted off: the bristles let go
+  settle_normal_axis(drive.normal_force_n);
+  const double load = truth_.normal.contact_load_n;
 
-  const LateralRates rates = lateral_rate_bounds(params_.lateral, params_.friction, levels, lateral,
-                                                 drive.lateral_force_n, dt_s);
-  const StepPlan plan = plan_substeps(rates, dt_s, params_.integrator.max_h_lambda,
-                                      params_.integrator.max_substeps);
-  if (plan.split) {
-    integrate_lateral_split(params_.lateral, params_.friction, levels, drive.lateral_force_n, dt_s,
-                            plan.substeps, lateral);
+  DriveField dead_field;
+  truth_.dead_time_s = 0;
+  if (params_.lateral_drive.enabled) {
+    const DriveOutput out = electronics_.command(drive.lateral_force_n, measurement_.lateral_position_m, dt_s);
+    truth_.dead_time_s = out.dead_time_s;
+    truth_.voltages = out.dead_time_s < dt_s ? out.voltages : out.bias;
+    dead_field = electrostatic_drive_field(params_.lateral_drive, out.bias);
+    inputs_.drive = electrostatic_drive_field(params_.lateral_drive, out.voltages);
   } else {
-    integrate_lateral(params_.lateral, params_.friction, levels, drive.lateral_force_n, dt_s,
-                      plan.substeps, lateral);
+    inputs_.drive = ideal_drive_field(drive.lateral_force_n);
   }
-  truth_.friction_n =
-      lugre_evaluate(params_.friction, levels, lateral.velocity_m_per_s, lateral.bristle_m).force_n;
+  truth_.handover = truth_.dead_time_s > 0;
+
+  LateralState& lateral = truth_.lateral;
+  const double sample_x_before = tip_sample_position_m();
+  inputs_.levels = contact_levels(params_.friction, load, params_.sample.rotation_deg,
+                                  truth_.site_factor * wear_.factor_at(sample_x_before));
+  if (!inputs_.levels.in_contact()) {  // lifted off: the contact lets go and forgets
+    lateral.bristle_m = 0;
+    lateral.slip_m = {};
+    lateral.contact_age_s = 0;
+  }
+  inputs_.tip_force_n = load * tan_tilt_;
+  inputs_.sample_velocity_m_per_s = truth_.sample_velocity_m_per_s;
+  inputs_.sample_offset_m = truth_.sample_offset_m;
+
+  // A handover first integrates its dead interval under the bias alone.
+  AdvanceReport report;
+  if (truth_.dead_time_s > 0) {
+    LateralInputs dead = inputs_;
+    dead.drive = dead_field;
+    report = advance_lateral(plant_, dead, params_.integrator, truth_.dead_time_s, lateral);
+  }
+  if (truth_.dead_time_s < dt_s) {
+    const AdvanceReport rest = advance_lateral(plant_, inputs_, params_.integrator, dt_s - truth_.dead_time_s, lateral);
+    report = AdvanceReport{report.substeps + rest.substeps, report.split || rest.split,
+                           report.capped || rest.capped, report.stopped || rest.stopped,
+                           report.retried || rest.retried};
+  } else {
+    inputs_.drive = dead_field;
+  }
+  const bool stopped = report.stopped;
+
+  truth_.levels = inputs_.levels;
+  truth_.friction_n = lateral_derivative(plant_, inputs_, lateral).friction_n;
+  truth_.drive_force_n = inputs_.drive.force_n(lateral.position_m);
+  truth_.tip_force_n = inputs_.tip_force_n;
+  truth_.snapped = stopped;
   truth_.time_s += dt_s;
-  sample_sensors(drive.lateral_force_n);
-  return StepReport{plan.substeps, plan.split, plan.capped};
+
+  // Slow states, advanced once per tick.
+  truth_.sample_offset_m += truth_.sample_velocity_m_per_s * dt_s;
+  wear_.slide(sample_x_before, tip_sample_position_m(), load);
+  if (params_.sample.drift.enabled) {
+    truth_.sample_velocity_m_per_s = params_.sample.drift.rate_m_per_s + sample_creep_.advance(dt_s);
+  }
+
+  sample_sensors(drive, dt_s);
+  return StepReport{report.substeps, report.split, report.capped, stopped, truth_.handover, report.retried};
 }
 
-void SimInstrument::sample_sensors(double drive_lateral_n) {
+void SimInstrument::sample_sensors(const DriveInput& drive, double dt_s) {
   const SensorSpecs& s = params_.sensors;
-  const double x = truth_.lateral.position_m;
-  // The transducer infers the force on the tip from its drive and its spring.
-  const double lateral_force = drive_lateral_n - params_.lateral.spring_n_per_m * x;
-  measurement_.lateral_position_m = measure(x, s.lateral_position_m, lateral_position_noise_);
-  measurement_.lateral_force_n = measure(lateral_force, s.lateral_force_n, lateral_force_noise_);
-  measurement_.normal_force_n =
-      measure(truth_.normal.contact_load_n, s.normal_force_n, normal_force_noise_);
+  const CapacitivePositionSensor::Reading x =
+      lateral_sensor_.sample(truth_.lateral.position_m, truth_.time_s, dt_s);
+  measurement_.lateral_position_m = x.position_m;
+  measurement_.lateral_sense_voltage_v = x.voltage_v;
+  measurement_.lateral_adc_counts = x.counts;
+  // The transducer infers the force on the tip from what it believes its
+  // drive applies and from its spring, both at the measured position.
+  const double applied = params_.lateral_drive.enabled
+                             ? electronics_.believed_force_n(truth_.voltages, x.position_m)
+                             : drive.lateral_force_n;
+  measurement_.lateral_force_n =
+      measure(applied - params_.lateral_calibrated_spring_n_per_m * x.position_m, s.lateral_force_n,
+              lateral_force_noise_);
   measurement_.normal_displacement_m =
-      measure(truth_.normal.displacement_m, s.normal_displacement_m, normal_displacement_noise_);
+      measure(truth_.normal.displacement_m + s.normal_displacement_drift_m_per_s * truth_.time_s,
+              s.normal_displacement_m, normal_displacement_noise_);
+  measurement_.normal_force_n =
+      measure(reported_normal_force_n(params_.normal, drive.normal_force_n, measurement_.normal_displacement_m),
+              s.normal_force_n, normal_force_noise_);
 }
 
 }  // namespace tribo::sim

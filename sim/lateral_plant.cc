@@ -1,55 +1,177 @@
 #include "sim/lateral_plant.h"
 
 #include <cmath>
-#include <utility>
 
 namespace tribo::sim {
 
-LateralDerivative lateral_derivative(const LateralAxisParams& axis, const LugreParams& friction,
-                                     const FrictionLevels& levels, const LateralState& s,
-                                     double drive_n) {
-  const LugreOutput f = lugre_evaluate(friction, levels, s.velocity_m_per_s, s.bristle_m);
-  const double spring_damper =
-      axis.spring_n_per_m * s.position_m + axis.damping_n_s_per_m * s.velocity_m_per_s;
-  return LateralDerivative{s.velocity_m_per_s, (drive_n - spring_damper - f.force_n) / axis.mass_kg,
-                           f.dz_dt_m_per_s, f.force_n};
+double tip_position_m(const LateralPlant& plant, const LateralState& s) {
+  return plant.axis.backlash.enabled ? s.tip_position_m : s.position_m;
+}
+
+double tip_velocity_m_per_s(const LateralPlant& plant, const LateralState& s) {
+  return plant.axis.backlash.enabled ? s.tip_velocity_m_per_s : s.velocity_m_per_s;
 }
 
 namespace {
 
-LateralState advanced(const LateralState& s, const LateralDerivative& d, double h) {
-  return LateralState{s.position_m + h * d.dx, s.velocity_m_per_s + h * d.dv,
-                      s.bristle_m + h * d.dz};
+int slip_elements(const LateralPlant& plant) {
+  const PreslidingHysteresisParams& h = plant.friction.presliding_hysteresis;
+  return h.enabled ? h.elements : 0;
+}
+
+ContactPoint contact_point(const LateralPlant& plant, const LateralInputs& in, const LateralState& s) {
+  const double v = tip_velocity_m_per_s(plant, s) - in.sample_velocity_m_per_s;
+  return ContactPoint{v, plant.friction.frictional_lag.enabled ? s.lag_velocity_m_per_s : v,
+                      tip_position_m(plant, s) - in.sample_offset_m, s.contact_age_s};
+}
+
+// Friction force of the bristle(s) at deflection scale g; fills their rates.
+double bristle_force_n(const FrictionModel& m, double g, double v, const LateralState& s,
+                       LateralRate& r) {
+  const LugreParams& p = m.lugre;
+  const PreslidingHysteresisParams& h = m.presliding_hysteresis;
+  if (!h.enabled) {
+    const LugreOutput out = lugre_bristle(p, g, v, s.bristle_m);
+    r.bristle_m = out.dz_dt_m_per_s;
+    return out.force_n;
+  }
+  double force = p.sigma2_n_s_per_m * v;
+  const double share = 1.0 / h.elements;
+  for (int i = 0; i < h.elements; ++i) {
+    const double gi = slip_share(h, i) * g;
+    const double z = s.slip_m[i];
+    const double dz = v - plasticity(h.breakaway_ratio, v, z, gi) * std::fabs(v) * z / gi;
+    r.slip_m[i] = dz;
+    force += share * (p.sigma0_n_per_m * z + p.sigma1_n_s_per_m * dz);
+  }
+  return force;
+}
+
+// A plate at a stop stays there while the net force presses it on.
+void hold_at_stop(const DriveField& f, const LateralState& s, LateralRate& r) {
+  if (!f.has_stops()) return;
+  if ((s.position_m >= f.stop_positive_m() && r.velocity_m_per_s > 0) ||
+      (s.position_m <= f.stop_negative_m() && r.velocity_m_per_s < 0)) {
+    r.velocity_m_per_s = 0;
+    r.position_m = 0;
+  }
 }
 
 }  // namespace
 
-void integrate_lateral(const LateralAxisParams& axis, const LugreParams& friction,
-                       const FrictionLevels& levels, double drive_n, double dt_s, int substeps,
-                       LateralState& s) {
-  const double h = dt_s / substeps;
-  for (int i = 0; i < substeps; ++i) {
-    const auto k1 = lateral_derivative(axis, friction, levels, s, drive_n);
-    const auto k2 = lateral_derivative(axis, friction, levels, advanced(s, k1, h / 2), drive_n);
-    const auto k3 = lateral_derivative(axis, friction, levels, advanced(s, k2, h / 2), drive_n);
-    const auto k4 = lateral_derivative(axis, friction, levels, advanced(s, k3, h), drive_n);
-    s.position_m += h / 6 * (k1.dx + 2 * k2.dx + 2 * k3.dx + k4.dx);
-    s.velocity_m_per_s += h / 6 * (k1.dv + 2 * k2.dv + 2 * k3.dv + k4.dv);
-    s.bristle_m += h / 6 * (k1.dz + 2 * k2.dz + 2 * k3.dz + k4.dz);
+LateralEvaluation lateral_derivative(const LateralPlant& plant, const LateralInputs& in,
+                                     const LateralState& s) {
+  const LateralAxisParams& axis = plant.axis;
+  const FrictionModel& m = plant.friction;
+  LateralEvaluation e;
+  LateralRate& r = e.rate;
+  const ContactPoint c = contact_point(plant, in, s);
+  if (in.levels.in_contact()) {
+    const double g = stribeck_n(m, in.levels, c) / m.lugre.sigma0_n_per_m;
+    e.deflection_scale_m = g;
+    e.friction_n = bristle_force_n(m, g, c.velocity_m_per_s, s, r);
+    if (m.dwell_stiction.enabled) {
+      r.contact_age_s = 1.0 - std::fabs(c.velocity_m_per_s) * s.contact_age_s / m.dwell_stiction.memory_length_m;
+    }
+  } else {
+    for (int i = 0; i < slip_elements(plant); ++i) r.slip_m[i] = 0;  // out of contact nothing slips
   }
+  if (m.frictional_lag.enabled) {
+    r.lag_velocity_m_per_s = (c.velocity_m_per_s - s.lag_velocity_m_per_s) / m.frictional_lag.time_constant_s;
+  }
+  const double plate_n = in.drive.force_n(s.position_m) - axis.spring_n_per_m * s.position_m -
+                         axis.damping_n_s_per_m * s.velocity_m_per_s;
+  r.position_m = s.velocity_m_per_s;
+  if (!axis.backlash.enabled) {
+    r.velocity_m_per_s = (plate_n - e.friction_n + in.tip_force_n) / axis.mass_kg;
+  } else {
+    const BacklashParams& b = axis.backlash;
+    const double play = 0.5 * b.width_m, d = s.position_m - s.tip_position_m;
+    double coupling_n = 0;
+    if (std::fabs(d) > play) {
+      coupling_n = b.coupling_stiffness_n_per_m * (d > 0 ? d - play : d + play) +
+                   b.coupling_damping_n_s_per_m * (s.velocity_m_per_s - s.tip_velocity_m_per_s);
+    }
+    r.velocity_m_per_s = (plate_n - coupling_n) / (axis.mass_kg - b.tip_mass_kg);
+    r.tip_position_m = s.tip_velocity_m_per_s;
+    r.tip_velocity_m_per_s = (coupling_n - e.friction_n + in.tip_force_n) / b.tip_mass_kg;
+  }
+  hold_at_stop(in.drive, s, r);
+  return e;
 }
 
 namespace {
+
+// out = s + h r over the states in use (n Maxwell-slip elements).
+template <class State>
+void add_scaled(State& out, const State& s, const LateralRate& r, double h, int n) {
+  out.position_m = s.position_m + h * r.position_m;
+  out.velocity_m_per_s = s.velocity_m_per_s + h * r.velocity_m_per_s;
+  out.tip_position_m = s.tip_position_m + h * r.tip_position_m;
+  out.tip_velocity_m_per_s = s.tip_velocity_m_per_s + h * r.tip_velocity_m_per_s;
+  out.bristle_m = s.bristle_m + h * r.bristle_m;
+  out.lag_velocity_m_per_s = s.lag_velocity_m_per_s + h * r.lag_velocity_m_per_s;
+  out.contact_age_s = s.contact_age_s + h * r.contact_age_s;
+  for (int i = 0; i < n; ++i) out.slip_m[i] = s.slip_m[i] + h * r.slip_m[i];
+}
+
+// One sub-step (classical RK4 or the explicit midpoint rule); with
+// frozen_contact the contact states keep their value.
+void substep(const LateralPlant& plant, const LateralInputs& in, double h, bool frozen_contact,
+             SubstepScheme scheme, LateralState& s, const LateralRate* first = nullptr) {
+  const int n = slip_elements(plant);
+  auto rate = [&](const LateralState& at) {
+    LateralRate r = lateral_derivative(plant, in, at).rate;
+    if (frozen_contact) {
+      r.bristle_m = 0;
+      r.contact_age_s = 0;
+      for (int i = 0; i < n; ++i) r.slip_m[i] = 0;
+    }
+    return r;
+  };
+  LateralState tmp = s;
+  const LateralRate k1 = first ? *first : rate(s);
+  if (scheme == SubstepScheme::kMidpoint) {
+    add_scaled(tmp, s, k1, h / 2, n);
+    add_scaled(s, s, rate(tmp), h, n);
+    return;
+  }
+  add_scaled(tmp, s, k1, h / 2, n);
+  const LateralRate k2 = rate(tmp);
+  add_scaled(tmp, s, k2, h / 2, n);
+  const LateralRate k3 = rate(tmp);
+  add_scaled(tmp, s, k3, h, n);
+  const LateralRate k4 = rate(tmp);
+  LateralRate sum = k1;
+  add_scaled(sum, k1, k2, 2.0, n);
+  add_scaled(sum, sum, k3, 2.0, n);
+  add_scaled(sum, sum, k4, 1.0, n);
+  add_scaled(s, s, sum, h / 6, n);
+}
+
+// Keeps the plate within its stops; true if it is on one.
+bool apply_stops(const DriveField& f, LateralState& s) {
+  if (!f.has_stops()) return false;
+  if (s.position_m >= f.stop_positive_m()) {
+    s.position_m = f.stop_positive_m();
+    if (s.velocity_m_per_s > 0) s.velocity_m_per_s = 0;
+    return true;
+  }
+  if (s.position_m <= f.stop_negative_m()) {
+    s.position_m = f.stop_negative_m();
+    if (s.velocity_m_per_s < 0) s.velocity_m_per_s = 0;
+    return true;
+  }
+  return false;
+}
 
 // Solution of dz/dt = v - alpha a z over h for frozen v and alpha (a = |v|/g):
 // exact for plain LuGre. With elasto-plastic presliding alpha rises to 1 as
 // |z| reaches g, so a bristle loading towards g stops there instead of at the
 // frozen-alpha target g/alpha.
-double relax_bristle(const LugreParams& friction, const FrictionLevels& levels, double v, double z,
-                     double h) {
-  if (!levels.in_contact() || v == 0.0) return z;
-  const double g = stribeck_n(friction, levels, v) / friction.sigma0_n_per_m;
-  const double alpha = plasticity(friction, v, z, g);
+double relax_bristle(double breakaway_ratio, double g, double v, double z, double h) {
+  if (v == 0.0) return z;
+  const double alpha = plasticity(breakaway_ratio, v, z, g);
   const double rate = alpha * std::fabs(v) / g;
   double next = rate > 0 ? v / rate + (z - v / rate) * std::exp(-rate * h) : z + v * h;
   const double limit = v > 0 ? g : -g;
@@ -58,28 +180,75 @@ double relax_bristle(const LugreParams& friction, const FrictionLevels& levels, 
   return next;
 }
 
+// Half of the Strang split: the contact states, exact for frozen v and g.
+void relax_contact(const LateralPlant& plant, const LateralInputs& in, double h, LateralState& s) {
+  if (!in.levels.in_contact()) return;
+  const FrictionModel& m = plant.friction;
+  const ContactPoint c = contact_point(plant, in, s);
+  const double v = c.velocity_m_per_s;
+  const double g = stribeck_n(m, in.levels, c) / m.lugre.sigma0_n_per_m;
+  const PreslidingHysteresisParams& hy = m.presliding_hysteresis;
+  if (!hy.enabled) {
+    s.bristle_m = relax_bristle(m.lugre.breakaway_ratio, g, v, s.bristle_m, h);
+  } else {
+    for (int i = 0; i < hy.elements; ++i) {
+      s.slip_m[i] = relax_bristle(hy.breakaway_ratio, slip_share(hy, i) * g, v, s.slip_m[i], h);
+    }
+  }
+  if (m.dwell_stiction.enabled) {
+    const double rate = std::fabs(v) / m.dwell_stiction.memory_length_m;
+    s.contact_age_s = rate > 0 ? 1 / rate + (s.contact_age_s - 1 / rate) * std::exp(-rate * h)
+                               : s.contact_age_s + h;
+  }
+}
+
 }  // namespace
 
-void integrate_lateral_split(const LateralAxisParams& axis, const LugreParams& friction,
-                             const FrictionLevels& levels, double drive_n, double dt_s,
-                             int substeps, LateralState& s) {
+bool integrate_lateral(const LateralPlant& plant, const LateralInputs& in, double dt_s,
+                       int substeps, LateralState& s, const LateralRate* first, SubstepScheme scheme) {
   const double h = dt_s / substeps;
+  bool stopped = false;
   for (int i = 0; i < substeps; ++i) {
-    s.bristle_m = relax_bristle(friction, levels, s.velocity_m_per_s, s.bristle_m, h / 2);
-    // RK4 on (x, v) with z frozen; the friction force keeps its sigma1 dz/dt term.
-    const auto frozen = [&](double x, double v) {
-      auto d = lateral_derivative(axis, friction, levels, LateralState{x, v, s.bristle_m}, drive_n);
-      return std::pair{d.dx, d.dv};
-    };
-    const double x = s.position_m, v = s.velocity_m_per_s;
-    const auto [x1, v1] = frozen(x, v);
-    const auto [x2, v2] = frozen(x + h / 2 * x1, v + h / 2 * v1);
-    const auto [x3, v3] = frozen(x + h / 2 * x2, v + h / 2 * v2);
-    const auto [x4, v4] = frozen(x + h * x3, v + h * v3);
-    s.position_m += h / 6 * (x1 + 2 * x2 + 2 * x3 + x4);
-    s.velocity_m_per_s += h / 6 * (v1 + 2 * v2 + 2 * v3 + v4);
-    s.bristle_m = relax_bristle(friction, levels, s.velocity_m_per_s, s.bristle_m, h / 2);
+    substep(plant, in, h, false, scheme, s, i == 0 ? first : nullptr);
+    stopped |= apply_stops(in.drive, s);
   }
+  return stopped;
+}
+
+bool integrate_lateral_split(const LateralPlant& plant, const LateralInputs& in, double dt_s,
+                             int substeps, LateralState& s, SubstepScheme scheme) {
+  const double h = dt_s / substeps;
+  bool stopped = false;
+  for (int i = 0; i < substeps; ++i) {
+    relax_contact(plant, in, h / 2, s);
+    substep(plant, in, h, true, scheme, s);
+    stopped |= apply_stops(in.drive, s);
+    relax_contact(plant, in, h / 2, s);
+  }
+  return stopped;
+}
+
+double stored_energy_j(const LateralPlant& plant, const LateralInputs& in, const LateralState& s) {
+  const LateralAxisParams& axis = plant.axis;
+  const LugreParams& p = plant.friction.lugre;
+  const BacklashParams& b = axis.backlash;
+  const double plate_mass = b.enabled ? axis.mass_kg - b.tip_mass_kg : axis.mass_kg;
+  double e = 0.5 * plate_mass * s.velocity_m_per_s * s.velocity_m_per_s +
+             0.5 * axis.spring_n_per_m * s.position_m * s.position_m + in.drive.potential_j(s.position_m) -
+             in.tip_force_n * tip_position_m(plant, s);
+  if (b.enabled) {
+    const double play = 0.5 * b.width_m, d = s.position_m - s.tip_position_m;
+    const double stretch = std::fabs(d) > play ? std::fabs(d) - play : 0.0;
+    e += 0.5 * b.tip_mass_kg * s.tip_velocity_m_per_s * s.tip_velocity_m_per_s +
+         0.5 * b.coupling_stiffness_n_per_m * stretch * stretch;
+  }
+  const PreslidingHysteresisParams& h = plant.friction.presliding_hysteresis;
+  if (!h.enabled) {
+    e += 0.5 * p.sigma0_n_per_m * s.bristle_m * s.bristle_m;
+  } else {
+    for (int i = 0; i < h.elements; ++i) e += 0.5 * p.sigma0_n_per_m / h.elements * s.slip_m[i] * s.slip_m[i];
+  }
+  return e;
 }
 
 }  // namespace tribo::sim

@@ -1,58 +1,135 @@
-// Lateral (X) axis: the centre plate and tip (mass m) on the transducer spring
-// k and damping c, driven by the actuator force and held back by friction:
+// Lateral (X) axis: the centre plate (mass m) on the transducer spring k and
+// damping c, pulled by the drive (sim/electrostatic_drive.h) and held back by
+// friction at the tip:
 //
 //   dx/dt = v
-//   m dv/dt = F_drive - k x - c v - F_friction(v, z)
-//   dz/dt   = LuGre bristle rate (sim/lugre_friction.h)
+//   m dv/dt = F_drive(x) - k x - c v - F_friction(v_rel, z, ...) + F_tip
+//   dz/dt   = LuGre bristle rate (sim/lugre_friction.h), at the tip's velocity
+//             relative to the sample, v_rel = v - v_sample
 //
-// The drive force is held constant over a controller tick (zero-order hold);
-// the tick is integrated in n equal sub-steps, n chosen from the present state
+// F_tip is the tilt's lateral share of the normal load (N tan theta, §5.2)
+// and v_sample the sample's creep (drift, §3.3.3). Optional states: the
+// contact age theta and lagged velocity v_L (sim/friction_effects.h), the
+// Maxwell-slip elements (sim/maxwell_slip.h), and with backlash a separate
+// tip (mass m_t, part of m) coupled to the plate through a dead zone of width
+// 2b, stiffness k_b and damping c_b (acting only when engaged):
+//
+//   (m - m_t) dv/dt   = F_drive(x) - k x - c v - F_b
+//   m_t dv_t/dt       = F_b - F_friction(v_t - v_sample, ...) + F_tip
+//   F_b = k_b (d - b sgn d) + c_b (v - v_t)   for |d| > b,  0 otherwise,  d = x - x_t
+//
+// Stops: with the electrostatic drive the plate cannot pass stop_gap of a
+// plate; arriving there it stops dead (snap-down) and stays while the net
+// force holds it.
+//
+// The drive voltages, load and creep are held over a controller tick; the
+// tick is integrated in n equal sub-steps, n chosen from the present state
 // (sim/step_size.h), by one of two schemes:
 //
-// - integrate_lateral: classical RK4 on (x, v, z), whenever the sub-steps
-//   resolve every rate of the plant, including the bristle relaxation |v|/g(v).
+// - integrate_lateral: classical RK4 on the whole state, whenever the
+//   sub-steps resolve every rate of the plant, including the bristle
+//   relaxation |v|/g(v).
 // - integrate_lateral_split: at light loads g(v) ~ N -> 0 and the bristles
 //   relax faster than any affordable step (|v|/g reaches 1e7 1/s on the first
 //   tick of a loading ramp). For fixed v, dz/dt = v - a z with a = |v|/g(v) is
 //   linear in z, so z is advanced exactly, z_ss + (z - z_ss) exp(-a h) with
-//   z_ss = sgn(v) g(v), in a Strang splitting: half a step of z, an RK4 step
-//   of (x, v) with z frozen, half a step of z. Second order, and L-stable in
-//   the bristle mode: a fast-relaxing bristle lands on its steady state.
+//   z_ss = sgn(v) g(v), in a Strang splitting: half a step of the contact
+//   states (z, Maxwell-slip elements, contact age, each exact for frozen v),
+//   an RK4 step of the mechanical states with them frozen, half a step of the
+//   contact states. Second order, and L-stable in the bristle modes: a
+//   fast-relaxing bristle lands on its steady state.
 #pragma once
 
+#include "sim/electrostatic_drive.h"
+#include "sim/friction_effects.h"
 #include "sim/lugre_friction.h"
+#include "sim/maxwell_slip.h"
 
 namespace tribo::sim {
 
+struct BacklashParams {
+  bool enabled = false;
+  double width_m = 0;  // total play 2b
+  double tip_mass_kg = 0;
+  double coupling_stiffness_n_per_m = 0;
+  double coupling_damping_n_s_per_m = 0;
+};
+
 struct LateralAxisParams {
-  double mass_kg = 0;
+  double mass_kg = 0;  // everything that moves: plate and tip
   double spring_n_per_m = 0;
   double damping_n_s_per_m = 0;
+  BacklashParams backlash;
+};
+
+struct LateralPlant {
+  LateralAxisParams axis;
+  FrictionModel friction;
 };
 
 struct LateralState {
+  double position_m = 0;  // centre plate
+  double velocity_m_per_s = 0;
+  double tip_position_m = 0;  // with backlash only
+  double tip_velocity_m_per_s = 0;
+  double bristle_m = 0;  // LuGre z
+  double lag_velocity_m_per_s = 0;
+  double contact_age_s = 0;
+  SlipElements slip_m{};  // Maxwell-slip z_i
+};
+
+// Time derivatives of a LateralState, field by field (position_m holds dx/dt,
+// ...). The Maxwell-slip rates are set only for the elements in use.
+struct LateralRate {
   double position_m = 0;
   double velocity_m_per_s = 0;
-  double bristle_m = 0;  // LuGre z
+  double tip_position_m = 0;
+  double tip_velocity_m_per_s = 0;
+  double bristle_m = 0;
+  double lag_velocity_m_per_s = 0;
+  double contact_age_s = 0;
+  SlipElements slip_m;
 };
 
-struct LateralDerivative {
-  double dx = 0, dv = 0, dz = 0;
+// What is held over a tick.
+struct LateralInputs {
+  DriveField drive;
+  FrictionLevels levels;
+  double tip_force_n = 0;              // tilt: N tan(theta)
+  double sample_velocity_m_per_s = 0;  // creep
+  double sample_offset_m = 0;          // creep so far: tip position on the sample is x_t - offset
+};
+
+double tip_position_m(const LateralPlant& plant, const LateralState& s);
+double tip_velocity_m_per_s(const LateralPlant& plant, const LateralState& s);
+
+struct LateralEvaluation {
+  LateralRate rate;
   double friction_n = 0;
+  double deflection_scale_m = 0;  // g at the evaluated point (0 out of contact)
 };
 
-LateralDerivative lateral_derivative(const LateralAxisParams& axis, const LugreParams& friction,
-                                     const FrictionLevels& levels, const LateralState& s,
-                                     double drive_n);
+LateralEvaluation lateral_derivative(const LateralPlant& plant, const LateralInputs& in,
+                                     const LateralState& s);
 
-// Advances s by dt with n RK4 sub-steps under constant drive and load.
-void integrate_lateral(const LateralAxisParams& axis, const LugreParams& friction,
-                       const FrictionLevels& levels, double drive_n, double dt_s, int substeps,
-                       LateralState& s);
+// The explicit scheme of one sub-step.
+enum class SubstepScheme { kRk4, kMidpoint };
 
-// Advances s by dt with n split sub-steps (exact bristle relaxation).
-void integrate_lateral_split(const LateralAxisParams& axis, const LugreParams& friction,
-                             const FrictionLevels& levels, double drive_n, double dt_s,
-                             int substeps, LateralState& s);
+// Advances s by dt with n sub-steps (RK4 or midpoint). Returns true if the
+// plate touched a stop. `first`, if given, is lateral_derivative at s (saves
+// one evaluation).
+bool integrate_lateral(const LateralPlant& plant, const LateralInputs& in, double dt_s,
+                       int substeps, LateralState& s, const LateralRate* first = nullptr,
+                       SubstepScheme scheme = SubstepScheme::kRk4);
+
+// Advances s by dt with n split sub-steps (exact contact relaxation).
+bool integrate_lateral_split(const LateralPlant& plant, const LateralInputs& in, double dt_s,
+                             int substeps, LateralState& s,
+                             SubstepScheme scheme = SubstepScheme::kRk4);
+
+// Stored energy: kinetic, spring, bristle (or elements), backlash coupling,
+// and the potentials of the held drive field and tip force. With no sample
+// creep it cannot grow while |z| <= g (LuGre's dissipativity; see tests).
+double stored_energy_j(const LateralPlant& plant, const LateralInputs& in, const LateralState& s);
 
 }  // namespace tribo::sim

@@ -7,13 +7,18 @@ namespace tribo::sim {
 
 FrictionLevels friction_levels(const LugreParams& p, double contact_load_n) {
   const double load = contact_load_n > 0 ? contact_load_n : 0.0;
-  return FrictionLevels{p.static_coeff * load, p.coulomb_coeff * load};
+  return FrictionLevels{p.static_coeff * load, p.coulomb_coeff * load, 0.0};
+}
+
+double stribeck_shape(const LugreParams& p, double v) {
+  const double ratio = std::fabs(v) / p.stribeck_velocity_m_per_s;
+  if (p.stribeck_exponent == 1.0) return std::exp(-ratio);
+  if (p.stribeck_exponent == 2.0) return std::exp(-ratio * ratio);
+  return std::exp(-std::pow(ratio, p.stribeck_exponent));
 }
 
 double stribeck_n(const LugreParams& p, const FrictionLevels& levels, double v) {
-  const double ratio = std::fabs(v) / p.stribeck_velocity_m_per_s;
-  const double shape = p.stribeck_exponent == 1.0 ? ratio : std::pow(ratio, p.stribeck_exponent);
-  return levels.coulomb_n + (levels.static_n - levels.coulomb_n) * std::exp(-shape);
+  return levels.coulomb_n + (levels.static_n - levels.coulomb_n) * stribeck_shape(p, v);
 }
 
 double steady_state_friction_n(const LugreParams& p, double contact_load_n, double v) {
@@ -23,22 +28,23 @@ double steady_state_friction_n(const LugreParams& p, double contact_load_n, doub
   return sign * stribeck_n(p, levels, v) + p.sigma2_n_s_per_m * v;
 }
 
-double plasticity(const LugreParams& p, double v, double z, double g) {
-  if (p.breakaway_ratio <= 0) return 1.0;
+double plasticity(double r, double v, double z, double g) {
+  if (r <= 0) return 1.0;
   if ((z > 0) != (v > 0) || z == 0) return 0.0;
-  const double r = p.breakaway_ratio;
   const double zabs = std::fabs(z);
   if (zabs <= r * g) return 0.0;
   if (zabs >= g) return 1.0;
   return 0.5 + 0.5 * std::sin(std::numbers::pi * (zabs - 0.5 * (1 + r) * g) / ((1 - r) * g));
 }
 
-LugreOutput lugre_evaluate(const LugreParams& p, const FrictionLevels& levels, double v,
-                           double z) {
-  if (!levels.in_contact()) return {};
-  const double g = stribeck_n(p, levels, v) / p.sigma0_n_per_m;
-  const double dz = v - plasticity(p, v, z, g) * std::fabs(v) * z / g;
+LugreOutput lugre_bristle(const LugreParams& p, double g, double v, double z) {
+  const double dz = v - plasticity(p.breakaway_ratio, v, z, g) * std::fabs(v) * z / g;
   return LugreOutput{dz, p.sigma0_n_per_m * z + p.sigma1_n_s_per_m * dz + p.sigma2_n_s_per_m * v};
+}
+
+LugreOutput lugre_evaluate(const LugreParams& p, const FrictionLevels& levels, double v, double z) {
+  if (!levels.in_contact()) return {};
+  return lugre_bristle(p, stribeck_n(p, levels, v) / p.sigma0_n_per_m, v, z);
 }
 
 }  // namespace tribo::sim

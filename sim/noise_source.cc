@@ -1,7 +1,6 @@
 #include "sim/noise_source.h"
 
 #include <cmath>
-#include <numbers>
 
 namespace tribo::sim {
 
@@ -42,18 +41,60 @@ std::uint64_t NoiseSource::next_u64() {
 
 double NoiseSource::uniform() { return static_cast<double>(next_u64() >> 11) * 0x1.0p-53; }
 
-double NoiseSource::gaussian() {
-  if (has_spare_) {
-    has_spare_ = false;
-    return spare_;
+namespace {
+
+// The ziggurat's 128 layers of equal area under exp(-x^2/2): layer i spans
+// [0, x[i]], x[1] = R is where the tail begins, x[0] = V / f(R) the base
+// layer's width with the tail's area folded in, x[128] = 0.
+constexpr int kLayers = 128;
+constexpr double kTailStart = 3.442619855899;           // R
+constexpr double kLayerArea = 9.91256303526217e-3;      // V
+
+struct Ziggurat {
+  double x[kLayers + 1];
+  double ratio[kLayers];  // x[i+1] / x[i]
+  Ziggurat() {
+    const double f = std::exp(-0.5 * kTailStart * kTailStart);
+    x[0] = kLayerArea / f;
+    x[1] = kTailStart;
+    for (int i = 2; i < kLayers; ++i) {
+      x[i] = std::sqrt(-2.0 * std::log(kLayerArea / x[i - 1] + std::exp(-0.5 * x[i - 1] * x[i - 1])));
+    }
+    x[kLayers] = 0.0;
+    for (int i = 0; i < kLayers; ++i) ratio[i] = x[i + 1] / x[i];
   }
-  const double u1 = 1.0 - uniform();  // (0, 1]: log is finite
-  const double u2 = uniform();
-  const double r = std::sqrt(-2.0 * std::log(u1));
-  const double angle = 2.0 * std::numbers::pi * u2;
-  spare_ = r * std::sin(angle);
-  has_spare_ = true;
-  return r * std::cos(angle);
+};
+
+const Ziggurat& ziggurat() {
+  static const Ziggurat z;
+  return z;
+}
+
+}  // namespace
+
+double NoiseSource::tail(bool negative) {
+  double a, b;
+  do {
+    a = -std::log(1.0 - uniform()) / kTailStart;
+    b = -std::log(1.0 - uniform());
+  } while (b + b < a * a);
+  return negative ? -(kTailStart + a) : kTailStart + a;
+}
+
+double NoiseSource::gaussian() {
+  const Ziggurat& z = ziggurat();
+  for (;;) {
+    const std::uint64_t bits = next_u64();
+    const int layer = static_cast<int>(bits & (kLayers - 1));
+    const double u = 2.0 * (static_cast<double>(bits >> 11) * 0x1.0p-53) - 1.0;  // [-1, 1)
+    if (std::fabs(u) < z.ratio[layer]) return u * z.x[layer];  // inside the layer's core
+    if (layer == 0) return tail(u < 0);
+    // The wedge between the layer's core and the curve.
+    const double x = u * z.x[layer];
+    const double f0 = std::exp(-0.5 * (z.x[layer] * z.x[layer] - x * x));
+    const double f1 = std::exp(-0.5 * (z.x[layer + 1] * z.x[layer + 1] - x * x));
+    if (f1 + uniform() * (f0 - f1) < 1.0) return x;
+  }
 }
 
 }  // namespace tribo::sim

@@ -1,8 +1,11 @@
-// Seeded, platform-independent random numbers for the simulated instrument.
-// One NoiseSource per noise channel, each seeded from (run seed, channel id),
-// so adding a channel never shifts another channel's sequence. The generator
-// (xoshiro256**) and the Gaussian transform (Box-Muller) are written out here
-// because std::normal_distribution differs between standard libraries.
+// Seeded random numbers for the simulated instrument. One NoiseSource per
+// noise channel, each seeded from (run seed, channel id), so adding a channel
+// never shifts another channel's sequence. The generator (xoshiro256**) and
+// the Gaussian transform (a 128-layer ziggurat, Marsaglia and Tsang 2000, in
+// Doornik's double-precision form) are written out here because
+// std::normal_distribution differs between standard libraries; the ziggurat
+// needs about one 64-bit draw and no transcendental function per normal in
+// 99 % of the draws, which matters at six normals per 10 kHz tick.
 #pragma once
 
 #include <cstdint>
@@ -21,9 +24,9 @@ class NoiseSource {
   double gaussian();  // mean 0, standard deviation 1
 
  private:
+  double tail(bool negative);
+
   std::uint64_t s_[4];
-  double spare_ = 0;
-  bool has_spare_ = false;
 };
 
 }  // namespace tribo::sim

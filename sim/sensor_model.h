@@ -1,6 +1,8 @@
-// What the simulated transducer reports: the true value plus white Gaussian
-// noise (RMS per loop sample, Table 3.2's noise floors) quantised to the
-// channel's resolution. Each channel draws from its own NoiseSource.
+// The channels outside the lateral position loop: the true value plus white
+// Gaussian noise (RMS per loop sample, Table 3.2's noise floors) quantised to
+// the channel's resolution. Each channel draws from its own NoiseSource. (The
+// lateral position, which closes the loop, goes through the capacitive
+// sensing chain of sim/capacitive_sensor.h.)
 #pragma once
 
 #include "sim/noise_source.h"
@@ -15,10 +17,10 @@ struct ChannelSpec {
 double measure(double truth, const ChannelSpec& spec, NoiseSource& noise);
 
 struct SensorSpecs {
-  ChannelSpec lateral_position_m;
   ChannelSpec lateral_force_n;
   ChannelSpec normal_force_n;
   ChannelSpec normal_displacement_m;
+  double normal_displacement_drift_m_per_s = 0;  // thermal drift of the Z sensor's zero
 };
 
 }  // namespace tribo::sim

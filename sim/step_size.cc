@@ -6,29 +6,94 @@
 
 namespace tribo::sim {
 
-LateralRates lateral_rate_bounds(const LateralAxisParams& axis, const LugreParams& friction,
-                                 const FrictionLevels& levels, const LateralState& s,
-                                 double drive_n, double dt_s) {
-  const double m = axis.mass_kg;
-  const double oscillation =
-      std::sqrt((axis.spring_n_per_m + (levels.in_contact() ? friction.sigma0_n_per_m : 0)) / m);
-  if (!levels.in_contact()) {
-    const double rate = axis.damping_n_s_per_m / m + oscillation;
+namespace {
+
+// |lambda| of lambda^2 + B lambda + K = 0 (the larger root's magnitude).
+double second_order_rate(double damping, double stiffness) {
+  const double disc = 0.25 * damping * damping - stiffness;
+  return disc >= 0 ? 0.5 * damping + std::sqrt(disc) : std::sqrt(stiffness);
+}
+
+}  // namespace
+
+LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs& in,
+                                 const LateralState& s, const LateralEvaluation& now, double dt_s) {
+  const LateralAxisParams& axis = plant.axis;
+  const BacklashParams& b = axis.backlash;
+  const FrictionModel& m = plant.friction;
+  const LugreParams& p = m.lugre;
+  const bool contact = in.levels.in_contact();
+  const double k_plate = axis.spring_n_per_m - in.drive.negative_stiffness_n_per_m(s.position_m);
+  const double lag = m.frictional_lag.enabled ? 1.0 / m.frictional_lag.time_constant_s : 0.0;
+
+  // The plate's own mode when a backlash separates it from the tip.
+  double plate_rate = 0, friction_mass = axis.mass_kg, contact_damping = axis.damping_n_s_per_m,
+         contact_spring = k_plate;
+  if (b.enabled) {
+    const double plate_mass = axis.mass_kg - b.tip_mass_kg;
+    plate_rate = second_order_rate((axis.damping_n_s_per_m + b.coupling_damping_n_s_per_m) / plate_mass,
+                                   (k_plate + b.coupling_stiffness_n_per_m) / plate_mass);
+    friction_mass = b.tip_mass_kg;
+    contact_damping = b.coupling_damping_n_s_per_m;
+    contact_spring = b.coupling_stiffness_n_per_m;
+  }
+  const auto mechanical = [&](double d) {
+    const double sigma0 = contact ? p.sigma0_n_per_m : 0.0, sigma1 = contact ? p.sigma1_n_s_per_m : 0.0;
+    return plate_rate + second_order_rate((contact_damping + sigma1 * d + (contact ? p.sigma2_n_s_per_m : 0.0)) / friction_mass,
+                                          (contact_spring + sigma0 * d) / friction_mass);
+  };
+  if (!contact) {
+    const double rate = mechanical(0.0) + lag;
     return LateralRates{rate, rate};
   }
-  const double f_min = std::min(levels.static_n, levels.coulomb_n);
-  const double f_max = std::max(levels.static_n, levels.coulomb_n);
-  const double g_min = f_min / friction.sigma0_n_per_m;
-  const double shape = 1.0 + (f_max - f_min) / (std::numbers::e * f_min);
-  const auto damping = [&](double z_ratio) {
-    const double dzdot_dv = 1.0 + z_ratio * shape;
-    return (axis.damping_n_s_per_m + friction.sigma2_n_s_per_m + friction.sigma1_n_s_per_m * dzdot_dv) / m;
-  };
-  const double accel = std::fabs(lateral_derivative(axis, friction, levels, s, drive_n).dv);
-  const double v_reach = std::fabs(s.velocity_m_per_s) + accel * dt_s;
-  const double z_ratio = std::fabs(s.bristle_m) / g_min;
-  return LateralRates{damping(z_ratio) + v_reach / g_min + oscillation,
-                      damping(f_max / f_min) + oscillation};
+
+  const double accel = std::fabs(b.enabled ? now.rate.tip_velocity_m_per_s : now.rate.velocity_m_per_s);
+  const double v = tip_velocity_m_per_s(plant, s) - in.sample_velocity_m_per_s;
+  const double v_reach = std::fabs(v) + accel * dt_s;
+  const bool may_reverse = std::fabs(v) <= accel * dt_s;
+
+  // Extremes of the deflection scale g over positions, directions and ages.
+  const double floor = modulation_floor(m);
+  const double dwell = m.dwell_stiction.enabled ? 1.0 + std::max(0.0, m.dwell_stiction.gain) : 1.0;
+  const double strengthening =
+      in.levels.strengthening_n > 0
+          ? in.levels.strengthening_n * std::log1p(v_reach / m.velocity_strengthening.reference_velocity_m_per_s)
+          : 0.0;
+  const double f_min = std::min(in.levels.static_n, in.levels.coulomb_n) * floor;
+  const double f_max = (std::max(in.levels.static_n * dwell, in.levels.coulomb_n) + strengthening) / floor;
+  const PreslidingHysteresisParams& hy = m.presliding_hysteresis;
+  const double share_min = hy.enabled ? 1.0 - hy.spread : 1.0;
+  const double share_max = hy.enabled ? 1.0 + hy.spread : 1.0;
+  const double ratio_max = f_max * share_max / (f_min * share_min);
+  // |v| g'(v) / g, bounded over the Stribeck curve.
+  const double shape = (in.levels.static_n * dwell - in.levels.coulomb_n) /
+                           (std::numbers::e * in.levels.coulomb_n) +
+                       in.levels.strengthening_n / f_min;
+
+  // The present deflection scale and how deep the bristle sits in it.
+  double g = now.deflection_scale_m * share_min, z_ratio = 0, d = 0;
+  const double r = hy.enabled ? hy.breakaway_ratio : p.breakaway_ratio;
+  if (!hy.enabled) {
+    z_ratio = std::fabs(s.bristle_m) / g;
+    const double alpha = plasticity(r, v, s.bristle_m, g);
+    const double along = v > 0 ? s.bristle_m / g : (v < 0 ? -s.bristle_m / g : 0.0);
+    d = may_reverse ? 1.0 + z_ratio * (1.0 + shape) : std::fabs(1.0 - alpha * along) + z_ratio * shape;
+  } else {
+    for (int i = 0; i < hy.elements; ++i) z_ratio = std::max(z_ratio, std::fabs(s.slip_m[i]) / g);
+    d = 1.0 + z_ratio * (1.0 + shape);
+  }
+  const double steepness = r > 0 ? 1.0 + std::numbers::pi / (2.0 * (1.0 - r)) : 1.0;
+
+  double periodic = 0;  // times |z| / g
+  if (m.position_periodic.enabled) {
+    const auto& pp = m.position_periodic;
+    periodic = v_reach * 2 * std::numbers::pi * std::fabs(pp.amplitude) /
+               (pp.period_m * (1 - std::fabs(pp.amplitude)));
+  }
+  const double ageing = m.dwell_stiction.enabled ? v_reach / m.dwell_stiction.memory_length_m : 0.0;
+  const double d_bound = 1.0 + ratio_max * (1.0 + shape);
+  return LateralRates{mechanical(d) + v_reach / g * steepness + periodic * z_ratio + ageing + lag,
+                      mechanical(d_bound) + periodic * ratio_max + lag};
 }
 
 namespace {
@@ -44,10 +109,65 @@ double wanted_substeps(double rate, double dt_s, double max_h_lambda) {
 StepPlan plan_substeps(const LateralRates& rates, double dt_s, double max_h_lambda,
                        int max_substeps) {
   const double full = wanted_substeps(rates.full_per_s, dt_s, max_h_lambda);
-  if (full <= max_substeps) return StepPlan{static_cast<int>(full), false, false};
   const double split = wanted_substeps(rates.split_per_s, dt_s, max_h_lambda);
+  // The split scheme is exact in the contact relaxation: take it when that
+  // relaxation is what would make RK4 take many more sub-steps.
+  if (full <= max_substeps && full <= kSplitAdvantage * split) {
+    return StepPlan{static_cast<int>(full), false, false};
+  }
   if (split <= max_substeps) return StepPlan{static_cast<int>(split), true, false};
   return StepPlan{max_substeps, true, true};
+}
+
+namespace {
+
+// A tick's result is sane when it is finite and the bristles stay within a
+// few times their largest possible deflection.
+bool sane(const LateralPlant& plant, const LateralInputs& in, const LateralState& s) {
+  if (!std::isfinite(s.position_m) || !std::isfinite(s.velocity_m_per_s) || !std::isfinite(s.bristle_m) ||
+      !std::isfinite(s.tip_velocity_m_per_s)) {
+    return false;
+  }
+  if (!in.levels.in_contact()) return true;
+  const FrictionModel& m = plant.friction;
+  const double dwell = m.dwell_stiction.enabled ? 1.0 + m.dwell_stiction.gain : 1.0;
+  const double g_max = 4.0 * (std::max(in.levels.static_n * dwell, in.levels.coulomb_n) + in.levels.strengthening_n * 40.0) /
+                       (modulation_floor(m) * m.lugre.sigma0_n_per_m);
+  if (std::fabs(s.bristle_m) > g_max) return false;
+  for (double z : s.slip_m) {
+    if (!std::isfinite(z) || std::fabs(z) > 2.0 * g_max) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+AdvanceReport advance_lateral(const LateralPlant& plant, const LateralInputs& in,
+                              const IntegratorSettings& settings, double dt_s, LateralState& s) {
+  const LateralState start = s;
+  const LateralEvaluation now = lateral_derivative(plant, in, s);
+  const LateralRates rates = lateral_rate_bounds(plant, in, s, now, dt_s);
+  StepPlan plan = plan_substeps(rates, dt_s, settings.max_h_lambda, settings.max_substeps);
+  const SubstepScheme scheme = settings.midpoint ? SubstepScheme::kMidpoint : SubstepScheme::kRk4;
+  bool stopped = plan.split ? integrate_lateral_split(plant, in, dt_s, plan.substeps, s, scheme)
+                            : integrate_lateral(plant, in, dt_s, plan.substeps, s, &now.rate, scheme);
+  bool retried = false;
+  if (!sane(plant, in, s)) {
+    // The rate estimate was beaten (a violent transient): redo the tick with
+    // the split scheme at four times the sub-steps the estimate asked for.
+    s = start;
+    retried = true;
+    const double n = 4.0 * std::max(wanted_substeps(rates.split_per_s, dt_s, settings.max_h_lambda),
+                                    static_cast<double>(plan.substeps));
+    plan = StepPlan{static_cast<int>(std::min<double>(n, settings.max_substeps)), true,
+                    n > settings.max_substeps};
+    stopped = integrate_lateral_split(plant, in, dt_s, plan.substeps, s, scheme);
+  }
+  if (!plant.axis.backlash.enabled) {  // without backlash the tip is the plate
+    s.tip_position_m = s.position_m;
+    s.tip_velocity_m_per_s = s.velocity_m_per_s;
+  }
+  return AdvanceReport{plan.substeps, plan.split, plan.capped, stopped, retried};
 }
 
 }  // namespace tribo::sim

@@ -1,24 +1,46 @@
 // How a controller tick is integrated: how many sub-steps, and by which scheme
-// (sim/lateral_plant.h). The plant is stiff (with the Appendix C numbers the
-// damping rate alone is ~1e4..4e4 1/s), so the sub-step h follows from a bound
-// lambda on the magnitude of the plant's eigenvalues at the present state:
-// h * lambda <= max_h_lambda. The bound is a Gershgorin-style row sum of the
-// Jacobian of (x, v, z):
+// (sim/lateral_plant.h). The plant is stiff (with the Appendix C numbers its
+// fastest mode in stick is ~5e3 1/s, and the bristle relaxation |v|/g reaches
+// 1e7 1/s at light loads), so the sub-step h follows from an estimate lambda
+// of the magnitude of the plant's fastest eigenvalue at the present state:
+// h * lambda <= max_h_lambda.
 //
-//   lambda = (c + sigma2 + sigma1 |d(dz/dt)/dv|) / m      damping of v
-//          + v_reach / g_min                              bristle relaxation |v|/g
-//          + sqrt((k + sigma0) / m)                       spring and bristle stiffness
+// Linearised about the present state the bristle follows the tip with
+// dz ~ d dx, d = d(dz/dt)/dv, so the mechanical mode of the mass m_f that
+// friction acts on (the tip's with backlash, else the whole moving mass) is
+// the root of lambda^2 + B lambda + K with
 //
-// with v_reach = |v| + |dv/dt| dt (the speed reachable within the tick),
-// g_min = min(Fs, Fc) / sigma0, and |d(dz/dt)/dv| <= 1 + (|z|/g_min)(1 + |Fs-Fc|/(e min(Fs,Fc)))
-// (the last term bounds |v| g'(v)/g for the exponential and Gaussian shapes).
+//   B = (c_f + sigma2 + sigma1 d) / m_f,   K = (k - k_e + sigma0 d) / m_f
+//   |lambda_mech| = B/2 + sqrt(B^2/4 - K)   (real roots; sqrt(K) when complex)
 //
-// If that many RK4 sub-steps fit under max_substeps, the tick uses plain RK4.
-// Otherwise the bristle relaxation is what cannot be resolved (light loads),
-// and the tick uses the split scheme, whose z-step is exact: its bound drops
-// the relaxation term and takes |z|/g_min <= max(Fs, Fc)/min(Fs, Fc).
-// RK4 is stable for h lambda up to 2.78 on the negative real axis; 1.0 keeps
-// the stiff modes accurate as well as stable.
+// (k_e the drive's negative stiffness; with backlash the plate's mode, with
+// k_b and c_b, is added). d = |1 - alpha sgn(v) z/g| + (|z|/g) |v| g'(v)/g at
+// the present state, or its bound 1 + (|z|/g)(1 + ...) if the velocity may
+// reverse within the tick (|v| <= |dv/dt| dt). |v| g'(v)/g is bounded by
+// (Fs - Fc)/(e Fc) for the exponential and Gaussian shapes. To that are added
+// the contact's own rates:
+//
+//   v_reach / g * P                  bristle relaxation |v|/g (P = 1 + pi/(2(1-r))
+//                                    for elasto-plastic bristles, else 1)
+//   v_reach (|z|/g) |dg/dx| / g      position-periodic friction
+//   v_reach / D_c                    contact ageing (dwell)
+//   1 / tau_L                        frictional lag
+//
+// with v_reach = |v_rel| + |dv/dt| dt, the speed reachable within the tick.
+// With Maxwell-slip elements g is the smallest element's scale and d takes
+// its bound. The estimate is exact for the stuck contact (where it matters)
+// and within a factor ~2 elsewhere; RK4 is stable for h lambda up to 2.78 on
+// the negative real axis, so max_h_lambda = 1 keeps the stiff modes accurate
+// as well as stable (measured: tests/sim/integrator_accuracy_test.cc).
+//
+// If that many RK4 sub-steps fit under max_substeps, and are not more than
+// kSplitAdvantage times what the split scheme needs, the tick uses plain RK4.
+// Otherwise the contact relaxation is what cannot be resolved (light loads,
+// fast arrivals), and the tick uses the split scheme, whose contact step is
+// exact: its estimate drops the relaxation and ageing terms and takes d at
+// its bound. A safety net: a tick whose result is not finite, or whose
+// bristles end far beyond any possible deflection, is redone with the split
+// scheme at four times the sub-steps (reported as `retried`).
 #pragma once
 
 #include "sim/lateral_plant.h"
@@ -27,12 +49,15 @@ namespace tribo::sim {
 
 struct LateralRates {
   double full_per_s = 0;   // all modes, for plain RK4
-  double split_per_s = 0;  // without the bristle relaxation, for the split scheme
+  double split_per_s = 0;  // without the contact relaxation, for the split scheme
 };
 
-LateralRates lateral_rate_bounds(const LateralAxisParams& axis, const LugreParams& friction,
-                                 const FrictionLevels& levels, const LateralState& s,
-                                 double drive_n, double dt_s);
+// `now` is lateral_derivative(plant, in, s).
+LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs& in,
+                                 const LateralState& s, const LateralEvaluation& now, double dt_s);
+
+// The split scheme is preferred once RK4 would need this many times its sub-steps.
+inline constexpr double kSplitAdvantage = 8.0;
 
 struct StepPlan {
   int substeps = 1;
@@ -42,5 +67,24 @@ struct StepPlan {
 
 StepPlan plan_substeps(const LateralRates& rates, double dt_s, double max_h_lambda,
                        int max_substeps);
+
+struct IntegratorSettings {
+  double max_h_lambda = 1.0;
+  int max_substeps = 1000;
+  bool midpoint = false;  // coarse mode: the explicit midpoint rule instead of RK4
+};
+
+struct AdvanceReport {
+  int substeps = 0;
+  bool split = false;
+  bool capped = false;
+  bool stopped = false;  // the plate touched a stop
+  bool retried = false;  // the first attempt was not sane; the tick was redone (split, 4x sub-steps)
+};
+
+// Integrates the plant over dt_s under held inputs: estimates the rates,
+// plans the sub-steps and the scheme, and runs them.
+AdvanceReport advance_lateral(const LateralPlant& plant, const LateralInputs& in,
+                              const IntegratorSettings& settings, double dt_s, LateralState& s);
 
 }  // namespace tribo::sim

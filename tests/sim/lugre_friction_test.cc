@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 
 #include "sim/lateral_plant.h"
 #include "sim/step_size.h"
@@ -50,9 +51,12 @@ TEST_P(SteadyStateFriction, EqualsTheStribeckFunction) {
       });
   const double expected = stribeck_formula_n(config.sim().friction(), load_sum / n, v);
   EXPECT_NEAR(friction_sum / n, expected, 1e-3 * expected) << "v = " << v;
-  // The transducer reports drive minus spring force, which adds c v.
+  // The transducer reports drive minus spring force, which adds c v, and the
+  // tip tilt's lateral push N tan(theta) towards +x, which it subtracts.
   const double damping = config.sim().lateral().damping_n_s_per_m() * v;
-  EXPECT_NEAR(force_sum / n, expected + damping, 1e-3 * expected) << "v = " << v;
+  const double tilt = (load_sum / n) * std::tan(config.sim().tip().tilt_offset().angle_deg() * std::numbers::pi / 180);
+  ASSERT_TRUE(config.sim().tip().tilt_offset().enabled());
+  EXPECT_NEAR(force_sum / n, expected + damping - tilt, 1e-3 * expected) << "v = " << v;
 }
 
 INSTANTIATE_TEST_SUITE_P(Velocities, SteadyStateFriction,
@@ -88,10 +92,11 @@ TEST(ElastoPlastic, UnloadingIsElasticAndSlidingIsUnchanged) {
   const LugreParams p{3414.6, 5.54, 0.001, 0.1427, 0.0996, 1.2e-6, 1.0, 0.8};
   const FrictionLevels levels = friction_levels(p, 1e-3);
   const double g = stribeck_n(p, levels, 1e-6) / p.sigma0_n_per_m;
-  EXPECT_EQ(plasticity(p, -1e-6, 0.9 * g, g), 0.0) << "moving against the deflection";
-  EXPECT_EQ(plasticity(p, 1e-6, 0.5 * g, g), 0.0) << "below breakaway";
-  EXPECT_EQ(plasticity(p, 1e-6, g, g), 1.0) << "fully sliding";
-  const double mid = plasticity(p, 1e-6, 0.9 * g, g);
+  const double r = p.breakaway_ratio;
+  EXPECT_EQ(plasticity(r, -1e-6, 0.9 * g, g), 0.0) << "moving against the deflection";
+  EXPECT_EQ(plasticity(r, 1e-6, 0.5 * g, g), 0.0) << "below breakaway";
+  EXPECT_EQ(plasticity(r, 1e-6, g, g), 1.0) << "fully sliding";
+  const double mid = plasticity(r, 1e-6, 0.9 * g, g);
   EXPECT_GT(mid, 0.0);
   EXPECT_LT(mid, 1.0);
   EXPECT_DOUBLE_EQ(lugre_evaluate(p, levels, 1e-6, g).dz_dt_m_per_s, 0.0);
@@ -100,30 +105,48 @@ TEST(ElastoPlastic, UnloadingIsElasticAndSlidingIsUnchanged) {
 // At light loads the bristle relaxes faster than any affordable step; the
 // split scheme must land it on its steady deflection without blowing up, and
 // agree with RK4 where RK4 can resolve the relaxation.
+LateralPlant appendix_c_plant() {
+  LateralPlant plant;
+  plant.axis = LateralAxisParams{1e-3, 116, 0.008, {}};
+  plant.friction.lugre = LugreParams{3414.6, 5.54, 0.001, 0.1427, 0.0996, 1.2e-6, 1.0, 0.0};
+  return plant;
+}
+
+LateralInputs held(const LateralPlant& plant, double load_n, double drive_n) {
+  LateralInputs in;
+  in.drive = ideal_drive_field(drive_n);
+  in.levels = friction_levels(plant.friction.lugre, load_n);
+  return in;
+}
+
 TEST(Integrator, SplitSchemeAgreesWithRk4WhereBothResolveTheBristle) {
-  const LateralAxisParams axis{1e-3, 116, 0.008};
-  const LugreParams p{3414.6, 5.54, 0.001, 0.1427, 0.0996, 1.2e-6, 1.0, 0.0};
-  const FrictionLevels levels = friction_levels(p, 1e-3);
-  LateralState rk{2e-6, 3e-6, 0}, split = rk;
+  const LateralPlant plant = appendix_c_plant();
+  const LateralInputs in = held(plant, 1e-3, 5e-4);
+  LateralState rk;
+  rk.position_m = 2e-6;
+  rk.velocity_m_per_s = 3e-6;
+  LateralState split = rk;
   for (int i = 0; i < 1000; ++i) {
-    integrate_lateral(axis, p, levels, 5e-4, 1e-4, 50, rk);
-    integrate_lateral_split(axis, p, levels, 5e-4, 1e-4, 50, split);
+    integrate_lateral(plant, in, 1e-4, 50, rk);
+    integrate_lateral_split(plant, in, 1e-4, 50, split);
   }
   EXPECT_NEAR(split.position_m, rk.position_m, 1e-3 * std::fabs(rk.position_m));
   EXPECT_NEAR(split.bristle_m, rk.bristle_m, 1e-3 * std::fabs(rk.bristle_m) + 1e-12);
 }
 
 TEST(Integrator, LightLoadUsesTheSplitSchemeAndStaysFinite) {
-  const LateralAxisParams axis{1e-3, 116, 0.008};
-  const LugreParams p{3414.6, 5.54, 0.001, 0.1427, 0.0996, 1.2e-6, 1.0, 0.0};
-  const FrictionLevels levels = friction_levels(p, 3e-10);  // first tick of a loading ramp
-  LateralState s{2e-6, 4e-7, 0};
-  const LateralRates rates = lateral_rate_bounds(axis, p, levels, s, 2e-4, 1e-4);
+  const LateralPlant plant = appendix_c_plant();
+  const LugreParams& p = plant.friction.lugre;
+  const LateralInputs in = held(plant, 3e-10, 2e-4);  // first tick of a loading ramp
+  LateralState s;
+  s.position_m = 2e-6;
+  s.velocity_m_per_s = 4e-7;
+  const LateralRates rates = lateral_rate_bounds(plant, in, s, lateral_derivative(plant, in, s), 1e-4);
   const StepPlan plan = plan_substeps(rates, 1e-4, 1.0, 1000);
   EXPECT_TRUE(plan.split);
   EXPECT_FALSE(plan.capped);
-  integrate_lateral_split(axis, p, levels, 2e-4, 1e-4, plan.substeps, s);
-  const double g = stribeck_n(p, levels, s.velocity_m_per_s) / p.sigma0_n_per_m;
+  integrate_lateral_split(plant, in, 1e-4, plan.substeps, s);
+  const double g = stribeck_n(p, in.levels, s.velocity_m_per_s) / p.sigma0_n_per_m;
   EXPECT_TRUE(std::isfinite(s.position_m) && std::isfinite(s.velocity_m_per_s));
   const double z_ss = s.velocity_m_per_s > 0 ? g : -g;
   EXPECT_NEAR(s.bristle_m, z_ss, 1e-6 * g) << "relaxed onto its steady deflection";

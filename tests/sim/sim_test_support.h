@@ -23,8 +23,15 @@ inline v1::DaemonConfig default_config() {
   return config;
 }
 
+// No sensor noise, drift or quantisation anywhere: the sensors report the truth
+// (as the instrument's electronics see it).
 inline void silence_sensors(v1::DaemonConfig& config) {
   config.mutable_sim()->mutable_sensors()->Clear();
+  auto* sensing = config.mutable_sim()->mutable_lateral()->mutable_sensing();
+  sensing->set_white_noise_m(0);
+  sensing->set_low_frequency_noise_m(0);
+  sensing->set_drift_m_per_s(0);
+  sensing->set_adc_bits(0);
 }
 
 struct LoopSetpoints {

@@ -1,0 +1,65 @@
+// Simulated seconds per wall second of the full instrument: the simulated
+// transducer and the controller in lock-step, no I/O, at the default 10 kHz.
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+
+#include "daemon/controller.h"
+#include "daemon/daemon_config.h"
+#include "hal/sim_transducer.h"
+#include "sim/instrument_params.h"
+
+namespace {
+
+tribo::v1::DaemonConfig default_config() {
+  tribo::v1::DaemonConfig config;
+  if (auto error = tribo::daemon::load_daemon_config(TRIBO_SOURCE_DIR "/config/tribod.textproto", config)) {
+    throw std::runtime_error(*error);
+  }
+  return config;
+}
+
+// One simulated second of the standard scratch's sliding part per iteration:
+// 1 mN, 0.5 µm/s back and forth between +2 and +10 µm (one-sided, as the
+// standard scratch), after a 1 s load ramp that is not timed.
+void run_scratch(benchmark::State& state, double max_h_lambda, tribo::v1::IntegrationMethod method) {
+  tribo::v1::DaemonConfig config = default_config();
+  config.mutable_sim()->mutable_integrator()->set_max_h_lambda(max_h_lambda);
+  config.mutable_sim()->mutable_integrator()->set_method(method);
+  tribo::hal::SimTransducer transducer(tribo::sim::instrument_params_from_config(config.sim()), 1,
+                                       config.controller().loop_rate_hz(), false);
+  tribo::daemon::Controller controller(
+      tribo::daemon::controller_params_from_config(config.controller()));
+  const double dt = transducer.period_s();
+  const long ticks_per_second = std::lround(1.0 / dt);
+  long tick = 0;
+  auto step = [&] {
+    const double t = static_cast<double>(tick++) * dt;
+    tribo::daemon::Setpoints sp;
+    sp.normal_force_n = std::min(1.0, t) * 1e-3;
+    const double phase = std::fmod(std::max(0.0, t - 1.0), 32.0);  // 16 s out, 16 s back
+    sp.lateral_position_m = 2e-6 + 0.5e-6 * (phase < 16.0 ? phase : 32.0 - phase);
+    tribo::hal::SensorFrame frame;
+    transducer.read(frame);
+    transducer.write(controller.step(sp, frame).drive);
+    transducer.wait_next_tick();
+  };
+  for (long k = 0; k < ticks_per_second; ++k) step();
+  for (auto _ : state) {
+    for (long k = 0; k < ticks_per_second; ++k) step();
+    benchmark::DoNotOptimize(transducer.instrument().truth());
+  }
+  state.counters["sim_s_per_wall_s"] =
+      benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+}
+
+// Accurate: RK4 at h lambda <= 1 (the default). Coarse: the midpoint rule at
+// h lambda <= 1.2 (accuracy in tests/sim/integrator_accuracy_test.cc).
+void BM_InstrumentAccurate(benchmark::State& state) { run_scratch(state, 1.0, tribo::v1::INTEGRATION_RK4); }
+void BM_InstrumentCoarse(benchmark::State& state) { run_scratch(state, 1.2, tribo::v1::INTEGRATION_MIDPOINT); }
+
+}  // namespace
+
+BENCHMARK(BM_InstrumentAccurate)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_InstrumentCoarse)->Unit(benchmark::kMillisecond);
+BENCHMARK_MAIN();

@@ -1,0 +1,66 @@
+#include "sim/friction_effects.h"
+
+#include <cmath>
+#include <numbers>
+
+namespace tribo::sim {
+
+double effective_load_n(const LoadDependenceParams& p, double n) {
+  const double load = n > 0 ? n : 0.0;
+  if (!p.enabled) return load;
+  return p.reference_load_n * std::pow((load + p.adhesion_load_n) / p.reference_load_n, p.exponent);
+}
+
+double orientation_factor(const OrientationAnisotropyParams& p, double rotation_deg) {
+  if (!p.enabled) return 1.0;
+  return 1.0 + p.amplitude * std::cos(2 * std::numbers::pi * (rotation_deg - p.max_at_deg) / p.period_deg);
+}
+
+FrictionLevels contact_levels(const FrictionModel& m, double n, double rotation_deg,
+                              double local_factor) {
+  if (!(n > 0)) return {};
+  const double scale = effective_load_n(m.load_dependence, n) *
+                       orientation_factor(m.orientation_anisotropy, rotation_deg) * local_factor;
+  const double strengthening =
+      m.velocity_strengthening.enabled ? m.velocity_strengthening.coeff * scale : 0.0;
+  return FrictionLevels{m.lugre.static_coeff * scale, m.lugre.coulomb_coeff * scale, strengthening};
+}
+
+double stribeck_n(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c) {
+  double fs = levels.static_n;
+  if (m.dwell_stiction.enabled) {
+    const double age = c.contact_age_s;
+    fs *= 1.0 + m.dwell_stiction.gain * age / (age + m.dwell_stiction.time_constant_s);
+  }
+  const double vs = c.stribeck_velocity_m_per_s;
+  double s = levels.coulomb_n + (fs - levels.coulomb_n) * stribeck_shape(m.lugre, vs);
+  if (levels.strengthening_n > 0) {
+    s += levels.strengthening_n *
+         std::log1p(std::fabs(vs) / m.velocity_strengthening.reference_velocity_m_per_s);
+  }
+  if (m.position_periodic.enabled) {
+    const auto& p = m.position_periodic;
+    s *= 1.0 + p.amplitude * std::sin(2 * std::numbers::pi * c.sample_position_m / p.period_m + p.phase_rad);
+  }
+  if (m.direction_asymmetry.enabled && c.velocity_m_per_s != 0.0) {
+    s *= 1.0 + (c.velocity_m_per_s > 0 ? m.direction_asymmetry.ratio : -m.direction_asymmetry.ratio);
+  }
+  return s;
+}
+
+double modulation_floor(const FrictionModel& m) {
+  double floor = 1.0;
+  if (m.position_periodic.enabled) floor *= 1.0 - std::fabs(m.position_periodic.amplitude);
+  if (m.direction_asymmetry.enabled) floor *= 1.0 - std::fabs(m.direction_asymmetry.ratio);
+  return floor;
+}
+
+double steady_state_friction_n(const FrictionModel& m, const FrictionLevels& levels, double v,
+                               double x) {
+  if (!levels.in_contact() || v == 0.0) return 0.0;
+  const double age = m.dwell_stiction.memory_length_m / std::fabs(v);
+  const double s = stribeck_n(m, levels, ContactPoint{v, v, x, age});
+  return (v > 0 ? s : -s) + m.lugre.sigma2_n_s_per_m * v;
+}
+
+}  // namespace tribo::sim

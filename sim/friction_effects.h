@@ -1,0 +1,129 @@
+// Optional friction effects on top of LuGre (sim/lugre_friction.h). Each is
+// off unless enabled in config (sim.friction.<name>), and each is written as
+// a change of the Stribeck magnitude S, or as an extra state of the contact.
+// The identification work (analysis/) uses these equations as ground truth.
+//
+// Once per tick, from the contact load N (sim/instrument.cc):
+//   N_eff = N                                           Amontons (default)
+//         = N_ref ((N + N_adh) / N_ref)^p               load_dependence: adhesion
+//                                                       N_adh, p = 2/3 for friction
+//                                                       proportional to Hertz area
+//   Fs  = static_coeff  N_eff M_o W
+//   Fc  = coulomb_coeff N_eff M_o W
+//   Fvs = strengthening_coeff N_eff M_o W
+//   M_o = 1 + a_o cos(2 pi (psi - psi_max) / Psi)       orientation_anisotropy;
+//                                                       psi = sample.rotation_deg
+//   W   = wear factor of the track under the tip         sim/wear_track.h,
+//         times this run's spot on the sample            sample.heterogeneity
+//
+// At every evaluation (sub-step), at tip position x_s on the sample, relative
+// velocity v, contact age theta and lagged velocity v_L:
+//   S(v) = M_p M_d [Fc + (Fs D - Fc) shape(v_S) + Fvs ln(1 + |v_S| / v_ref)]
+//   M_p  = 1 + a_p sin(2 pi x_s / lambda + phi)          position_periodic
+//   M_d  = 1 + a_d sgn(v)                                direction_asymmetry
+//   D    = 1 + gain theta / (theta + gamma)              dwell_stiction (Armstrong
+//          d theta/dt = 1 - |v| theta / D_c              eq. 5 with Dieterich ageing:
+//                                                       theta is the rest time at
+//                                                       rest, D_c / |v| in sliding)
+//   v_S  = v_L, d v_L/dt = (v - v_L) / tau_L            frictional_lag (Armstrong eq.
+//                                                       4 as a first-order lag;
+//                                                       otherwise v_S = v)
+//   Fvs ln(1 + |v_S| / v_ref)                           velocity_strengthening
+//   shape(v) = exp(-(|v| / vs)^exponent)
+// and g = S / sigma0 in the bristle equation. In steady sliding at v:
+//   F_ss = sgn(v) S(v)|theta = D_c/|v|, v_S = v + sigma2 v.
+// The dwell term changes F_ss by at most Fs gain (D_c/|v|) / (D_c/|v| + gamma),
+// negligible when D_c / |v| << gamma.
+#pragma once
+
+#include "sim/lugre_friction.h"
+#include "sim/maxwell_slip.h"
+
+namespace tribo::sim {
+
+struct DwellStictionParams {
+  bool enabled = false;
+  double gain = 0;
+  double time_constant_s = 1;
+  double memory_length_m = 1e-7;
+};
+
+struct FrictionalLagParams {
+  bool enabled = false;
+  double time_constant_s = 0;
+};
+
+struct VelocityStrengtheningParams {
+  bool enabled = false;
+  double coeff = 0;
+  double reference_velocity_m_per_s = 1;
+};
+
+struct LoadDependenceParams {
+  bool enabled = false;
+  double adhesion_load_n = 0;
+  double exponent = 1;
+  double reference_load_n = 1;
+};
+
+struct PositionPeriodicParams {
+  bool enabled = false;
+  double amplitude = 0;
+  double period_m = 1;
+  double phase_rad = 0;
+};
+
+struct OrientationAnisotropyParams {
+  bool enabled = false;
+  double amplitude = 0;
+  double period_deg = 360;
+  double max_at_deg = 0;
+};
+
+struct DirectionAsymmetryParams {
+  bool enabled = false;
+  double ratio = 0;
+};
+
+struct FrictionModel {
+  LugreParams lugre;
+  DwellStictionParams dwell_stiction;
+  FrictionalLagParams frictional_lag;
+  VelocityStrengtheningParams velocity_strengthening;
+  LoadDependenceParams load_dependence;
+  PositionPeriodicParams position_periodic;
+  OrientationAnisotropyParams orientation_anisotropy;
+  DirectionAsymmetryParams direction_asymmetry;
+  PreslidingHysteresisParams presliding_hysteresis;
+};
+
+// N_eff for the contact load N.
+double effective_load_n(const LoadDependenceParams& p, double contact_load_n);
+
+// M_o at the sample rotation.
+double orientation_factor(const OrientationAnisotropyParams& p, double rotation_deg);
+
+// Fs, Fc, Fvs of the contact for this tick (W: wear and site factor).
+FrictionLevels contact_levels(const FrictionModel& m, double contact_load_n, double rotation_deg,
+                              double local_factor);
+
+// Where the contact is, for one evaluation of S.
+struct ContactPoint {
+  double velocity_m_per_s = 0;           // tip relative to the sample
+  double stribeck_velocity_m_per_s = 0;  // v_S: the lagged velocity, or v
+  double sample_position_m = 0;          // x_s
+  double contact_age_s = 0;              // theta
+};
+
+// S at the contact point (all enabled effects); equals stribeck_n of the
+// plain model when none is enabled.
+double stribeck_n(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c);
+
+// Lower bound on M_p M_d over all positions and directions (for step sizes).
+double modulation_floor(const FrictionModel& m);
+
+// Steady sliding friction with every enabled effect at its steady state.
+double steady_state_friction_n(const FrictionModel& m, const FrictionLevels& levels,
+                               double velocity_m_per_s, double sample_position_m);
+
+}  // namespace tribo::sim
