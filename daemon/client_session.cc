@@ -107,6 +107,22 @@ void ClientSession::dispatch(const v1::ClientMessage& request, v1::ServerMessage
     case v1::ClientMessage::kGetStatus:
       *reply.mutable_status() = service_.status();
       return;
+    case v1::ClientMessage::kSetGains:
+      error = service_.set_gains(request.set_gains().loop(), request.set_gains().gains(),
+                                 *reply.mutable_set_gains());
+      break;
+    case v1::ClientMessage::kGetGains:
+      *reply.mutable_get_gains() = service_.gains();
+      return;
+    case v1::ClientMessage::kRearm:
+      error = service_.rearm(*reply.mutable_rearm());
+      break;
+    case v1::ClientMessage::kEmergencyStop:
+      error = service_.emergency_stop(request.emergency_stop().reason(), *reply.mutable_emergency_stop());
+      break;
+    case v1::ClientMessage::kAutotune:
+      error = service_.autotune(request.autotune(), *reply.mutable_autotune());
+      break;
     case v1::ClientMessage::BODY_NOT_SET:
       set_error(reply, v1::MALFORMED_REQUEST, "body", "the request has no body");
       return;

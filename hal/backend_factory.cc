@@ -1,6 +1,7 @@
 #include "hal/backend_factory.h"
 
 #include "hal/sim_transducer.h"
+#include "sim/fault_injection.h"
 #include "sim/instrument_params.h"
 
 namespace tribo::hal {
@@ -10,7 +11,8 @@ std::unique_ptr<Transducer> make_transducer(const v1::DaemonConfig& config, std:
     case v1::DaemonConfig::kSim:
       return std::make_unique<SimTransducer>(sim::instrument_params_from_config(config.sim()), seed,
                                              config.controller().loop_rate_hz(),
-                                             config.controller().pace_to_wall_clock());
+                                             config.controller().pace_to_wall_clock(),
+                                             sim::fault_schedule_from_config(config.sim().faults()));
     case v1::DaemonConfig::BACKEND_NOT_SET:
       break;
   }

@@ -18,7 +18,7 @@ v1::Protocol standard_protocol() {
 
 ProtocolCheck check(const v1::Protocol& p) {
   const v1::DaemonConfig c = testing::default_config();
-  return validate_protocol(p, c.limits(), c.controller());
+  return validate_protocol(p, c);
 }
 
 // The first error whose field is `field`, or a failure listing all errors.
@@ -43,9 +43,11 @@ TEST(ProtocolValidator, AcceptsTheStandardScratchAndCompilesIt) {
   EXPECT_EQ(c.load_function.expected_samples(), 32000u);
   const auto& scratch = c.load_function.segments()[2];
   EXPECT_EQ(scratch.start_tick, 80000u);
-  EXPECT_DOUBLE_EQ(scratch.lateral_begin_m, 2e-6);
-  EXPECT_DOUBLE_EQ(scratch.lateral_end_m, 10e-6);
-  EXPECT_DOUBLE_EQ(scratch.normal_begin_n, 1000e-6);
+  EXPECT_TRUE(scratch.lateral.begin_continues);  // from the previous end, +2 µm
+  EXPECT_FALSE(scratch.lateral.end_relative);
+  EXPECT_DOUBLE_EQ(scratch.lateral.end, 10e-6);
+  EXPECT_DOUBLE_EQ(scratch.normal.end, 1000e-6);
+  EXPECT_TRUE(c.load_function.segments()[0].lateral.begin_from_measured);
 }
 
 TEST(ProtocolValidator, RejectsTwentyMilliNewtonsNamingSegmentFieldValueAndLimit) {
@@ -112,9 +114,9 @@ TEST(ProtocolValidator, RejectsDurationsThatAreNotWholeSamplePeriods) {
   EXPECT_NE(find(check(r), "segments[0].duration_s"), nullptr);
 }
 
-TEST(ProtocolValidator, RejectsModesThisControllerCannotRun) {
+TEST(ProtocolValidator, RejectsAnUnknownMode) {
   v1::Protocol p = standard_protocol();
-  p.mutable_segments(1)->mutable_normal()->set_mode(v1::NORMAL_CLOSED_LOOP_FORCE);
+  p.mutable_segments(1)->mutable_normal()->set_mode(static_cast<v1::NormalMode>(7));
   EXPECT_NE(find(check(p), "segments[1].normal.mode"), nullptr);
 }
 
@@ -125,17 +127,23 @@ TEST(ProtocolValidator, RejectsAnEmptyProtocol) {
 TEST(LoadFunction, InterpolatesLinearlyWithinSegments) {
   const ProtocolCheck c = check(standard_protocol());
   ASSERT_TRUE(c.ok());
-  std::size_t cursor = 0;
-  const Setpoints start = c.load_function.at(0, cursor);
-  EXPECT_EQ(start.segment, 0u);
-  EXPECT_DOUBLE_EQ(start.lateral_position_m, 0);
-  const Setpoints mid_scratch = c.load_function.at(160000, cursor);  // t = 16 s
+  SegmentRunner runner(c.load_function);
+  const MeasuredStart at_rest;
+  TickSetpoints mid_scratch, last;
+  for (std::uint64_t tick = 0; tick < 320000; ++tick) {
+    const TickSetpoints sp = runner.at(tick, at_rest);
+    if (tick == 0) {
+      EXPECT_EQ(sp.segment, 0u);
+      EXPECT_DOUBLE_EQ(sp.lateral, 0);
+    }
+    if (tick == 160000) mid_scratch = sp;  // t = 16 s
+    last = sp;
+  }
   EXPECT_EQ(mid_scratch.segment, 2u);
-  EXPECT_NEAR(mid_scratch.lateral_position_m, 6e-6, 1e-15);
-  EXPECT_NEAR(mid_scratch.normal_force_n, 1e-3, 1e-15);
-  const Setpoints last = c.load_function.at(319999, cursor);
+  EXPECT_NEAR(mid_scratch.lateral, 6e-6, 1e-15);
+  EXPECT_NEAR(mid_scratch.normal, 1e-3, 1e-15);
   EXPECT_EQ(last.segment, 4u);
-  EXPECT_NEAR(last.lateral_position_m, 10e-6 / 50000, 1e-15);
+  EXPECT_NEAR(last.lateral, 10e-6 / 50000, 1e-15);
 }
 
 }  // namespace

@@ -1,0 +1,62 @@
+// The safe stop sequence after a safety trip or an abort. Once begun, it
+// replaces the load function's setpoints:
+//
+//   1. unload   the normal axis goes to open-loop force and its drive ramps
+//               from the present drive to 0 at unload_rate_n_per_s; the
+//               lateral axis holds its measured position (displacement mode,
+//               bumpless), so an unloading tip is not dragged;
+//   2. hold     both held for hold_s once the normal drive is 0;
+//   3. retract  the lateral setpoint moves to the neutral point x = 0 at
+//               retract_speed_m_per_s;
+//   4. settle   two recorded samples at rest; then done().
+//
+// If the lateral position reading is not finite when the sequence begins,
+// the lateral axis cannot be held by position: it holds its last drive and
+// retracts by ramping the drive to 0 (the spring returns the tip), at the
+// spring force rate k * retract_speed.
+#pragma once
+
+#include <cstdint>
+
+#include "daemon/load_function.h"
+#include "hal/transducer.h"
+
+namespace tribo::daemon {
+
+struct StopSequenceParams {
+  double period_s = 1e-4;
+  double unload_rate_n_per_s = 10e-3;
+  double hold_s = 0.05;
+  double retract_speed_m_per_s = 10e-6;
+  double lateral_spring_n_per_m = 116;
+};
+
+enum class StopPhase : std::uint8_t { kIdle, kUnload, kHold, kRetract, kSettle, kDone };
+
+class StopSequence {
+ public:
+  explicit StopSequence(const StopSequenceParams& params) : p_(params) {}
+
+  // Starts from the present drive and reading; ticks_per_sample sets the settle time.
+  void begin(const hal::DriveCommand& drive, const hal::SensorFrame& frame, std::uint32_t segment,
+             std::uint32_t ticks_per_sample);
+
+  // The setpoints of the next tick.
+  TickSetpoints next();
+
+  StopPhase phase() const { return phase_; }
+  bool active() const { return phase_ != StopPhase::kIdle; }
+  bool done() const { return phase_ == StopPhase::kDone; }
+
+ private:
+  StopSequenceParams p_;
+  StopPhase phase_ = StopPhase::kIdle;
+  TickSetpoints sp_;
+  double normal_drive_n_ = 0;
+  double lateral_ = 0;  // position (m) or, open loop, drive (N)
+  bool lateral_open_loop_ = false;
+  std::uint64_t phase_ticks_ = 0;
+  std::uint64_t settle_ticks_ = 0;
+};
+
+}  // namespace tribo::daemon
