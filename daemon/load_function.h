@@ -69,7 +69,8 @@ class LoadFunction {
   double loop_rate_hz_ = 0;
 };
 
-// The values an absent begin resolves to, in the unit of the axis mode.
+// The values an absent begin resolves to, in the unit of the axis mode (the
+// run loop passes low-passed forces, the contact force clamped at 0).
 struct MeasuredStart {
   double normal_drive_n = 0;  // last commanded normal drive (open loop)
   double normal_force_n = 0;

@@ -1,5 +1,6 @@
 #include "daemon/run_loop.h"
 
+#include <algorithm>
 #include <thread>
 
 #include "tribo/v1/api.pb.h"
@@ -109,14 +110,16 @@ bool RunLoop::tick() {
   const std::uint64_t t2 = monotonic_ns();
 
   if (stopping_) {
-    sp_ = stop_.next();
+    sp_ = stop_.next(frame_);
   } else {
     MeasuredStart measured;
     measured.normal_drive_n = controller_.last_drive().normal_force_n;
-    measured.normal_force_n = frame_.normal_force_n;
+    // Forces from the supervisor's low-pass (the raw channels are noisy); a
+    // contact force cannot be negative, so a closed loop never starts there.
+    measured.normal_force_n = std::max(0.0, supervisor_.filtered_normal_force_n());
     measured.normal_displacement_m = frame_.normal_displacement_m;
     measured.lateral_position_m = frame_.lateral_position_m;
-    measured.lateral_force_n = frame_.lateral_force_n;
+    measured.lateral_force_n = supervisor_.filtered_lateral_force_n();
     sp_ = runner_.at(tick_, measured);
   }
   const ControlOutput out = controller_.step(sp_, frame_);

@@ -68,6 +68,7 @@ SafetySupervisor::SafetySupervisor(const SupervisorParams& params) : p_(params) 
   acceleration_.configure(p_.motion_filter_hz, p_.period_s);
   p_.overrun_trip_count = std::min<std::uint32_t>(p_.overrun_trip_count, kMaxOverrunRing);
   overrun_window_ticks_ = static_cast<std::uint64_t>(std::llround(p_.overrun_window_s / p_.period_s));
+  rate_decay_ = p_.tracking_lag_s > 0 ? std::exp(-p_.period_s / p_.tracking_lag_s) : 0.0;
 }
 
 TripReason SafetySupervisor::latch(TripReason reason, std::uint64_t tick, const char* format,
@@ -188,9 +189,12 @@ TripReason SafetySupervisor::evaluate(const SupervisorInput& in, std::uint64_t t
     return latch(TripReason::kLateralAcceleration, tick, "lateral acceleration %g m/s2 beyond %g m/s2",
                  acceleration_.value(), p_.max_lateral_acceleration_m_per_s2);
   }
+  // The loop lags a ramp for a while after it ends: the rate that sets the
+  // bound is a peak of the setpoint rate decaying with the lag time.
+  rate_envelope_ = std::max(std::fabs(in.lateral_setpoint_rate_m_per_s), rate_envelope_ * rate_decay_);
   if (in.lateral_displacement_mode && p_.tracking_error_m > 0) {
     const double error = std::fabs(in.lateral_setpoint_m - x);
-    const double bound = p_.tracking_error_m + p_.tracking_lag_s * std::fabs(in.lateral_setpoint_rate_m_per_s);
+    const double bound = p_.tracking_error_m + p_.tracking_lag_s * rate_envelope_;
     if (error > bound) {
       return latch(TripReason::kTrackingError, tick, "position %g m behind its setpoint (bound %g m)",
                    error, bound);

@@ -19,8 +19,10 @@
 //   lateral speed       |filtered velocity| above max_lateral_speed_m_per_s
 //   lateral accel.      |filtered acceleration| above max_lateral_acceleration
 //   tracking error      displacement mode: |setpoint - position| above
-//                       tracking_error_m + tracking_lag_s |setpoint rate|
-//                       (a stuck actuator leaves the tip behind)
+//                       tracking_error_m + tracking_lag_s |setpoint rate|,
+//                       the rate a peak that decays with tracking_lag_s (the
+//                       loop still lags after a ramp ends); a stuck actuator
+//                       leaves the tip behind
 //   breakpoint          loaded (filtered contact force above contact_force_n)
 //                       within breakpoint_guard_m of x = 0 (§3.2.5)
 //   snap-down           k_eff / k below min_stiffness_ratio for the applied
@@ -159,6 +161,8 @@ class SafetySupervisor {
   std::array<std::uint64_t, kMaxOverrunRing> overrun_ticks_{};
   std::size_t overrun_count_ = 0;  // total recorded into the ring
   std::uint64_t overrun_window_ticks_ = 0;
+  double rate_envelope_ = 0;  // peak |setpoint rate|, decaying with tracking_lag_s
+  double rate_decay_ = 0;
 };
 
 }  // namespace tribo::daemon

@@ -29,7 +29,7 @@ void StopSequence::begin(const hal::DriveCommand& drive, const hal::SensorFrame&
   sp_.lateral_mode = lateral_open_loop_ ? LateralMode::kOpenLoopDrive : LateralMode::kDisplacement;
 }
 
-TickSetpoints StopSequence::next() {
+TickSetpoints StopSequence::next(const hal::SensorFrame& frame) {
   ++phase_ticks_;
   sp_.segment_start = false;
   sp_.lateral_rate = 0;
@@ -59,9 +59,12 @@ TickSetpoints StopSequence::next() {
       }
       break;
     }
-    case StopPhase::kSettle:
-      if (phase_ticks_ >= settle_ticks_) phase_ = StopPhase::kDone;
+    case StopPhase::kSettle: {
+      const bool arrived = lateral_open_loop_ || std::fabs(frame.lateral_position_m) <= p_.settle_tolerance_m;
+      const bool timed_out = static_cast<double>(phase_ticks_) * p_.period_s >= p_.max_settle_s;
+      if ((arrived && phase_ticks_ >= settle_ticks_) || timed_out) phase_ = StopPhase::kDone;
       break;
+    }
     case StopPhase::kIdle:
     case StopPhase::kDone:
       break;

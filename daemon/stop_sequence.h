@@ -8,7 +8,9 @@
 //   2. hold     both held for hold_s once the normal drive is 0;
 //   3. retract  the lateral setpoint moves to the neutral point x = 0 at
 //               retract_speed_m_per_s;
-//   4. settle   two recorded samples at rest; then done().
+//   4. settle   until the tip is within settle_tolerance_m of x = 0 (the
+//               displacement loop lags a ramp), at least two recorded
+//               samples and at most max_settle_s; then done().
 //
 // If the lateral position reading is not finite when the sequence begins,
 // the lateral axis cannot be held by position: it holds its last drive and
@@ -29,6 +31,8 @@ struct StopSequenceParams {
   double hold_s = 0.05;
   double retract_speed_m_per_s = 10e-6;
   double lateral_spring_n_per_m = 116;
+  double settle_tolerance_m = 0.1e-6;
+  double max_settle_s = 2.0;
 };
 
 enum class StopPhase : std::uint8_t { kIdle, kUnload, kHold, kRetract, kSettle, kDone };
@@ -41,8 +45,8 @@ class StopSequence {
   void begin(const hal::DriveCommand& drive, const hal::SensorFrame& frame, std::uint32_t segment,
              std::uint32_t ticks_per_sample);
 
-  // The setpoints of the next tick.
-  TickSetpoints next();
+  // The setpoints of the next tick; frame is the present reading.
+  TickSetpoints next(const hal::SensorFrame& frame);
 
   StopPhase phase() const { return phase_; }
   bool active() const { return phase_ != StopPhase::kIdle; }
