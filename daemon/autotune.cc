@@ -10,9 +10,10 @@ namespace tribo::daemon {
 
 namespace {
 
-constexpr int kSettleCycles = 2;
-constexpr double kHoldS = 0.2;      // hold at the position before the relay
-constexpr double kBiasWindowS = 0.1;  // the bias is the mean drive over this
+constexpr double kSteadySpread = 0.02;  // (max - min) / mean of the measured cycles
+constexpr double kSteadyDrift = 0.005;  // between consecutive windows of cycles
+constexpr double kHoldS = 1.0;      // hold before the relay: the I-PD lag decays (tau ~0.2 s)
+constexpr double kBiasWindowS = 0.2;  // the bias is the mean drive over this
 
 class Axis {
  public:
@@ -62,6 +63,30 @@ class Axis {
   std::uint64_t ticks_ = 0;
 };
 
+double tail_mean(const std::vector<double>& v, std::size_t n, std::size_t skip = 0) {
+  double sum = 0;
+  for (std::size_t i = v.size() - n - skip; i < v.size() - skip; ++i) sum += v[i];
+  return sum / static_cast<double>(n);
+}
+
+// (max - min) / mean of the last n values.
+double spread(const std::vector<double>& v, std::size_t n) {
+  const auto first = v.end() - static_cast<std::ptrdiff_t>(n);
+  const auto [lo, hi] = std::minmax_element(first, v.end());
+  double sum = 0;
+  for (auto it = first; it != v.end(); ++it) sum += *it;
+  return (*hi - *lo) / (sum / static_cast<double>(n));
+}
+
+// Settled: the last n values spread less than kSteadySpread, and their mean
+// differs from the mean of the n before by less than kSteadyDrift (a slowly
+// growing or beating oscillation is not yet the limit cycle).
+bool settled(const std::vector<double>& v, std::size_t n) {
+  if (v.size() < 2 * n) return false;
+  const double last = tail_mean(v, n), before = tail_mean(v, n, n);
+  return spread(v, n) < kSteadySpread && std::fabs(last - before) < kSteadyDrift * last;
+}
+
 std::string fmt(double v) {
   std::ostringstream s;
   s << v;
@@ -84,20 +109,28 @@ AutotuneResult relay_autotune(hal::Transducer& transducer, const AutotuneParams&
     return result;
   }
 
-  // The relay experiment.
+  // The relay experiment. A lightly damped plant takes tens of cycles to
+  // settle onto the limit cycle: measure once the last `cycles` periods and
+  // amplitudes agree within kSteadySpread.
   const double d = p.relay_amplitude_n, eps = p.hysteresis_m;
+  const std::size_t n = std::max<std::uint32_t>(2, p.cycles);
   double u = bias + d;
   std::vector<double> switch_times;  // switches to +d
-  std::vector<double> amplitudes;    // half peak-to-peak per cycle
+  std::vector<double> periods, amplitudes;  // per cycle
   double lo = axis.position(), hi = axis.position();
   const auto max_ticks = static_cast<std::uint64_t>(p.max_duration_s / dt);
-  const std::size_t wanted = p.cycles + kSettleCycles + 1;
-  for (std::uint64_t k = 0; k < max_ticks && switch_times.size() < wanted; ++k) {
+  bool steady = false;
+  for (std::uint64_t k = 0; k < max_ticks && !steady; ++k) {
     const double e = p.position_m - axis.position();
     if (e > eps && u < bias) {
       u = bias + d;
-      switch_times.push_back(static_cast<double>(k) * dt);
-      if (switch_times.size() > 1) amplitudes.push_back(0.5 * (hi - lo));
+      const double t = static_cast<double>(k) * dt;
+      if (!switch_times.empty()) {
+        periods.push_back(t - switch_times.back());
+        amplitudes.push_back(0.5 * (hi - lo));
+        steady = settled(periods, n) && settled(amplitudes, n);
+      }
+      switch_times.push_back(t);
       lo = hi = axis.position();
     } else if (e < -eps && u > bias) {
       u = bias - d;
@@ -115,21 +148,15 @@ AutotuneResult relay_autotune(hal::Transducer& transducer, const AutotuneParams&
   // Back to the start with the present PID, bumplessly.
   const double end_position = axis.position();
   pid_reset(p.present, end_position, end_position, 0.0, axis.drive(), pid);
-  axis.move(pid, p.position_m, start, 0.05);
+  axis.move(pid, p.position_m, start, kHoldS);
   result.ticks = axis.ticks();
-  if (switch_times.size() < wanted) {
+  if (!steady) {
     result.error = "no steady limit cycle within " + fmt(p.max_duration_s) + " s (" +
-                   std::to_string(switch_times.size()) + " relay cycles)";
+                   std::to_string(periods.size()) + " relay cycles)";
     return result;
   }
-
-  // Skip the settling cycles.
-  const std::size_t first = kSettleCycles;
-  const double period = (switch_times.back() - switch_times[first]) /
-                        static_cast<double>(switch_times.size() - 1 - first);
-  double amplitude = 0;
-  for (std::size_t i = first; i < amplitudes.size(); ++i) amplitude += amplitudes[i];
-  amplitude /= static_cast<double>(amplitudes.size() - first);
+  const double period = tail_mean(periods, n);
+  const double amplitude = tail_mean(amplitudes, n);
   if (!(amplitude > eps)) {
     result.error = "the oscillation amplitude " + fmt(amplitude) + " m does not exceed the hysteresis";
     return result;
@@ -139,7 +166,8 @@ AutotuneResult relay_autotune(hal::Transducer& transducer, const AutotuneParams&
   result.ultimate_gain_n_per_m = ku;
   result.ultimate_period_s = period;
   result.amplitude_m = amplitude;
-  result.cycles = static_cast<std::uint32_t>(amplitudes.size() - first);
+  result.cycles = static_cast<std::uint32_t>(n);
+  result.settling_cycles = static_cast<std::uint32_t>(periods.size() - n);
   result.proposed = p.present;
   result.proposed.kp = 0.6 * ku;
   result.proposed.ki = result.proposed.kp / (period / 2);

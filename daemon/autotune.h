@@ -8,9 +8,12 @@
 //   u = u0 - d   if e < -eps        (else u keeps its last value)
 //
 // which drives the loop into a limit cycle at the frequency where the plant
-// (with the relay's hysteresis lag) turns -180 degrees. Over `cycles` cycles,
-// after two to settle, the period Pu is the mean time between switches to
-// +d, and the amplitude a the mean half peak-to-peak of y. The describing
+// (with the relay's hysteresis lag) turns -180 degrees. A lightly damped
+// plant (the unloaded lateral axis has Q ~ 40) needs tens of cycles to settle
+// onto it, so the measurement waits until the last `cycles` periods and
+// amplitudes agree within 2 % and their means within 0.5 % of the `cycles`
+// before; Pu is their mean period (between switches to +d), a their mean
+// half peak-to-peak of y. The describing
 // function of a relay with hysteresis gives the ultimate gain
 //
 //   Ku = 4 d / (pi sqrt(a^2 - eps^2))
@@ -46,7 +49,8 @@ struct AutotuneResult {
   double ultimate_gain_n_per_m = 0;
   double ultimate_period_s = 0;
   double amplitude_m = 0;
-  std::uint32_t cycles = 0;
+  std::uint32_t cycles = 0;           // measured
+  std::uint32_t settling_cycles = 0;  // before the limit cycle was steady
   PidGains proposed;
   std::string rule;
   std::uint64_t ticks = 0;

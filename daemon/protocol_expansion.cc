@@ -138,7 +138,7 @@ void Expander::add_segment(const v1::Segment& definition, const std::string& pat
   out.segment = definition;
   out.path = path;
   out.label = path + quoted_name(definition) + pass.suffix;
-  out.name = definition.name() + (pass.suffix.empty() ? "" : pass.suffix.substr(1));
+  out.name = definition.name().empty() && !pass.suffix.empty() ? pass.suffix.substr(1) : definition.name() + pass.suffix;
   v1::Segment& seg = out.segment;
   apply_pass_values(seg, path, out.label, pass);
   seg.clear_per_pass();

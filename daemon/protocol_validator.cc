@@ -297,20 +297,29 @@ PathSummary Checker::check_path(const AxisFields& f, const std::string& label, b
 
 void Checker::check_lateral_pull_in(const std::string& label, const std::string& field,
                                     const Range& position_um, const Range& drive_extra_un) {
+  // The worst corner of position and extra drive (friction or force setpoint).
   const double min_ratio = config_.supervisor().min_stiffness_ratio();
+  DriveAssessment worst;
+  double worst_x_um = 0, worst_force = 0;
+  bool first = true;
   for (const double x_um : {position_um.lo, position_um.hi}) {
     for (const double extra_un : {drive_extra_un.lo, drive_extra_un.hi}) {
       const double x = x_um * kMicro;
       const double force = lateral_axis_.spring_n_per_m * x + extra_un * kMicro;
       const DriveAssessment a = assess_drive(lateral_axis_, force, x, 0.0);
-      if (a.gap_closed || a.stiffness_ratio < min_ratio) {
-        error(field, label + ": pull-in margin: at x = " + fmt(x_um) + " µm the lateral drive of " +
-                         fmt(force / kMicro) + " µN leaves k_eff/k = " + fmt(a.stiffness_ratio) +
-                         ", below the minimum " + fmt(min_ratio) + " (needs " +
-                         fmt(a.active_voltage_v) + " V, pull-in at " + fmt(a.pull_in_voltage_v) + " V)");
-        return;
+      if (first || a.gap_closed || a.stiffness_ratio < worst.stiffness_ratio) {
+        worst = a;
+        worst_x_um = x_um;
+        worst_force = force;
+        first = false;
       }
     }
+  }
+  if (worst.gap_closed || worst.stiffness_ratio < min_ratio) {
+    error(field, label + ": pull-in margin: at x = " + fmt(worst_x_um) + " µm the lateral drive of " +
+                     fmt(worst_force / kMicro) + " µN leaves k_eff/k = " + fmt(worst.stiffness_ratio) +
+                     ", below the minimum " + fmt(min_ratio) + " (needs " + fmt(worst.active_voltage_v) +
+                     " V, pull-in at " + fmt(worst.pull_in_voltage_v) + " V)");
   }
 }
 

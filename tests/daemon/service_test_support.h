@@ -8,12 +8,16 @@
 
 #include <google/protobuf/text_format.h>
 
+#include <cmath>
 #include <functional>
 #include <mutex>
 #include <string>
 #include <vector>
 
 #include "daemon/instrument_service.h"
+#include "daemon/protocol_validator.h"
+#include "daemon/run_loop.h"
+#include "hal/backend_factory.h"
 #include "proto/sample_record.h"
 #include "proto/text_format_file.h"
 #include "tests/sim/sim_test_support.h"
@@ -107,6 +111,52 @@ struct ServiceFixture {
     return f;
   }
 };
+
+// Runs a protocol through the real-time loop on this thread (no service, no
+// recording): every recorded sample and every tick's drive. before_tick is
+// called before each tick with its number.
+struct LoopRun {
+  std::vector<Sample> samples;
+  std::vector<hal::DriveCommand> drives;
+  RunOutcome outcome;
+};
+
+inline LoopRun run_in_loop(const v1::DaemonConfig& config, const v1::Protocol& protocol,
+                           const std::function<void(std::uint64_t, RunControl&)>& before_tick = {},
+                           std::uint64_t seed = 1) {
+  const ProtocolCheck check = validate_protocol(protocol, config);
+  if (!check.ok()) throw std::runtime_error(check.errors.front().message);
+  auto transducer = hal::make_transducer(config, seed);
+  SpscQueue<Sample> queue(1 << 21);
+  RunControl control;
+  RunTelemetry telemetry;
+  RunLoopConfig loop_config = run_loop_config_from(config);
+  RunLoop loop(*transducer, check.load_function, loop_config, queue, control, telemetry);
+  LoopRun run;
+  for (std::uint64_t tick = 0;; ++tick) {
+    if (before_tick) before_tick(tick, control);
+    if (!loop.tick()) break;
+    run.drives.push_back(loop.controller().last_drive());
+  }
+  run.outcome = loop.outcome();
+  Sample sample;
+  while (queue.try_pop(sample)) run.samples.push_back(sample);
+  return run;
+}
+
+// Mean of a channel over the samples with t in [from, to).
+inline double mean_between(const std::vector<Sample>& samples, double from, double to,
+                           double Sample::*channel) {
+  double sum = 0;
+  int n = 0;
+  for (const Sample& s : samples) {
+    if (s.time_s >= from && s.time_s < to) {
+      sum += s.*channel;
+      ++n;
+    }
+  }
+  return n > 0 ? sum / n : std::nan("");
+}
 
 inline int first_sample_with(const v1::SampleBlock& b, std::uint32_t flag) {
   for (int i = 0; i < sample_count(b); ++i) {
