@@ -80,6 +80,17 @@ TripReason SafetySupervisor::latch(TripReason reason, std::uint64_t tick, const 
   return reason;
 }
 
+TripReason SafetySupervisor::latch_snap_down(TripReason reason, std::uint64_t tick,
+                                             const DriveAssessment& a, double force_n, double position_m) {
+  trip_.reason = reason;
+  trip_.tick = tick;
+  std::snprintf(trip_.detail.data(), trip_.detail.size(),
+                "k_eff/k = %.3g below %.3g: a drive of %.3g N at %.3g m needs %.0f V, pull-in there at %.0f V%s",
+                a.stiffness_ratio, p_.min_stiffness_ratio, force_n, position_m, a.active_voltage_v,
+                a.pull_in_voltage_v, a.gap_closed ? " (gap closed)" : "");
+  return reason;
+}
+
 bool SafetySupervisor::overrun_trip(std::uint64_t overruns, std::uint64_t tick) {
   if (!overruns_primed_) {
     last_overruns_ = overruns;
@@ -210,13 +221,11 @@ TripReason SafetySupervisor::evaluate(const SupervisorInput& in, std::uint64_t t
     const double contact = loaded && z > 0 ? normal / z : 0.0;
     const DriveAssessment n = assess_drive(p_.normal_axis, in.drive.normal_force_n, z, contact);
     if (n.gap_closed || n.stiffness_ratio < p_.min_stiffness_ratio) {
-      return latch(TripReason::kSnapDownNormal, tick, "k_eff/k = %g below %g", n.stiffness_ratio,
-                   p_.min_stiffness_ratio);
+      return latch_snap_down(TripReason::kSnapDownNormal, tick, n, in.drive.normal_force_n, z);
     }
     const DriveAssessment l = assess_drive(p_.lateral_axis, in.drive.lateral_force_n, x, 0.0);
     if (l.gap_closed || l.stiffness_ratio < p_.min_stiffness_ratio) {
-      return latch(TripReason::kSnapDownLateral, tick, "k_eff/k = %g below %g", l.stiffness_ratio,
-                   p_.min_stiffness_ratio);
+      return latch_snap_down(TripReason::kSnapDownLateral, tick, l, in.drive.lateral_force_n, x);
     }
   }
   return TripReason::kNone;

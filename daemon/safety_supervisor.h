@@ -145,6 +145,8 @@ class SafetySupervisor {
  private:
   TripReason evaluate(const SupervisorInput& in, std::uint64_t tick);
   TripReason latch(TripReason reason, std::uint64_t tick, const char* format, double a, double b);
+  TripReason latch_snap_down(TripReason reason, std::uint64_t tick, const DriveAssessment& a,
+                             double force_n, double position_m);
   bool overrun_trip(std::uint64_t overruns, std::uint64_t tick);
 
   SupervisorParams p_;

@@ -302,6 +302,7 @@ TEST(SafetySupervisor, LateralSnapDownMarginTrips) {
   )");
   f.add_fault(v1::ACTUATOR_STUCK, v1::CHANNEL_LATERAL_ACTUATOR, 5.0, 0, 0).set_use_value(true);
   expect_trip(f, hold, TripReason::kSnapDownLateral, 5.0, 6.0);
+  EXPECT_NE(f.sink.stops[0].reason().find("pull-in there at"), std::string::npos) << f.sink.stops[0].reason();
 }
 
 TEST(SafetySupervisor, TripDetailsNameTheValueAndTheLimit) {
