@@ -137,6 +137,16 @@ std::optional<v1::Error> InstrumentService::start_run(std::optional<std::uint64_
   start.set_software_version(software_version_);
   start.set_start_time_utc(utc_timestamp_iso8601());
   start.set_loop_rate_hz(config_.controller().loop_rate_hz());
+  for (const SegmentPlan& plan : load_function_.segments()) {
+    v1::RunSegment* seg = start.add_segments();
+    seg->set_name(plan.name);
+    seg->set_start_s(static_cast<double>(plan.start_tick) / load_function_.loop_rate_hz());
+    seg->set_duration_s(static_cast<double>(plan.tick_count) / load_function_.loop_rate_hz());
+    seg->set_normal_mode(plan.normal_mode == NormalMode::kClosedLoopForce ? v1::NORMAL_CLOSED_LOOP_FORCE
+                         : plan.normal_mode == NormalMode::kDisplacement  ? v1::NORMAL_DISPLACEMENT
+                                                                          : v1::NORMAL_OPEN_LOOP_FORCE);
+    seg->set_lateral_mode(plan.lateral_mode == LateralMode::kForce ? v1::LATERAL_FORCE : v1::LATERAL_DISPLACEMENT);
+  }
 
   std::string error;
   run->recorder = RunRecorder::create(config_.recorder().data_dir(), start, error);

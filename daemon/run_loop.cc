@@ -101,7 +101,9 @@ bool RunLoop::tick() {
   in.overruns = transducer_.overruns();
   in.drive = controller_.last_drive();
   in.emergency_stop = control_.emergency_stop.load(std::memory_order_relaxed);
-  in.lateral_displacement_mode = sp_.lateral_mode == LateralMode::kDisplacement && !controller_.breakaway_hold();
+  // Tracking needs a setpoint: none exists before the first tick's.
+  in.lateral_displacement_mode =
+      tick_ > 0 && sp_.lateral_mode == LateralMode::kDisplacement && !controller_.breakaway_hold();
   in.lateral_setpoint_m = sp_.lateral;
   in.lateral_setpoint_rate_m_per_s = sp_.lateral_rate;
   if (supervisor_.check(in, tick_) != TripReason::kNone) start_stopping(RunEnd::kTripped);

@@ -135,6 +135,26 @@ TEST(InstrumentService, RearmAfterAnEmergencyStopResyncsTheSetpointsToTheMeasure
   EXPECT_EQ(b.lateral_setpoint_m(0), b.lateral_position_m(0));
 }
 
+// An instrument that is not at the neutral point when the run starts (here
+// its position reads 4 µm from the start): the first setpoint is the measured
+// position, nothing jumps and nothing trips.
+TEST(InstrumentService, ARunStartsFromWhereTheInstrumentIs) {
+  ServiceFixture f;
+  f.add_fault(v1::SENSOR_OFFSET, v1::CHANNEL_LATERAL_POSITION, 0, 0, 4e-6);
+  f.start();
+  f.run(testing::parse_protocol(R"(
+    name: "away"
+    acquisition_rate_hz: 10000
+    segments { duration_s: 1 normal { end_uN: 0 } lateral { end_um: 6 } }
+    segments { duration_s: 1 normal { end_uN: 0 } lateral { end_um: 0 } }
+  )"));
+  ASSERT_EQ(f.sink.stops.size(), 1u);
+  EXPECT_EQ(f.sink.stops[0].exit_status(), v1::SUCCESS) << f.sink.stops[0].reason();
+  const auto& b = f.sink.samples;
+  EXPECT_NEAR(b.lateral_position_m(0), 4e-6, 1e-9);
+  EXPECT_EQ(b.lateral_setpoint_m(0), b.lateral_position_m(0));
+}
+
 TEST(InstrumentService, RearmRefusesWhileTheFaultPersists) {
   ServiceFixture f;
   f.add_fault(v1::SENSOR_NAN, v1::CHANNEL_LATERAL_FORCE, 0, 0);  // from the start, for good
@@ -191,6 +211,26 @@ TEST(InstrumentService, SetGainsIsValidatedAndRecordedInTheNextRun) {
   ASSERT_EQ(f.sink.starts.size(), 1u);
   EXPECT_EQ(f.sink.starts[0].lateral_gains().kp(), 1000);
   EXPECT_EQ(f.sink.starts[0].config().controller().lateral_displacement().setpoint_weight_p(), 1);
+}
+
+TEST(InstrumentService, TheRunStartListsTheUnrolledSegments) {
+  ServiceFixture f;
+  f.start();
+  f.run(testing::load_protocol_file("velocity_reversal.textproto"));
+  ASSERT_EQ(f.sink.starts.size(), 1u);
+  const auto& segments = f.sink.starts[0].segments();
+  ASSERT_EQ(segments.size(), 2 + 6 + 2);
+  EXPECT_EQ(segments[3].name(), "stroke (pass 2/6)");
+  EXPECT_DOUBLE_EQ(segments[3].start_s(), 7.0);
+  EXPECT_DOUBLE_EQ(segments[3].duration_s(), 2.0);
+  EXPECT_EQ(segments[3].lateral_mode(), v1::LATERAL_DISPLACEMENT);
+  // The samples' segment_index refers to this list.
+  const auto& b = f.sink.samples;
+  for (int i = 0; i < sample_count(b); i += 97) {
+    const auto& seg = segments[static_cast<int>(b.segment_index(i))];
+    EXPECT_GE(b.time_s(i), seg.start_s());
+    EXPECT_LT(b.time_s(i), seg.start_s() + seg.duration_s());
+  }
 }
 
 TEST(InstrumentService, StatusReportsStageTimingAndTheCycleCounter) {
