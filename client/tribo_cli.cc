@@ -1,107 +1,317 @@
-// tribo: the command-line client of tribod.
-//
-//   tribo run PROTOCOL.textproto [--out DIR] [--json] [--seed N] [--address HOST:PORT]
-//
-// Exit codes: 0 the run succeeded; 1 the run ended in ABORT or FAULT;
-// 2 bad usage or an invalid protocol; 3 the daemon could not be reached or
-// the connection failed.
+// tribo: the command-line client of tribod. See kUsageText for commands,
+// options and exit codes.
+#include <unistd.h>
+
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <iostream>
+#include <map>
 #include <optional>
 #include <string>
+#include <vector>
 
+#include <google/protobuf/util/json_util.h>
+
+#include "client/run_progress.h"
 #include "client/run_summary.h"
 #include "client/tribo_client.h"
 #include "proto/run_files.h"
+#include "proto/sample_record.h"
 #include "proto/text_format_file.h"
 #include "tribo/v1/protocol.pb.h"
 
 namespace {
 
 constexpr const char* kUsageText =
-    "usage: tribo run PROTOCOL.textproto [--out DIR] [--json] [--seed N] [--address HOST:PORT]\n"
-    "  run         load the protocol into tribod, run it, stream the samples and\n"
-    "              print a summary (friction in µN, mu, stiction peak, lag in µm)\n"
-    "  --out DIR   also save the run there (samples.csv in SI units, metadata.json)\n"
-    "  --json      print the summary as JSON (tribo.v1.RunSummary field names)\n"
-    "  --seed N    noise seed for the simulated instrument\n"
+    "usage: tribo COMMAND [ARGS] [--json] [--address HOST:PORT] [--token TOKEN]\n"
+    "commands:\n"
+    "  run PROTOCOL.textproto [--out DIR] [--seed N] [--progress|--no-progress]\n"
+    "              load the protocol, run it, stream the samples with a live progress\n"
+    "              line (on a terminal), print the summary (friction in µN, mu,\n"
+    "              stiction peak, lag in µm); --out also saves the run there\n"
+    "  status      the daemon's state, the current run, recording and backend health\n"
+    "  abort [--reason TEXT]\n"
+    "              stop the running protocol (safe unload)\n"
+    "  list [--max N]\n"
+    "              the recorded runs, newest first\n"
+    "  fetch RUN_ID [--out DIR]\n"
+    "              copy a recorded run (metadata.json, samples.csv) to DIR (default ./RUN_ID)\n"
+    "  export RUN_ID [--out FILE]\n"
+    "              the run's samples.csv as recorded, to FILE or stdout\n"
+    "options:\n"
+    "  --json      print JSON for scripts (protobuf field names; see README)\n"
     "  --address   tribod's address (default $TRIBO_ADDRESS or 127.0.0.1:7460)\n"
-    "exit codes: 0 success, 1 run aborted or faulted, 2 usage or invalid protocol,\n"
-    "            3 daemon unreachable\n";
+    "  --token     the daemon's control token for run and abort (default $TRIBO_TOKEN)\n"
+    "exit codes: 0 success; 1 the run ended in ABORT or FAULT; 2 bad usage, an invalid\n"
+    "  protocol or argument; 3 daemon unreachable or connection lost; 4 not allowed\n"
+    "  (wrong token, or another client holds control); 5 wrong state (e.g. abort\n"
+    "  without a run); 6 no such run; 7 the daemon or the file system failed\n";
 
-enum ExitCode { kOk = 0, kRunFailed = 1, kUsage = 2, kConnection = 3 };
-
-struct RunOptions {
-  std::string protocol_path;
-  std::optional<std::string> out_dir;
-  bool json = false;
-  std::optional<std::uint64_t> seed;
-  tribo::client::Address address = tribo::client::default_address();
+enum ExitCode {
+  kOk = 0,
+  kRunFailed = 1,
+  kUsage = 2,
+  kConnection = 3,
+  kNotAllowed = 4,
+  kWrongState = 5,
+  kNotFound = 6,
+  kFailed = 7,
 };
 
-std::optional<RunOptions> parse_run_options(int argc, char** argv) {
-  RunOptions o;
+struct Options {
+  std::string command;
+  std::vector<std::string> args;  // positional
+  std::map<std::string, std::string> values;
+  bool json = false;
+  std::optional<bool> progress;
+  tribo::client::Address address = tribo::client::default_address();
+  std::string token = tribo::client::default_token();
+
+  std::optional<std::string> value(const std::string& key) const {
+    const auto it = values.find(key);
+    return it == values.end() ? std::nullopt : std::optional(it->second);
+  }
+};
+
+std::optional<Options> parse_options(int argc, char** argv) {
+  if (argc < 2) return std::nullopt;
+  Options o;
+  o.command = argv[1];
   for (int i = 2; i < argc; ++i) {
     const std::string arg = argv[i];
     const bool has_value = i + 1 < argc;
     if (arg == "--json") {
       o.json = true;
-    } else if (arg == "--out" && has_value) {
-      o.out_dir = argv[++i];
-    } else if (arg == "--seed" && has_value) {
-      char* end = nullptr;
-      o.seed = std::strtoull(argv[++i], &end, 10);
-      if (*end != '\0') return std::nullopt;
+    } else if (arg == "--progress" || arg == "--no-progress") {
+      o.progress = arg == "--progress";
     } else if (arg == "--address" && has_value) {
       const auto address = tribo::client::parse_address(argv[++i]);
       if (!address) return std::nullopt;
       o.address = *address;
-    } else if (!arg.starts_with("--") && o.protocol_path.empty()) {
-      o.protocol_path = arg;
+    } else if (arg == "--token" && has_value) {
+      o.token = argv[++i];
+    } else if ((arg == "--out" || arg == "--seed" || arg == "--reason" || arg == "--max") && has_value) {
+      o.values[arg.substr(2)] = argv[++i];
+    } else if (!arg.starts_with("--")) {
+      o.args.push_back(arg);
     } else {
       return std::nullopt;
     }
   }
-  if (o.protocol_path.empty()) return std::nullopt;
   return o;
 }
 
-int run_command(const RunOptions& o) {
+std::optional<std::uint64_t> parse_uint(const std::string& text) {
+  char* end = nullptr;
+  const unsigned long long v = std::strtoull(text.c_str(), &end, 10);
+  if (text.empty() || *end != '\0' || text[0] == '-') return std::nullopt;
+  return v;
+}
+
+std::string to_json(const google::protobuf::Message& message) {
+  std::string json;
+  google::protobuf::util::JsonPrintOptions options;
+  options.add_whitespace = true;
+  options.preserve_proto_field_names = true;
+  options.always_print_primitive_fields = true;
+  (void)google::protobuf::util::MessageToJsonString(message, &json, options);
+  return json;
+}
+
+int exit_code_of(const tribo::client::ClientError& e) {
+  if (e.connection_lost()) return kConnection;
+  switch (e.error().code()) {
+    case tribo::v1::INVALID_ARGUMENT:
+    case tribo::v1::MALFORMED_REQUEST:
+    case tribo::v1::UNSUPPORTED_VERSION:
+      return kUsage;
+    case tribo::v1::PERMISSION_DENIED:
+    case tribo::v1::UNAUTHENTICATED:
+      return kNotAllowed;
+    case tribo::v1::WRONG_STATE:
+      return kWrongState;
+    case tribo::v1::NOT_FOUND:
+      return kNotFound;
+    default:
+      return kFailed;
+  }
+}
+
+// Reports a failure on stderr, and as {"error": ...} on stdout with --json.
+int fail(const Options& o, const tribo::v1::Error& error, int code) {
+  std::cerr << "tribo: " << (error.field().empty() ? "" : error.field() + ": ") << error.message() << "\n";
+  if (o.json) std::cout << "{\"error\": " << to_json(error) << ", \"exit_code\": " << code << "}\n";
+  return code;
+}
+
+int fail(const Options& o, const std::string& message, int code) {
+  tribo::v1::Error error;
+  error.set_code(tribo::v1::INTERNAL);
+  error.set_message(message);
+  return fail(o, error, code);
+}
+
+tribo::client::SessionOptions session(const Options& o, tribo::v1::Role role) {
+  tribo::client::SessionOptions s;
+  s.client_name = "tribo " + o.command;
+  s.role = role;
+  s.token = o.token;
+  return s;
+}
+
+int run_command(const Options& o) {
+  if (o.args.size() != 1) return fail(o, "run needs one PROTOCOL file", kUsage);
+  std::optional<std::uint64_t> seed;
+  if (const auto text = o.value("seed")) {
+    seed = parse_uint(*text);
+    if (!seed) return fail(o, "--seed " + *text + " is not a number", kUsage);
+  }
   tribo::v1::Protocol protocol;
-  if (auto error = tribo::wire::load_text_proto_file(o.protocol_path, protocol)) {
-    std::cerr << "tribo: " << *error << "\n";
-    return kUsage;
-  }
+  if (auto error = tribo::wire::load_text_proto_file(o.args[0], protocol)) return fail(o, *error, kUsage);
+
+  const bool progress = o.progress.value_or(isatty(STDERR_FILENO) == 1);
+  tribo::client::RunProgress line(stderr);
   tribo::client::RunResult run;
-  try {
-    tribo::client::TriboClient client(o.address);
-    run = tribo::client::run_protocol(client, protocol, o.seed);
-  } catch (const tribo::client::ClientError& e) {
-    std::cerr << "tribo: " << e.what() << "\n";
-    const bool connection = e.error().field() == "connection";
-    return connection ? kConnection : kUsage;
+  {
+    tribo::client::TriboClient client(o.address, session(o, tribo::v1::CONTROLLER));
+    run = tribo::client::run_protocol(client, protocol, seed, [&](const tribo::v1::ServerMessage& d) {
+      if (progress) line.on_document(d);
+    });
   }
+  line.finish();
   for (const auto& warning : run.loaded.warnings()) std::cerr << "tribo: warning: " << warning << "\n";
+  if (run.fetched_samples > 0) {
+    std::cerr << "tribo: " << run.fetched_samples
+              << " samples missed while streaming were fetched from the daemon's recording\n";
+  }
   if (run.missing_samples > 0) {
-    std::cerr << "tribo: " << run.missing_samples
-              << " samples did not reach this client; the daemon's recording has them all\n";
+    std::cerr << "tribo: " << run.missing_samples << " samples are missing from the recording\n";
   }
   tribo::v1::RunSummary summary = tribo::client::summarize_run(run);
-  if (o.out_dir) {
+  if (const auto out = o.value("out")) {
     tribo::v1::RunMetadata metadata;
     *metadata.mutable_start() = run.start;
     *metadata.mutable_stop() = run.stop;
+    *metadata.mutable_run_descriptor() = run.descriptor;
+    for (const auto& e : run.segment_events) *metadata.add_segment_events() = e;
+    for (const auto& f : run.faults) *metadata.add_faults() = f;
     std::string error;
-    if (!tribo::wire::write_run_directory(*o.out_dir, metadata, run.samples, error)) {
-      std::cerr << "tribo: " << error << "\n";
-      return kRunFailed;
-    }
-    summary.set_saved_to(*o.out_dir);
+    if (!tribo::wire::write_run_directory(*out, metadata, run.samples, error)) return fail(o, error, kFailed);
+    summary.set_saved_to(*out);
   }
-  std::cout << (o.json ? tribo::client::summary_json(summary) + "\n"
-                       : tribo::client::summary_text(summary));
+  std::cout << (o.json ? tribo::client::summary_json(summary) + "\n" : tribo::client::summary_text(summary));
   return run.stop.exit_status() == tribo::v1::SUCCESS ? kOk : kRunFailed;
+}
+
+std::string status_text(const tribo::v1::StatusReply& s) {
+  char buf[512];
+  std::string text = "state      " + tribo::v1::DaemonState_Name(s.state()) + "\n";
+  if (!s.loaded_protocol().empty()) text += "protocol   " + s.loaded_protocol() + "\n";
+  if (!s.run_id().empty()) {
+    std::snprintf(buf, sizeof buf, "run        %s: %.1f of %.1f s, %llu samples recorded, %llu dropped\n",
+                  s.run_id().c_str(), s.run_time_s(), s.run_duration_s(),
+                  static_cast<unsigned long long>(s.samples_recorded()),
+                  static_cast<unsigned long long>(s.samples_dropped()));
+    text += buf;
+  }
+  text += "backend    " + s.backend_health().backend() + ": " +
+          (s.backend_health().healthy() ? "healthy" : "UNHEALTHY") + " (" + s.backend_health().detail() + ")\n";
+  std::snprintf(buf, sizeof buf, "clients    %s, %u observer(s); %llu gap notice(s) sent\n",
+                s.controller_connected() ? "a controller" : "no controller", s.observers(),
+                static_cast<unsigned long long>(s.gap_notices()));
+  return text + buf;
+}
+
+int status_command(const Options& o) {
+  tribo::client::TriboClient client(o.address, session(o, tribo::v1::OBSERVER));
+  tribo::v1::ClientMessage request;
+  request.mutable_get_status();
+  const tribo::v1::StatusReply status = client.request(request).status();
+  std::cout << (o.json ? to_json(status) + "\n" : status_text(status));
+  return kOk;
+}
+
+int abort_command(const Options& o) {
+  tribo::client::TriboClient client(o.address, session(o, tribo::v1::CONTROLLER));
+  tribo::v1::ClientMessage request;
+  request.mutable_abort_run()->set_reason(o.value("reason").value_or("aborted from the tribo CLI"));
+  const tribo::v1::AbortRunReply reply = client.request(request).abort_run();
+  std::cout << (o.json ? to_json(reply) + "\n" : "aborting run " + reply.run_id() + " (safe unload)\n");
+  return kOk;
+}
+
+int list_command(const Options& o) {
+  tribo::client::TriboClient client(o.address, session(o, tribo::v1::OBSERVER));
+  tribo::v1::ClientMessage request;
+  if (const auto max = o.value("max")) {
+    const auto n = parse_uint(*max);
+    if (!n) return fail(o, "--max " + *max + " is not a number", kUsage);
+    request.mutable_list_runs()->set_max_runs(static_cast<std::uint32_t>(*n));
+  } else {
+    request.mutable_list_runs();
+  }
+  const tribo::v1::ListRunsReply reply = client.request(request).list_runs();
+  if (o.json) {
+    std::cout << to_json(reply) << "\n";
+    return kOk;
+  }
+  for (const auto& r : reply.runs()) {
+    char line[512];
+    std::snprintf(line, sizeof line, "%-22s %-10s %9llu samples  %-20s %s\n", r.run_id().c_str(),
+                  r.finalized() ? tribo::v1::ExitStatus_Name(r.exit_status()).c_str() : "INCOMPLETE",
+                  static_cast<unsigned long long>(r.sample_count()), r.start_time_utc().c_str(),
+                  r.protocol_name().c_str());
+    std::cout << line;
+  }
+  return kOk;
+}
+
+tribo::v1::SavedRun saved_run(const tribo::v1::RunMetadata& metadata, const std::string& to, std::uint64_t n) {
+  tribo::v1::SavedRun s;
+  s.set_run_id(metadata.start().run_id());
+  s.set_saved_to(to);
+  s.set_sample_count(n);
+  s.set_exit_status(metadata.has_stop() ? tribo::v1::ExitStatus_Name(metadata.stop().exit_status()) : "INCOMPLETE");
+  return s;
+}
+
+int fetch_command(const Options& o) {
+  if (o.args.size() != 1) return fail(o, "fetch needs one RUN_ID", kUsage);
+  const std::string out = o.value("out").value_or(o.args[0]);
+  tribo::client::TriboClient client(o.address, session(o, tribo::v1::OBSERVER));
+  const tribo::wire::RecordedRun run = tribo::client::fetch_run(client, o.args[0]);
+  std::string error;
+  if (!tribo::wire::write_run_directory(out, run.metadata, run.samples, error)) return fail(o, error, kFailed);
+  const auto saved = saved_run(run.metadata, out, static_cast<std::uint64_t>(tribo::sample_count(run.samples)));
+  std::cout << (o.json ? to_json(saved) + "\n"
+                       : "run " + saved.run_id() + " (" + saved.exit_status() + "): " +
+                             std::to_string(saved.sample_count()) + " samples saved to " + out + "\n");
+  return kOk;
+}
+
+int export_command(const Options& o) {
+  if (o.args.size() != 1) return fail(o, "export needs one RUN_ID", kUsage);
+  const auto out = o.value("out");
+  if (o.json && !out) return fail(o, "export --json needs --out FILE (stdout carries the CSV otherwise)", kUsage);
+  tribo::client::TriboClient client(o.address, session(o, tribo::v1::OBSERVER));
+  tribo::v1::ClientMessage request;
+  request.mutable_get_run()->set_run_id(o.args[0]);
+  const tribo::v1::RunMetadata metadata = client.request(request).get_run().metadata();
+  std::ofstream file;
+  if (out) {
+    file.open(*out, std::ios::binary | std::ios::trunc);
+    if (!file) return fail(o, "cannot write " + *out, kFailed);
+  }
+  std::ostream& stream = out ? static_cast<std::ostream&>(file) : std::cout;
+  const std::uint64_t rows = tribo::client::export_csv(client, o.args[0], stream);
+  stream.flush();
+  if (!stream) return fail(o, "writing the CSV failed", kFailed);
+  if (out) {
+    const auto saved = saved_run(metadata, *out, rows);
+    std::cout << (o.json ? to_json(saved) + "\n" : std::to_string(rows) + " samples written to " + *out + "\n");
+  }
+  return kOk;
 }
 
 }  // namespace
@@ -111,14 +321,22 @@ int main(int argc, char** argv) {
     std::cout << kUsageText;
     return kOk;
   }
-  if (argc < 2 || std::string(argv[1]) != "run") {
-    std::cerr << kUsageText;
-    return kUsage;
-  }
-  const auto options = parse_run_options(argc, argv);
+  const auto options = parse_options(argc, argv);
   if (!options) {
     std::cerr << kUsageText;
     return kUsage;
   }
-  return run_command(*options);
+  const std::map<std::string, int (*)(const Options&)> commands{
+      {"run", run_command},   {"status", status_command}, {"abort", abort_command},
+      {"list", list_command}, {"fetch", fetch_command},   {"export", export_command}};
+  const auto command = commands.find(options->command);
+  if (command == commands.end()) {
+    std::cerr << kUsageText;
+    return kUsage;
+  }
+  try {
+    return command->second(*options);
+  } catch (const tribo::client::ClientError& e) {
+    return fail(*options, e.error(), exit_code_of(e));
+  }
 }

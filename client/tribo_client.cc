@@ -1,5 +1,6 @@
 #include "client/tribo_client.h"
 
+#include <algorithm>
 #include <array>
 #include <cstdlib>
 
@@ -38,6 +39,11 @@ std::optional<Address> parse_address(const std::string& text) {
   return Address{host, static_cast<std::uint16_t>(value)};
 }
 
+std::string default_token() {
+  const char* env = std::getenv("TRIBO_TOKEN");
+  return env == nullptr ? std::string() : std::string(env);
+}
+
 Address default_address() {
   if (const char* env = std::getenv("TRIBO_ADDRESS")) {
     if (auto a = parse_address(env)) return *a;
@@ -65,7 +71,21 @@ TriboClient::TriboClient(const Address& address) : connection_(std::make_unique<
   connection_->socket.set_option(asio::ip::tcp::no_delay(true), ec);
 }
 
+TriboClient::TriboClient(const Address& address, const SessionOptions& options) : TriboClient(address) {
+  hello(options);
+}
+
 TriboClient::~TriboClient() = default;
+
+v1::HelloReply TriboClient::hello(const SessionOptions& options) {
+  v1::ClientMessage message;
+  v1::Hello* hello = message.mutable_hello();
+  hello->set_api_version(wire::kApiVersion);
+  hello->set_client_name(options.client_name);
+  hello->set_role(options.role);
+  hello->set_token(options.token);
+  return request(message).hello();
+}
 
 v1::ServerMessage TriboClient::read_message() {
   Connection& c = *connection_;
@@ -122,15 +142,38 @@ v1::ServerMessage TriboClient::next_event() {
   }
 }
 
+namespace {
+
+// Orders blocks by sequence and concatenates them; counts what is missing.
+v1::SampleBlock concatenate(std::vector<v1::SampleBlock> blocks, std::uint64_t& missing) {
+  std::sort(blocks.begin(), blocks.end(),
+            [](const auto& a, const auto& b) { return a.first_sequence() < b.first_sequence(); });
+  v1::SampleBlock out;
+  missing = 0;
+  std::uint64_t next = 0;
+  for (const auto& b : blocks) {
+    if (sample_count(b) == 0 || b.first_sequence() + static_cast<std::uint64_t>(sample_count(b)) <= next) continue;
+    if (b.first_sequence() > next) missing += b.first_sequence() - next;
+    if (b.first_sequence() < next) {  // overlaps what we have: take the new tail only
+      v1::SampleBlock tail;
+      for (int i = static_cast<int>(next - b.first_sequence()); i < sample_count(b); ++i) {
+        append_sample(sample_at(b, i), tail);
+      }
+      append_block(tail, out);
+    } else {
+      append_block(b, out);
+    }
+    next = b.first_sequence() + static_cast<std::uint64_t>(sample_count(b));
+  }
+  return out;
+}
+
+}  // namespace
+
 RunResult run_protocol(TriboClient& client, const v1::Protocol& protocol,
                        std::optional<std::uint64_t> seed,
-                       const std::function<void(const v1::SampleBlock&)>& on_samples) {
+                       const std::function<void(const v1::ServerMessage&)>& on_document) {
   RunResult result;
-  v1::ClientMessage hello;
-  hello.mutable_hello()->set_api_version(wire::kApiVersion);
-  hello.mutable_hello()->set_client_name("tribo");
-  client.request(hello);
-
   v1::ClientMessage load;
   *load.mutable_load_protocol()->mutable_protocol() = protocol;
   result.loaded = client.request(load).load_protocol();
@@ -144,23 +187,82 @@ RunResult run_protocol(TriboClient& client, const v1::Protocol& protocol,
   else start.mutable_start_run();
   const std::string run_id = client.request(start).start_run().run_id();
 
+  std::vector<v1::SampleBlock> blocks;
   for (;;) {
     v1::ServerMessage event = client.next_event();
+    if (on_document) on_document(event);
     if (event.has_run_start() && event.run_start().run_id() == run_id) {
       result.start = event.run_start();
+    } else if (event.has_run_descriptor() && event.run_descriptor().run_id() == run_id) {
+      result.descriptor = event.run_descriptor();
     } else if (event.has_samples() && event.samples().run_id() == run_id) {
-      const v1::SampleBlock& block = event.samples();
-      const auto received = static_cast<std::uint64_t>(sample_count(result.samples));
-      if (block.first_sequence() > received) result.missing_samples += block.first_sequence() - received;
-      append_block(block, result.samples);
-      if (on_samples) on_samples(block);
+      blocks.push_back(std::move(*event.mutable_samples()));
+    } else if (event.has_segment_event() && event.segment_event().run_id() == run_id) {
+      result.segment_events.push_back(event.segment_event());
+    } else if (event.has_fault() && event.fault().run_id() == run_id) {
+      result.faults.push_back(event.fault());
+    } else if (event.has_gap() && event.gap().run_id() == run_id) {
+      result.gaps.push_back(event.gap());
     } else if (event.has_run_stop() && event.run_stop().run_id() == run_id) {
       result.stop = event.run_stop();
       break;
     }
   }
+  // Resume: what the stream missed is in the recording.
+  for (const auto& gap : result.gaps) {
+    blocks.push_back(fetch_samples(client, run_id, gap.first_sequence(), gap.end_sequence()));
+    result.fetched_samples += static_cast<std::uint64_t>(sample_count(blocks.back()));
+  }
+  std::uint64_t holes = 0;
+  result.samples = concatenate(std::move(blocks), holes);
+  const auto have = static_cast<std::uint64_t>(sample_count(result.samples));
+  result.missing_samples = result.stop.sample_count() > have ? result.stop.sample_count() - have : holes;
   result.samples.set_run_id(run_id);
   return result;
+}
+
+v1::SampleBlock fetch_samples(TriboClient& client, const std::string& run_id, std::uint64_t from,
+                              std::uint64_t end) {
+  v1::SampleBlock out;
+  out.set_run_id(run_id);
+  out.set_first_sequence(from);
+  while (from < end) {
+    v1::ClientMessage request;
+    v1::FetchSamples* fetch = request.mutable_fetch_samples();
+    fetch->set_run_id(run_id);
+    fetch->set_from_sequence(from);
+    if (end != ~std::uint64_t{0}) fetch->set_max_samples(end - from);
+    const v1::ServerMessage reply = client.request(request);
+    const v1::FetchSamplesReply& page = reply.fetch_samples();
+    append_block(page.samples(), out);
+    if (page.next_sequence() == from) break;  // nothing more recorded
+    from = page.next_sequence();
+    if (page.end_of_recording()) break;
+  }
+  return out;
+}
+
+wire::RecordedRun fetch_run(TriboClient& client, const std::string& run_id) {
+  wire::RecordedRun run;
+  v1::ClientMessage request;
+  request.mutable_get_run()->set_run_id(run_id);
+  run.metadata = client.request(request).get_run().metadata();
+  run.samples = fetch_samples(client, run_id, 0, ~std::uint64_t{0});
+  return run;
+}
+
+std::uint64_t export_csv(TriboClient& client, const std::string& run_id, std::ostream& out) {
+  std::uint64_t from = 0;
+  for (;;) {
+    v1::ClientMessage request;
+    request.mutable_export_csv()->set_run_id(run_id);
+    request.mutable_export_csv()->set_from_sequence(from);
+    const v1::ServerMessage reply = client.request(request);
+    const v1::ExportCsvReply& page = reply.export_csv();
+    out << page.csv();
+    if (page.next_sequence() == from || page.end_of_recording()) return page.next_sequence();
+    from = page.next_sequence();
+  }
 }
 
 }  // namespace tribo::client

@@ -1,6 +1,6 @@
-// A blocking client for tribod's socket API, used by the `tribo` CLI and by
-// tests. Replies are matched to requests by request id; run documents that
-// arrive meanwhile are queued for next_event().
+// A blocking client for tribod's socket API, used by the `tribo` CLI, the
+// benchmarks and tests. Replies are matched to requests by request id; run
+// documents that arrive meanwhile are queued for next_event().
 #pragma once
 
 #include <cstdint>
@@ -8,9 +8,12 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <ostream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
+#include "proto/run_files.h"
 #include "tribo/v1/api.pb.h"
 
 namespace tribo::client {
@@ -21,6 +24,7 @@ class ClientError : public std::runtime_error {
  public:
   explicit ClientError(v1::Error error);
   const v1::Error& error() const { return error_; }
+  bool connection_lost() const { return error_.field() == "connection"; }
 
  private:
   v1::Error error_;
@@ -35,14 +39,26 @@ struct Address {
 std::optional<Address> parse_address(const std::string& text);
 // TRIBO_ADDRESS if set, else the daemon's default.
 Address default_address();
+// TRIBO_TOKEN if set, else empty.
+std::string default_token();
+
+struct SessionOptions {
+  std::string client_name = "tribo";
+  v1::Role role = v1::OBSERVER;
+  std::string token;  // the daemon's control token, for role CONTROLLER
+};
 
 class TriboClient {
  public:
-  // Connects; throws ClientError on failure.
+  // Connects; throws ClientError on failure. The first request must be hello().
   explicit TriboClient(const Address& address);
+  // Connects and says hello; throws ClientError if either fails.
+  TriboClient(const Address& address, const SessionOptions& options);
   ~TriboClient();
   TriboClient(const TriboClient&) = delete;
   TriboClient& operator=(const TriboClient&) = delete;
+
+  v1::HelloReply hello(const SessionOptions& options);
 
   // Sends the request (its request_id is assigned here) and returns the reply.
   // Throws ClientError if the reply is an error.
@@ -62,15 +78,34 @@ class TriboClient {
 struct RunResult {
   v1::LoadProtocolReply loaded;
   v1::RunStart start;
-  v1::SampleBlock samples;  // every sample, in sequence order
+  v1::RunDescriptor descriptor;
+  v1::SampleBlock samples;  // every sample, in sequence order (gaps filled from the recording)
+  std::vector<v1::SegmentEvent> segment_events;
+  std::vector<v1::Fault> faults;
+  std::vector<v1::GapNotice> gaps;  // what the stream missed
   v1::RunStop stop;
-  std::uint64_t missing_samples = 0;  // sequence gaps seen while streaming
+  std::uint64_t fetched_samples = 0;  // fetched back from the recording after gaps
+  std::uint64_t missing_samples = 0;  // still missing (0 unless the recording lacks them)
 };
 
 // Loads the protocol, subscribes, starts, and collects the run until it
-// stops. on_samples (optional) sees each block as it arrives.
+// stops; fetches whatever the stream missed from the recording. The client
+// must hold control. on_document (optional) sees every run document as it
+// arrives.
 RunResult run_protocol(TriboClient& client, const v1::Protocol& protocol,
                        std::optional<std::uint64_t> seed,
-                       const std::function<void(const v1::SampleBlock&)>& on_samples = {});
+                       const std::function<void(const v1::ServerMessage&)>& on_document = {});
+
+// Samples [from, end) of a recorded run, paged (end = UINT64_MAX: to the
+// end of what is recorded now).
+v1::SampleBlock fetch_samples(TriboClient& client, const std::string& run_id, std::uint64_t from,
+                              std::uint64_t end);
+
+// A whole recorded run: its metadata and every recorded sample.
+wire::RecordedRun fetch_run(TriboClient& client, const std::string& run_id);
+
+// Writes the run's samples.csv to out as the daemon recorded it; returns the
+// number of rows.
+std::uint64_t export_csv(TriboClient& client, const std::string& run_id, std::ostream& out);
 
 }  // namespace tribo::client

@@ -1,5 +1,7 @@
 #include "daemon/api_server.h"
 
+#include <cstdlib>
+
 #include <spdlog/spdlog.h>
 
 #include "daemon/client_session.h"
@@ -8,11 +10,50 @@
 
 namespace tribo::daemon {
 
-ApiServer::ApiServer(asio::io_context& io, const v1::ServerConfig& config)
+namespace {
+
+constexpr std::size_t kDefaultClientQueueBytes = 8u << 20;
+constexpr std::size_t kDefaultMaxClients = 256;
+
+std::shared_ptr<const std::string> frame_of(const v1::ServerMessage& message) {
+  auto frame = std::make_shared<std::string>();
+  wire::append_frame(message, ~std::size_t{0}, *frame);
+  return frame;
+}
+
+v1::Error make_error(v1::ErrorCode code, std::string field, std::string message) {
+  v1::Error e;
+  e.set_code(code);
+  e.set_field(std::move(field));
+  e.set_message(std::move(message));
+  return e;
+}
+
+}  // namespace
+
+std::string resolve_control_token(const v1::ServerConfig& config) {
+  const std::string env = config.control_token_env().empty() ? kDefaultTokenEnv : config.control_token_env();
+  if (const char* value = std::getenv(env.c_str()); value != nullptr && *value != '\0') return value;
+  return config.control_token();
+}
+
+std::optional<std::string> check_bind_policy(const v1::ServerConfig& config, const std::string& token) {
+  std::error_code ec;
+  const asio::ip::address address = asio::ip::make_address(config.bind_address(), ec);
+  if (ec) return "server.bind_address = \"" + config.bind_address() + "\" is not an IP address";
+  if (address.is_loopback() || !token.empty()) return std::nullopt;
+  return "server.bind_address = \"" + config.bind_address() +
+         "\" is not a loopback address: set server.control_token or $" +
+         (config.control_token_env().empty() ? std::string(kDefaultTokenEnv) : config.control_token_env()) +
+         " before serving the instrument beyond this machine";
+}
+
+ApiServer::ApiServer(asio::io_context& io, const v1::ServerConfig& config, std::string control_token)
     : io_(io),
       acceptor_(io, asio::ip::tcp::endpoint(asio::ip::make_address(config.bind_address()),
                                             static_cast<std::uint16_t>(config.port()))),
-      max_frame_bytes_(config.max_frame_bytes()),
+      config_(config),
+      control_token_(std::move(control_token)),
       close_deadline_(io) {}
 
 ApiServer::~ApiServer() = default;
@@ -28,9 +69,21 @@ void ApiServer::accept_next() {
     }
     std::error_code ignored;
     socket.set_option(asio::ip::tcp::no_delay(true), ignored);
-    auto session = std::make_shared<ClientSession>(std::move(socket), *this, *service_, max_frame_bytes_);
+    SessionLimits limits;
+    limits.max_frame_bytes = config_.max_frame_bytes();
+    limits.queue_bytes = config_.client_queue_bytes() > 0 ? config_.client_queue_bytes() : kDefaultClientQueueBytes;
+    auto session = std::make_shared<ClientSession>(std::move(socket), *this, *service_, limits);
     sessions_.push_back(session);
-    session->start();
+    const std::size_t max_clients = config_.max_clients() > 0 ? config_.max_clients() : kDefaultMaxClients;
+    if (sessions_.size() > max_clients) {
+      v1::ServerMessage refusal;
+      *refusal.mutable_error() = make_error(v1::PERMISSION_DENIED, "server.max_clients",
+                                            "too many clients: the limit is " + std::to_string(max_clients));
+      session->send(refusal);
+      session->close_after_writes();
+    } else {
+      session->start();
+    }
     accept_next();
   });
 }
@@ -54,47 +107,70 @@ void ApiServer::close_gracefully(std::chrono::milliseconds deadline) {
 
 void ApiServer::remove(ClientSession* session) {
   sessions_.remove_if([session](const auto& s) { return s.get() == session; });
+  if (controller_ == session) {
+    controller_ = nullptr;
+    const bool abort = config_.on_controller_loss() != v1::CONTINUE_RUN;
+    if (!closing_ && run_active_) {
+      spdlog::warn("the controlling client '{}' disconnected during run {}: {}", session->name(), run_id_,
+                   abort ? "aborting it" : "the run continues");
+      if (abort) (void)service_->abort_run("the controlling client disconnected");
+    }
+  }
   if (closing_ && sessions_.empty()) close_deadline_.cancel();
 }
 
-namespace {
-
-std::shared_ptr<const std::string> frame_of(const v1::ServerMessage& message) {
-  auto frame = std::make_shared<std::string>();
-  wire::append_frame(message, ~std::size_t{0}, *frame);
-  return frame;
-}
-
-// Every n-th sample of block by sequence number.
-v1::SampleBlock decimated(const v1::SampleBlock& block, std::uint32_t n) {
-  v1::SampleBlock out;
-  out.set_run_id(block.run_id());
-  bool first = true;
-  for (int i = 0; i < sample_count(block); ++i) {
-    const std::uint64_t seq = block.first_sequence() + static_cast<std::uint64_t>(i);
-    if (seq % n != 0) continue;
-    if (first) out.set_first_sequence(seq);
-    first = false;
-    append_sample(sample_at(block, i), out);
+std::optional<v1::Error> ApiServer::claim_control(ClientSession& session, const std::string& token) {
+  if (token_required() && token != control_token_) {
+    spdlog::warn("client '{}' asked for control with a wrong token", session.name());
+    return make_error(v1::UNAUTHENTICATED, "token",
+                      token.empty() ? "control needs the daemon's token" : "the token is wrong");
   }
-  return out;
+  if (controller_ != nullptr && controller_ != &session) {
+    return make_error(v1::PERMISSION_DENIED, "role",
+                      "client '" + controller_->name() + "' holds control; one controller at a time");
+  }
+  controller_ = &session;
+  return std::nullopt;
 }
 
-}  // namespace
+void ApiServer::release_control(ClientSession& session) {
+  if (controller_ == &session) controller_ = nullptr;
+}
 
-void ApiServer::broadcast(std::shared_ptr<const std::string> frame,
-                          std::shared_ptr<const v1::SampleBlock> samples) {
-  asio::post(io_, [this, frame = std::move(frame), samples = std::move(samples)] {
+void ApiServer::fill_status(const ClientSession& session, v1::StatusReply& status) const {
+  std::uint32_t observers = 0;
+  for (const auto& s : sessions_) {
+    if (s->handshake_done() && s.get() != controller_) ++observers;
+  }
+  status.set_observers(observers);
+  status.set_controller_connected(controller_ != nullptr);
+  status.set_role(controls(session) ? v1::CONTROLLER : v1::OBSERVER);
+  status.set_gap_notices(gap_notices_);
+}
+
+void ApiServer::catch_up(ClientSession& session) {
+  if (!run_active_ || session.subscribed()) return;
+  session.send(run_start_frame_);
+  if (descriptor_frame_) session.send(descriptor_frame_);
+  if (next_sequence_ == 0) return;
+  v1::ServerMessage gap;
+  gap.mutable_gap()->set_run_id(run_id_);
+  gap.mutable_gap()->set_first_sequence(0);
+  gap.mutable_gap()->set_end_sequence(next_sequence_);
+  gap.mutable_gap()->set_reason("published before this client subscribed");
+  session.send(gap);
+  ++gap_notices_;
+}
+
+void ApiServer::broadcast(const v1::ServerMessage& document, std::function<void()> first) {
+  asio::post(io_, [this, frame = frame_of(document), stop = document.has_run_stop(),
+                   first = std::move(first)] {
+    if (first) first();
     const auto sessions = sessions_;
     for (const auto& s : sessions) {
       if (!s->subscribed()) continue;
-      if (!samples || s->decimation() <= 1) {
-        s->send(frame);
-        continue;
-      }
-      v1::ServerMessage message;
-      *message.mutable_samples() = decimated(*samples, s->decimation());
-      if (sample_count(message.samples()) > 0) s->send(message);
+      if (stop) s->flush_gap();
+      s->send(frame);
     }
   });
 }
@@ -102,19 +178,53 @@ void ApiServer::broadcast(std::shared_ptr<const std::string> frame,
 void ApiServer::on_run_start(const v1::RunStart& start) {
   v1::ServerMessage message;
   *message.mutable_run_start() = start;
-  broadcast(frame_of(message), nullptr);
+  broadcast(message, [this, frame = frame_of(message), id = start.run_id()] {
+    run_active_ = true;
+    run_id_ = id;
+    next_sequence_ = 0;
+    run_start_frame_ = frame;
+    descriptor_frame_.reset();
+  });
+}
+
+void ApiServer::on_descriptor(const v1::RunDescriptor& descriptor) {
+  v1::ServerMessage message;
+  *message.mutable_run_descriptor() = descriptor;
+  broadcast(message, [this, frame = frame_of(message)] { descriptor_frame_ = frame; });
 }
 
 void ApiServer::on_samples(const v1::SampleBlock& block) {
+  // Serialized here, off the io thread; shared by every session that takes
+  // all samples.
   v1::ServerMessage message;
   *message.mutable_samples() = block;
-  broadcast(frame_of(message), std::make_shared<const v1::SampleBlock>(block));
+  auto frames = std::make_shared<SampleFrames>(std::make_shared<const v1::SampleBlock>(block),
+                                               frame_of(message));
+  asio::post(io_, [this, frames = std::move(frames)] {
+    next_sequence_ = frames->block().first_sequence() + static_cast<std::uint64_t>(sample_count(frames->block()));
+    const auto sessions = sessions_;
+    for (const auto& s : sessions) {
+      if (s->subscribed()) s->offer_samples(*frames);
+    }
+  });
+}
+
+void ApiServer::on_segment_event(const v1::SegmentEvent& event) {
+  v1::ServerMessage message;
+  *message.mutable_segment_event() = event;
+  broadcast(message);
+}
+
+void ApiServer::on_fault(const v1::Fault& fault) {
+  v1::ServerMessage message;
+  *message.mutable_fault() = fault;
+  broadcast(message);
 }
 
 void ApiServer::on_run_stop(const v1::RunStop& stop) {
   v1::ServerMessage message;
   *message.mutable_run_stop() = stop;
-  broadcast(frame_of(message), nullptr);
+  broadcast(message, [this] { run_active_ = false; });
 }
 
 }  // namespace tribo::daemon

@@ -4,13 +4,19 @@
 
 #include "daemon/api_server.h"
 #include "daemon/instrument_service.h"
+#include "daemon/run_archive.h"
 #include "proto/api_defaults.h"
+#include "proto/sample_record.h"
 
 namespace tribo::daemon {
 
 namespace {
 
 using wire::kApiVersion;
+
+// Frames the daemon sends may be as large as a client accepts by default.
+constexpr std::size_t kMaxOutgoingFrameBytes = wire::kDefaultMaxFrameBytes;
+constexpr std::size_t kMaxFramesPerWrite = 64;
 
 void set_error(v1::ServerMessage& reply, v1::ErrorCode code, std::string field, std::string message) {
   v1::Error* e = reply.mutable_error();
@@ -19,15 +25,65 @@ void set_error(v1::ServerMessage& reply, v1::ErrorCode code, std::string field, 
   e->set_message(std::move(message));
 }
 
+// Commands that move the instrument or change what it will do: only the
+// controlling session may send them. Add instrument commands here.
+bool is_control_command(v1::ClientMessage::BodyCase body) {
+  switch (body) {
+    case v1::ClientMessage::kLoadProtocol:
+    case v1::ClientMessage::kStartRun:
+    case v1::ClientMessage::kAbortRun:
+    case v1::ClientMessage::kSetGains:  // issue 4; EmergencyStop stays open to every client
+    case v1::ClientMessage::kRearm:
+    case v1::ClientMessage::kAutotune:
+      return true;
+    default:
+      return false;
+  }
+}
+
+std::shared_ptr<const std::string> frame_of(const v1::ServerMessage& message) {
+  auto frame = std::make_shared<std::string>();
+  wire::append_frame(message, ~std::size_t{0}, *frame);
+  return frame;
+}
+
+// Every sample of block whose sequence number is a multiple of n.
+v1::SampleBlock decimated(const v1::SampleBlock& block, std::uint32_t n) {
+  v1::SampleBlock out;
+  out.set_run_id(block.run_id());
+  out.set_publish_time_unix_ns(block.publish_time_unix_ns());
+  bool first = true;
+  for (int i = 0; i < sample_count(block); ++i) {
+    const std::uint64_t seq = block.first_sequence() + static_cast<std::uint64_t>(i);
+    if (seq % n != 0) continue;
+    if (first) out.set_first_sequence(seq);
+    first = false;
+    append_sample(sample_at(block, i), out);
+  }
+  return out;
+}
+
 }  // namespace
 
+std::shared_ptr<const std::string> SampleFrames::frame(std::uint32_t decimation) {
+  if (decimation <= 1) return full_;
+  for (const auto& [n, frame] : decimated_) {
+    if (n == decimation) return frame;
+  }
+  v1::ServerMessage message;
+  *message.mutable_samples() = decimated(*block_, decimation);
+  auto frame = sample_count(message.samples()) > 0 ? frame_of(message) : nullptr;
+  decimated_.emplace_back(decimation, frame);
+  return frame;
+}
+
 ClientSession::ClientSession(asio::ip::tcp::socket socket, ApiServer& server,
-                             InstrumentService& service, std::size_t max_frame_bytes)
+                             InstrumentService& service, SessionLimits limits)
     : socket_(std::move(socket)),
       server_(server),
       service_(service),
-      decoder_(max_frame_bytes),
-      max_frame_bytes_(max_frame_bytes) {}
+      decoder_(limits.max_frame_bytes),
+      limits_(limits) {}
 
 void ClientSession::read_more() {
   socket_.async_read_some(asio::buffer(read_buffer_),
@@ -40,16 +96,17 @@ void ClientSession::read_more() {
 void ClientSession::on_bytes(std::size_t n) {
   std::string_view data(read_buffer_.data(), n);
   std::string frame;
-  while (!closed_) {
+  while (!closed_ && !closing_) {
     data.remove_prefix(decoder_.feed(data));
     wire::DecodeStatus status;
-    while ((status = decoder_.next(frame)) == wire::DecodeStatus::kFrame) handle(frame);
+    while (!closing_ && (status = decoder_.next(frame)) == wire::DecodeStatus::kFrame) handle(frame);
+    if (closing_) return;
     if (status == wire::DecodeStatus::kOversized || status == wire::DecodeStatus::kBadHeader) {
       v1::ServerMessage reply;
       set_error(reply, v1::MALFORMED_REQUEST, "",
                 status == wire::DecodeStatus::kOversized
                     ? "frame of " + std::to_string(decoder_.announced_size()) +
-                          " bytes exceeds the maximum of " + std::to_string(max_frame_bytes_)
+                          " bytes exceeds the maximum of " + std::to_string(limits_.max_frame_bytes)
                     : "invalid frame size prefix");
       send(reply);
       close_after_writes();
@@ -70,30 +127,34 @@ void ClientSession::handle(const std::string& frame) {
     dispatch(request, reply);
   }
   send(reply);
+  if (hang_up_) close_after_writes();
 }
 
 void ClientSession::dispatch(const v1::ClientMessage& request, v1::ServerMessage& reply) {
+  const auto body = request.body_case();
+  if (body == v1::ClientMessage::BODY_NOT_SET) {
+    return set_error(reply, v1::MALFORMED_REQUEST, "body", "the request has no body (or one this daemon does not know)");
+  }
+  if (body == v1::ClientMessage::kHello) return hello(request.hello(), reply);
+  if (!handshake_done_) {
+    return set_error(reply, v1::HANDSHAKE_REQUIRED, "hello", "send hello (api_version " +
+                                                                 std::to_string(kApiVersion) + ") first");
+  }
+  if (is_control_command(body) && !server_.controls(*this)) {
+    return set_error(reply, v1::PERMISSION_DENIED, "role",
+                     "this session is an observer; control commands need the CONTROLLER role");
+  }
   std::optional<v1::Error> error;
-  switch (request.body_case()) {
-    case v1::ClientMessage::kHello:
-      if (request.hello().api_version() != kApiVersion) {
-        set_error(reply, v1::UNSUPPORTED_VERSION, "hello.api_version",
-                  "api_version " + std::to_string(request.hello().api_version()) +
-                      " is not supported; this daemon speaks version " + std::to_string(kApiVersion));
-        return;
-      }
-      reply.mutable_hello()->set_api_version(kApiVersion);
-      reply.mutable_hello()->set_software_version(service_.software_version());
-      reply.mutable_hello()->set_backend(service_.config().backend_case() == v1::DaemonConfig::kSim ? "sim" : "other");
-      return;
+  switch (body) {
     case v1::ClientMessage::kLoadProtocol:
       error = service_.load_protocol(request.load_protocol().protocol(), *reply.mutable_load_protocol());
       break;
     case v1::ClientMessage::kSubscribe:
+      server_.catch_up(*this);
       subscribed_ = true;
       decimation_ = std::max<std::uint32_t>(1, request.subscribe().decimation());
       reply.mutable_subscribe();
-      return;
+      break;
     case v1::ClientMessage::kStartRun: {
       std::optional<std::uint64_t> seed;
       if (request.start_run().has_seed()) seed = request.start_run().seed();
@@ -102,18 +163,39 @@ void ClientSession::dispatch(const v1::ClientMessage& request, v1::ServerMessage
     }
     case v1::ClientMessage::kAbortRun:
       error = service_.abort_run(request.abort_run().reason());
-      if (!error) reply.mutable_abort_run();
+      if (!error) reply.mutable_abort_run()->set_run_id(service_.status().run_id());
       break;
     case v1::ClientMessage::kGetStatus:
-      *reply.mutable_status() = service_.status();
-      return;
+      status(reply);
+      break;
+    case v1::ClientMessage::kClaimControl:
+      error = server_.claim_control(*this, request.claim_control().token());
+      if (error) error->set_field("claim_control." + error->field());
+      else reply.mutable_claim_control();
+      break;
+    case v1::ClientMessage::kReleaseControl:
+      server_.release_control(*this);
+      reply.mutable_release_control();
+      break;
+    case v1::ClientMessage::kListRuns:
+      *reply.mutable_list_runs() = server_.archive().list_runs(request.list_runs());
+      break;
+    case v1::ClientMessage::kGetRun:
+      error = server_.archive().get_run(request.get_run(), *reply.mutable_get_run());
+      break;
+    case v1::ClientMessage::kFetchSamples:
+      error = server_.archive().fetch_samples(request.fetch_samples(), *reply.mutable_fetch_samples());
+      break;
+    case v1::ClientMessage::kExportCsv:
+      error = server_.archive().export_csv(request.export_csv(), *reply.mutable_export_csv());
+      break;
     case v1::ClientMessage::kSetGains:
       error = service_.set_gains(request.set_gains().loop(), request.set_gains().gains(),
                                  *reply.mutable_set_gains());
       break;
     case v1::ClientMessage::kGetGains:
       *reply.mutable_get_gains() = service_.gains();
-      return;
+      break;
     case v1::ClientMessage::kRearm:
       error = service_.rearm(*reply.mutable_rearm());
       break;
@@ -123,46 +205,140 @@ void ClientSession::dispatch(const v1::ClientMessage& request, v1::ServerMessage
     case v1::ClientMessage::kAutotune:
       error = service_.autotune(request.autotune(), *reply.mutable_autotune());
       break;
-    case v1::ClientMessage::BODY_NOT_SET:
-      set_error(reply, v1::MALFORMED_REQUEST, "body", "the request has no body");
-      return;
+    default:
+      error = v1::Error();
+      error->set_code(v1::MALFORMED_REQUEST);
+      error->set_field("body");
+      error->set_message("this daemon does not handle that request");
+      break;
   }
   if (error) *reply.mutable_error() = *error;
 }
 
+void ClientSession::hello(const v1::Hello& hello, v1::ServerMessage& reply) {
+  if (handshake_done_) {
+    return set_error(reply, v1::WRONG_STATE, "hello", "the handshake is already done");
+  }
+  client_name_ = hello.client_name().substr(0, 64);
+  if (hello.api_version() != kApiVersion) {
+    set_error(reply, v1::UNSUPPORTED_VERSION, "hello.api_version",
+              "api_version " + std::to_string(hello.api_version()) +
+                  " is not supported; this daemon speaks version " + std::to_string(kApiVersion));
+    hang_up_ = true;
+    return;
+  }
+  if (hello.role() == v1::CONTROLLER) {
+    if (auto error = server_.claim_control(*this, hello.token())) {
+      error->set_field("hello." + error->field());
+      *reply.mutable_error() = *error;
+      return;
+    }
+  }
+  handshake_done_ = true;
+  v1::HelloReply* out = reply.mutable_hello();
+  out->set_api_version(kApiVersion);
+  out->set_software_version(service_.software_version());
+  out->set_backend(service_.backend_name());
+  out->set_role(server_.controls(*this) ? v1::CONTROLLER : v1::OBSERVER);
+  for (const char* c : {"control", "decimation", "gap-notices", "segment-events", "faults", "fetch", "export", "list"}) {
+    out->add_capabilities(c);
+  }
+  out->set_max_frame_bytes(static_cast<std::uint32_t>(limits_.max_frame_bytes));
+}
+
+void ClientSession::status(v1::ServerMessage& reply) {
+  v1::StatusReply* status = reply.mutable_status();
+  *status = service_.status();
+  server_.fill_status(*this, *status);
+}
+
 void ClientSession::send(const v1::ServerMessage& message) {
   auto frame = std::make_shared<std::string>();
-  if (!wire::append_frame(message, max_frame_bytes_, *frame)) {
+  if (!wire::append_frame(message, kMaxOutgoingFrameBytes, *frame)) {
     spdlog::error("reply of {} bytes exceeds the frame limit", message.ByteSizeLong());
-    return;
+    v1::ServerMessage error;
+    error.set_request_id(message.request_id());
+    set_error(error, v1::INTERNAL, "", "the reply would exceed the frame limit");
+    frame->clear();
+    wire::append_frame(error, kMaxOutgoingFrameBytes, *frame);
   }
   send(std::move(frame));
 }
 
 void ClientSession::send(std::shared_ptr<const std::string> frame) {
-  if (closed_) return;
-  write_queue_.push_back(std::move(frame));
-  if (!writing_) write_next();
+  if (closed_ || !frame) return;
+  // Documents and replies are small; a client that lets them pile up far
+  // beyond its sample budget is not reading at all.
+  if (queued_bytes_ > 2 * limits_.queue_bytes + kMaxOutgoingFrameBytes) {
+    spdlog::warn("client '{}' does not read its replies; closing it", client_name_);
+    return close();
+  }
+  queue(std::move(frame));
 }
 
+void ClientSession::offer_samples(SampleFrames& frames) {
+  if (closed_ || closing_) return;
+  const v1::SampleBlock& block = frames.block();
+  const std::uint64_t first = block.first_sequence();
+  const std::uint64_t end = first + static_cast<std::uint64_t>(sample_count(block));
+  auto frame = frames.frame(decimation_);
+  if (!frame) return;  // nothing of this block at this decimation
+  if (queued_bytes_ + frame->size() > limits_.queue_bytes) {
+    if (!pending_gap_ || pending_gap_->run_id() != block.run_id()) {
+      flush_gap();
+      pending_gap_.emplace();
+      pending_gap_->set_run_id(block.run_id());
+      pending_gap_->set_first_sequence(first);
+      pending_gap_->set_reason("this client read too slowly; the samples are in the recording");
+    }
+    pending_gap_->set_end_sequence(end);
+    return;
+  }
+  flush_gap();
+  queue(std::move(frame));
+}
+
+void ClientSession::flush_gap() {
+  if (!pending_gap_) return;
+  v1::ServerMessage notice;
+  *notice.mutable_gap() = std::move(*pending_gap_);
+  pending_gap_.reset();
+  server_.count_gap_notice();
+  queue(frame_of(notice));
+}
+
+void ClientSession::queue(std::shared_ptr<const std::string> frame) {
+  if (closed_) return;
+  queued_bytes_ += frame->size();
+  write_queue_.push_back(std::move(frame));
+  if (frames_in_flight_ == 0) write_next();
+}
+
+// Writes up to kMaxFramesPerWrite queued frames in one gathered write.
 void ClientSession::write_next() {
   if (write_queue_.empty()) {
-    writing_ = false;
     if (closing_) close();
     return;
   }
-  writing_ = true;
-  asio::async_write(socket_, asio::buffer(*write_queue_.front()),
-                    [self = shared_from_this()](std::error_code ec, std::size_t) {
-                      if (ec) return self->close();
-                      self->write_queue_.pop_front();
-                      self->write_next();
-                    });
+  write_buffers_.clear();
+  for (const auto& frame : write_queue_) {
+    if (write_buffers_.size() == kMaxFramesPerWrite) break;
+    write_buffers_.push_back(asio::buffer(*frame));
+  }
+  frames_in_flight_ = write_buffers_.size();
+  asio::async_write(socket_, write_buffers_, [self = shared_from_this()](std::error_code ec, std::size_t) {
+    if (ec) return self->close();
+    for (; self->frames_in_flight_ > 0; --self->frames_in_flight_) {
+      self->queued_bytes_ -= self->write_queue_.front()->size();
+      self->write_queue_.pop_front();
+    }
+    self->write_next();
+  });
 }
 
 void ClientSession::close_after_writes() {
   closing_ = true;
-  if (!writing_) close();
+  if (frames_in_flight_ == 0) close();
 }
 
 void ClientSession::close() {
@@ -172,6 +348,8 @@ void ClientSession::close() {
   socket_.shutdown(asio::ip::tcp::socket::shutdown_both, ignored);
   socket_.close(ignored);
   write_queue_.clear();
+  queued_bytes_ = 0;
+  frames_in_flight_ = 0;
   server_.remove(this);
 }
 

@@ -90,6 +90,7 @@ class Controller {
 
   const hal::DriveCommand& last_drive() const { return drive_; }
   bool breakaway_hold() const { return breakaway_; }
+  double hold_position_m() const { return hold_position_m_; }
 
  private:
   PidGains& gains_ref(Loop loop);

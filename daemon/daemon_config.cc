@@ -57,6 +57,7 @@ std::optional<std::string> validate_supervisor(const v1::DaemonConfig& c) {
       {"max_lateral_speed_m_per_s", {s.max_lateral_speed_m_per_s(), 1e-9, 10}},
       {"max_lateral_acceleration_m_per_s2", {s.max_lateral_acceleration_m_per_s2(), 1e-9, 1e4}},
       {"frozen_sensor_ticks", {static_cast<double>(s.frozen_sensor_ticks()), 0, 1e7}},
+      {"frozen_channel_ticks", {static_cast<double>(s.frozen_channel_ticks()), 0, 1e7}},
       {"stale_sensor_ticks", {static_cast<double>(s.stale_sensor_ticks()), 1, 1e7}},
       {"lateral_position_range_m", {s.lateral_position_range_m(), 1e-9, 1}},
       {"lateral_force_range_n", {s.lateral_force_range_n(), 1e-9, 10}},
@@ -105,6 +106,9 @@ std::optional<std::string> validate_daemon_config(const v1::DaemonConfig& c) {
   if (c.server().bind_address().empty()) return "server.bind_address is empty";
   if (auto e = out_of_range("server.port", c.server().port(), 0, 65535)) return e;
   if (auto e = out_of_range("server.max_frame_bytes", c.server().max_frame_bytes(), 1024, 64 << 20)) return e;
+  if (c.server().client_queue_bytes() != 0) {
+    if (auto e = out_of_range("server.client_queue_bytes", c.server().client_queue_bytes(), 64 << 10, 1u << 30)) return e;
+  }
   if (c.recorder().data_dir().empty()) return "recorder.data_dir is empty";
   if (auto e = out_of_range("controller.loop_rate_hz", ctl.loop_rate_hz(), 1, 50000)) return e;
   if (auto e = out_of_range("controller.default_acquisition_rate_hz", ctl.default_acquisition_rate_hz(),

@@ -56,6 +56,23 @@ std::optional<Loop> loop_from_proto(v1::ControlLoop loop) {
   }
 }
 
+v1::BackendHealth health_message(std::string_view backend, const hal::BackendHealth& h) {
+  v1::BackendHealth m;
+  m.set_backend(std::string(backend));
+  m.set_connected(h.connected);
+  m.set_transactions(h.transactions);
+  m.set_timeouts(h.timeouts);
+  m.set_exceptions(h.exceptions);
+  m.set_bad_frames(h.bad_frames);
+  m.set_link_losses(h.link_losses);
+  m.set_reconnect_attempts(h.reconnect_attempts);
+  m.set_last_io_s(h.last_io_s);
+  m.set_max_io_s(h.max_io_s);
+  m.set_last_error(h.last_error);
+  m.set_first_error(h.first_error);
+  return m;
+}
+
 }  // namespace
 
 struct InstrumentService::ActiveRun {
@@ -71,7 +88,36 @@ struct InstrumentService::ActiveRun {
   RunTelemetry telemetry;
   std::unique_ptr<RunRecorder> recorder;
   std::uint64_t published = 0;  // drain thread only
+  // Drain thread: where the safe unload began (the fault's sequence).
+  std::optional<std::uint64_t> unload_sequence;
+  double unload_time_s = 0;
+  // Published by the drain thread for status requests.
+  std::atomic<std::uint64_t> recorded{0};
+  std::atomic<std::uint64_t> sensor_invalid{0};
+  std::atomic<double> latest_time_s{0};
 };
+
+namespace {
+
+std::uint64_t unix_time_ns() {
+  return static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                        std::chrono::system_clock::now().time_since_epoch())
+                                        .count());
+}
+
+v1::RunDescriptor make_descriptor(const LoadFunction& load_function) {
+  v1::RunDescriptor d;
+  describe_channels(d);
+  d.set_expected_samples(load_function.expected_samples());
+  d.set_duration_s(static_cast<double>(load_function.total_ticks()) / load_function.loop_rate_hz());
+  // segment_index counts the unrolled segments (repeat blocks expanded).
+  for (const SegmentPlan& plan : load_function.segments()) d.add_segment_names(plan.name);
+  return d;
+}
+
+}  // namespace
+
+std::string InstrumentService::backend_name() const { return hal::backend_name(config_); }
 
 InstrumentService::InstrumentService(v1::DaemonConfig config, std::string software_version,
                                      RunEventSink& sink)
@@ -102,6 +148,7 @@ std::optional<v1::Error> InstrumentService::load_protocol(const v1::Protocol& pr
   }
   protocol_ = protocol;
   load_function_ = std::move(check.load_function);
+  loaded_duration_s_ = check.duration_s;
   if (state_ != v1::FAULTED) state_ = v1::ARMED;  // a fault needs an explicit re-arm
   reply.set_protocol_name(protocol.name());
   reply.set_duration_s(check.duration_s);
@@ -126,6 +173,7 @@ std::optional<v1::Error> InstrumentService::start_run(std::optional<std::uint64_
   v1::RunStart& start = run->start;
   *start.mutable_protocol() = *protocol_;
   *start.mutable_config() = config_;
+  start.mutable_config()->mutable_server()->clear_control_token();  // the run documents are public
   *start.mutable_lateral_gains() = gains_[v1::LOOP_LATERAL_DISPLACEMENT - 1];
   // The gains in force (SetGains) go into the recorded config too.
   auto& recorded = *start.mutable_config()->mutable_controller();
@@ -163,7 +211,11 @@ std::optional<v1::Error> InstrumentService::start_run(std::optional<std::uint64_
   reply.set_run_id(start.run_id());
   last_run_id_ = start.run_id();
   state_ = v1::RUNNING;
+  v1::RunDescriptor descriptor = make_descriptor(load_function_);
+  descriptor.set_run_id(start.run_id());
+  run->recorder->describe(descriptor);
   sink_.on_run_start(start);
+  sink_.on_descriptor(descriptor);
   spdlog::info("run {} started: protocol '{}', seed {}", start.run_id(), protocol_->name(), run_seed);
   run_ = std::move(run);
   run_thread_ = std::thread([this, r = run_.get()] { run_main(*r); });
@@ -173,6 +225,7 @@ std::optional<v1::Error> InstrumentService::start_run(std::optional<std::uint64_
 std::optional<v1::Error> InstrumentService::abort_run(const std::string& reason) {
   std::lock_guard lock(mutex_);
   if (state_ != v1::RUNNING || !run_) return make_error(v1::WRONG_STATE, "", "no run in progress");
+  if (run_->control.abort_requested.load()) return std::nullopt;  // the first reason stands
   run_->abort_reason = reason.empty() ? "aborted by client" : reason;
   run_->control.abort_requested.store(true);
   return std::nullopt;
@@ -185,6 +238,29 @@ v1::StatusReply InstrumentService::status() const {
   s.set_run_id(last_run_id_);
   s.set_cycle_count(run_ ? run_->telemetry.cycles.load() : last_cycle_count_);
   if (protocol_) s.set_loaded_protocol(protocol_->name());
+  DrainCounters counters = last_counters_;
+  if (run_) {
+    counters.recorded = run_->recorded.load();
+    counters.dropped = run_->telemetry.samples_dropped.load();
+    counters.sensor_invalid = run_->sensor_invalid.load();
+    counters.time_s = run_->latest_time_s.load();
+  }
+  s.set_samples_recorded(counters.recorded);
+  s.set_samples_dropped(counters.dropped);
+  s.set_run_time_s(counters.time_s);
+  s.set_run_duration_s(loaded_duration_s_);
+  // The link's own record (issue 6) plus what the recorded samples say.
+  v1::BackendHealth* health = s.mutable_backend_health();
+  *health = run_ && run_->transducer
+                ? health_message(run_->transducer->backend_name(), run_->transducer->health())
+                : last_backend_health_;
+  health->set_backend(backend_name());
+  health->set_sensor_invalid_samples(counters.sensor_invalid);
+  health->set_healthy(counters.sensor_invalid == 0 && health->first_error().empty());
+  health->set_detail(counters.sensor_invalid == 0
+                         ? "no invalid sensor reading in the current or last run"
+                         : std::to_string(counters.sensor_invalid) +
+                               " recorded samples flagged SENSOR_INVALID in the current or last run");
   if (run_) {
     fill_timing(run_->telemetry, s);
     if (run_->telemetry.tripped.load()) s.set_tripped(true);
@@ -349,6 +425,22 @@ void InstrumentService::run_main(ActiveRun& run) {
   stop.set_sample_count(run.published);
   stop.set_cycle_count(outcome.cycles);
   stop.set_stop_time_utc(utc_timestamp_iso8601());
+  std::string trip_text = trip_description(outcome.trip);
+  if (outcome.trip.reason == TripReason::kEmergencyStop) {
+    std::lock_guard lock(mutex_);
+    if (!run.emergency_reason.empty()) {
+      trip_text = std::string(trip_reason_text(TripReason::kEmergencyStop)) + ": " + run.emergency_reason;
+    }
+  }
+  if (outcome.end == RunEnd::kTripped) {
+    v1::Fault fault;
+    fault.set_run_id(run.start.run_id());
+    fault.set_sequence(run.unload_sequence.value_or(run.published));
+    fault.set_time_s(run.unload_time_s);
+    fault.set_reason(trip_text);
+    run.recorder->record(fault);
+    sink_.on_fault(fault);
+  }
   {
     std::lock_guard lock(mutex_);
     switch (outcome.end) {
@@ -361,13 +453,24 @@ void InstrumentService::run_main(ActiveRun& run) {
         break;
       case RunEnd::kTripped:
         stop.set_exit_status(v1::FAULT);
-        stop.set_reason(trip_description(outcome.trip));
-        if (outcome.trip.reason == TripReason::kEmergencyStop && !run.emergency_reason.empty()) {
-          stop.set_reason(std::string(trip_reason_text(TripReason::kEmergencyStop)) + ": " +
-                          run.emergency_reason);
-        }
+        stop.set_reason(trip_text);
         break;
     }
+  }
+  // A real backend says what its link did; a run that did not complete
+  // because of it records why.
+  const hal::BackendHealth health = run.transducer->health();
+  *stop.mutable_backend_health() = health_message(run.transducer->backend_name(), health);
+  if (outcome.end != RunEnd::kCompleted && !health.first_error.empty()) {
+    stop.set_reason(stop.reason() + "; backend " + std::string(run.transducer->backend_name()) + ": " +
+                    health.first_error);
+  }
+  if (health.errors() > 0 || health.max_io_s > 0) {
+    spdlog::info("run {} backend {}: {} transactions, {} timeouts, {} exceptions, {} bad frames, {} link losses, "
+                 "{} reconnect attempts, max I/O {:.3f} ms",
+                 stop.run_id(), run.transducer->backend_name(), health.transactions, health.timeouts,
+                 health.exceptions, health.bad_frames, health.link_losses, health.reconnect_attempts,
+                 health.max_io_s * 1e3);
   }
   if (const auto dropped = run.telemetry.samples_dropped.load(); dropped > 0) {
     stop.set_reason(stop.reason() + (stop.reason().empty() ? "" : "; ") +
@@ -381,6 +484,9 @@ void InstrumentService::run_main(ActiveRun& run) {
     // starts the next run as soon as it sees it must find the daemon ready.
     std::lock_guard lock(mutex_);
     last_cycle_count_ = outcome.cycles;
+    last_counters_ = DrainCounters{run.recorded.load(), run.telemetry.samples_dropped.load(),
+                                   run.sensor_invalid.load(), run.latest_time_s.load()};
+    last_backend_health_ = stop.backend_health();
     state_ = outcome.end == RunEnd::kTripped ? v1::FAULTED : v1::ARMED;
     last_timing_.Clear();
     fill_timing(run.telemetry, last_timing_);
@@ -394,26 +500,61 @@ void InstrumentService::run_main(ActiveRun& run) {
   sink_.on_run_stop(stop);
 }
 
+// Records every sample, then publishes it: the recorder is flushed before a
+// block goes out, so whatever a client has missed is already on disk. Segment
+// events go out between the samples before and after them.
 void InstrumentService::drain_samples(ActiveRun& run) {
   v1::SampleBlock block;
   auto last_publish = std::chrono::steady_clock::now();
   const auto publish = [&] {
     if (sample_count(block) == 0) return;
+    run.recorder->flush();
     block.set_run_id(run.start.run_id());
     block.set_first_sequence(run.published);
     run.published += sample_count(block);
+    run.recorded.store(run.published, std::memory_order_relaxed);
+    run.latest_time_s.store(block.time_s(sample_count(block) - 1), std::memory_order_relaxed);
+    block.set_publish_time_unix_ns(unix_time_ns());
     sink_.on_samples(block);
     block.Clear();
     last_publish = std::chrono::steady_clock::now();
   };
+  const auto segment_event = [&](v1::SegmentEventKind kind, const Sample& s, std::uint64_t sequence) {
+    publish();
+    v1::SegmentEvent event;
+    event.set_run_id(run.start.run_id());
+    event.set_sequence(sequence);
+    event.set_time_s(s.time_s);
+    event.set_kind(kind);
+    event.set_segment_index(s.segment_index);
+    const auto& segments = run.start.protocol().segments();
+    if (static_cast<int>(s.segment_index) < segments.size()) {
+      event.set_segment_name(segments[static_cast<int>(s.segment_index)].name());
+    }
+    run.recorder->record(event);
+    sink_.on_segment_event(event);
+  };
+  std::optional<std::uint32_t> segment;
+  std::uint64_t sequence = 0;  // of the next sample popped
   for (;;) {
     const bool finished = run.loop_finished.load(std::memory_order_acquire);
     Sample s;
     bool any = false;
     while (run.queue.try_pop(s)) {
       any = true;
+      const bool unloading = (s.status_flags & v1::SAFE_UNLOAD) != 0;
+      if (unloading && !run.unload_sequence) {
+        run.unload_sequence = sequence;
+        run.unload_time_s = s.time_s;
+        segment_event(v1::UNLOAD_BEGIN, s, sequence);
+      } else if (!unloading && segment != s.segment_index) {
+        segment_event(v1::SEGMENT_BEGIN, s, sequence);
+      }
+      segment = s.segment_index;
+      if (s.status_flags & v1::SENSOR_INVALID) run.sensor_invalid.fetch_add(1, std::memory_order_relaxed);
       run.recorder->append(s);
       append_sample(s, block);
+      ++sequence;
       if (sample_count(block) >= kBlockSamples) publish();
     }
     if (finished) break;  // everything pushed before the flag was set is drained

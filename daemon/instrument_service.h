@@ -19,14 +19,19 @@
 
 namespace tribo::daemon {
 
-// Receives run documents in order: start, sample blocks, stop. Called from the
-// service's threads; implementations must not block for long.
+// Receives run documents in order: start, descriptor, sample blocks
+// interleaved with segment events (an event follows the samples before its
+// sequence number), faults, stop. Called from the service's threads;
+// implementations must not block for long.
 class RunEventSink {
  public:
   virtual ~RunEventSink() = default;
   virtual void on_run_start(const v1::RunStart& start) = 0;
   virtual void on_samples(const v1::SampleBlock& block) = 0;
   virtual void on_run_stop(const v1::RunStop& stop) = 0;
+  virtual void on_descriptor(const v1::RunDescriptor&) {}
+  virtual void on_segment_event(const v1::SegmentEvent&) {}
+  virtual void on_fault(const v1::Fault&) {}
 };
 
 class InstrumentService {
@@ -60,6 +65,8 @@ class InstrumentService {
 
   const v1::DaemonConfig& config() const { return config_; }
   const std::string& software_version() const { return software_version_; }
+  // "sim", ...: the configured transducer backend.
+  std::string backend_name() const;
 
  private:
   struct ActiveRun;
@@ -82,6 +89,13 @@ class InstrumentService {
   std::string trip_reason_;            // the latched (or last) trip
   double trip_time_s_ = 0;
   v1::StatusReply last_timing_;        // timing fields of the last run
+  double loaded_duration_s_ = 0;
+  struct DrainCounters {
+    std::uint64_t recorded = 0, dropped = 0, sensor_invalid = 0;
+    double time_s = 0;
+  };
+  DrainCounters last_counters_;  // of the last finished run
+  v1::BackendHealth last_backend_health_;
   std::thread run_thread_;
 };
 

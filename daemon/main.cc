@@ -14,6 +14,7 @@
 #include "daemon/api_server.h"
 #include "daemon/daemon_config.h"
 #include "daemon/instrument_service.h"
+#include "hal/backend_factory.h"
 #include "tribo/version.h"
 
 namespace {
@@ -24,6 +25,10 @@ constexpr const char* kUsage =
     "  --port N         TCP port to listen on; 0 picks a free one (overrides server.port)\n"
     "  --bind ADDRESS   address to listen on (overrides server.bind_address)\n"
     "  --data-dir DIR   where runs are recorded (overrides recorder.data_dir)\n"
+    "The control token comes from $TRIBOD_CONTROL_TOKEN (or the variable named by\n"
+    "server.control_token_env), else server.control_token. Binding an address\n"
+    "outside 127.0.0.0/8 needs a token. Exit codes: 0 stopped by a signal,\n"
+    "1 cannot listen, 2 bad usage, config or bind policy.\n"
     "On start it prints 'tribod listening on ADDRESS:PORT' on stdout.\n";
 
 struct Options {
@@ -78,10 +83,16 @@ int main(int argc, char** argv) {
   if (options.bind) config.mutable_server()->set_bind_address(*options.bind);
   if (options.data_dir) config.mutable_recorder()->set_data_dir(*options.data_dir);
 
+  const std::string token = tribo::daemon::resolve_control_token(config.server());
+  if (auto refusal = tribo::daemon::check_bind_policy(config.server(), token)) {
+    std::cerr << "tribod: " << *refusal << "\n";
+    return 2;
+  }
+
   asio::io_context io;
   std::unique_ptr<tribo::daemon::ApiServer> server;
   try {
-    server = std::make_unique<tribo::daemon::ApiServer>(io, config.server());
+    server = std::make_unique<tribo::daemon::ApiServer>(io, config.server(), token);
   } catch (const std::exception& e) {
     std::cerr << "tribod: cannot listen on " << config.server().bind_address() << ":"
               << config.server().port() << ": " << e.what() << "\n";
@@ -107,10 +118,10 @@ int main(int argc, char** argv) {
   std::printf("tribod listening on %s:%u\n", config.server().bind_address().c_str(),
               static_cast<unsigned>(server->port()));
   std::fflush(stdout);
-  spdlog::info("tribo {} serving on {}:{} (backend: {}, loop {} Hz, data in {})",
+  spdlog::info("tribo {} serving on {}:{} (backend: {}, loop {} Hz, data in {}, control {})",
                tribo::kSoftwareVersion, config.server().bind_address(), server->port(),
-               config.backend_case() == tribo::v1::DaemonConfig::kSim ? "sim" : "other",
-               config.controller().loop_rate_hz(), config.recorder().data_dir());
+               service.backend_name(), config.controller().loop_rate_hz(), config.recorder().data_dir(),
+               token.empty() ? "open to local clients" : "needs the token");
   io.run();
   if (stopper.joinable()) stopper.join();
   spdlog::info("stopped");

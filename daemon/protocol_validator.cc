@@ -403,6 +403,11 @@ void Checker::check_segment(const ExpandedSegment& e) {
   }
   const double exact_ticks = duration * loop_hz_;
   const auto ticks = static_cast<std::uint64_t>(std::llround(exact_ticks));
+  if (ticks == 0) {  // found by the protocol_validator fuzz target: 1e-183 s passed as 0 whole periods
+    error(at + ".duration_s", label + ": duration_s = " + fmt(duration) +
+                                  " s is shorter than one loop period (1/" + fmt(loop_hz_) + " s)");
+    return;
+  }
   if (std::fabs(exact_ticks - static_cast<double>(ticks)) > 1e-6 * std::max(1.0, exact_ticks)) {
     error(at + ".duration_s", label + ": duration_s = " + fmt(duration) +
                                   " s is not a whole number of loop periods (1/" + fmt(loop_hz_) + " s)");

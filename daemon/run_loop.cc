@@ -3,6 +3,7 @@
 #include <sys/prctl.h>
 
 #include <algorithm>
+#include <cmath>
 #include <thread>
 
 #include "tribo/v1/api.pb.h"
@@ -68,7 +69,14 @@ void RunLoop::start_stopping(RunEnd end) {
   }
   if (stopping_) return;  // a trip while stopping after an abort: same sequence
   stopping_ = true;
-  stop_.begin(controller_.last_drive(), frame_, sp_.segment, sp_.ticks_per_sample);
+  // Hold where the lateral loop holds now: its setpoint, the break-away hold,
+  // or in force control the measured position (NaN: hold by the drive).
+  double hold = frame_.lateral_position_m;
+  if (sp_.lateral_mode == LateralMode::kDisplacement) hold = sp_.lateral;
+  if (controller_.breakaway_hold()) hold = controller_.hold_position_m();
+  if (tick_ == 0) hold = frame_.lateral_position_m;  // no setpoint yet
+  if (end == RunEnd::kTripped && outcome_.trip.lateral_position_suspect) hold = std::nan("");
+  stop_.begin(controller_.last_drive(), hold, sp_.segment, sp_.ticks_per_sample);
 }
 
 void RunLoop::finish() {
@@ -90,6 +98,10 @@ bool RunLoop::tick() {
   const std::uint64_t t0 = monotonic_ns();
 
   const hal::IoResult read = transducer_.read(frame_);
+  // The last finite value of each position channel: where a segment begins
+  // when its first tick's read fails.
+  if (std::isfinite(frame_.lateral_position_m)) last_lateral_position_m_ = frame_.lateral_position_m;
+  if (std::isfinite(frame_.normal_displacement_m)) last_normal_displacement_m_ = frame_.normal_displacement_m;
   const std::uint64_t t1 = monotonic_ns();
 
   GainUpdate update;
@@ -121,8 +133,8 @@ bool RunLoop::tick() {
     // Forces from the supervisor's low-pass (the raw channels are noisy); a
     // contact force cannot be negative, so a closed loop never starts there.
     measured.normal_force_n = std::max(0.0, supervisor_.filtered_normal_force_n());
-    measured.normal_displacement_m = frame_.normal_displacement_m;
-    measured.lateral_position_m = frame_.lateral_position_m;
+    measured.normal_displacement_m = last_normal_displacement_m_;
+    measured.lateral_position_m = last_lateral_position_m_;
     measured.lateral_force_n = supervisor_.filtered_lateral_force_n();
     sp_ = runner_.at(tick_, measured);
   }

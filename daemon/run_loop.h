@@ -113,6 +113,8 @@ class RunLoop {
   bool stopping_ = false;
   std::uint64_t tick_ = 0;
   hal::SensorFrame frame_;
+  double last_lateral_position_m_ = 0;
+  double last_normal_displacement_m_ = 0;
   hal::IoResult last_write_ = hal::IoResult::kOk;
   TickSetpoints sp_;
 };

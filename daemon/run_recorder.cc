@@ -59,7 +59,8 @@ std::unique_ptr<RunRecorder> RunRecorder::create(const fs::path& data_dir, v1::R
     return nullptr;
   }
   const std::string header = csv_header();
-  if (std::fwrite(header.data(), 1, header.size(), samples) != header.size()) {
+  if (std::fwrite(header.data(), 1, header.size(), samples) != header.size() ||
+      std::fflush(samples) != 0) {
     error = "cannot write " + (dir / wire::kSamplesFile).string();
     return nullptr;
   }
@@ -75,18 +76,33 @@ RunRecorder::~RunRecorder() {
   if (samples_ != nullptr) std::fclose(samples_);
 }
 
-void RunRecorder::append(const Sample& sample) {
-  append_csv_row(sample, block_);
-  if (++block_samples_ >= kBlockSamples) flush_block();
+void RunRecorder::describe(v1::RunDescriptor descriptor) {
+  descriptor.set_run_id(metadata_.start().run_id());
+  *metadata_.mutable_run_descriptor() = std::move(descriptor);
+  if (!write_metadata()) write_failed_ = true;
 }
 
-void RunRecorder::flush_block() {
-  if (!block_.empty() && std::fwrite(block_.data(), 1, block_.size(), samples_) != block_.size()) {
-    write_failed_ = true;
-  }
+void RunRecorder::append(const Sample& sample) {
+  append_csv_row(sample, block_);
+  if (++block_samples_ >= kBlockSamples) flush();
+}
+
+void RunRecorder::flush() {
+  if (block_samples_ == 0) return;
+  if (std::fwrite(block_.data(), 1, block_.size(), samples_) != block_.size()) write_failed_ = true;
   if (std::fflush(samples_) != 0) write_failed_ = true;
   block_.clear();
   block_samples_ = 0;
+}
+
+void RunRecorder::record(const v1::SegmentEvent& event) {
+  *metadata_.add_segment_events() = event;
+  if (!write_metadata()) write_failed_ = true;
+}
+
+void RunRecorder::record(const v1::Fault& fault) {
+  *metadata_.add_faults() = fault;
+  if (!write_metadata()) write_failed_ = true;
 }
 
 bool RunRecorder::write_metadata() {
@@ -95,7 +111,7 @@ bool RunRecorder::write_metadata() {
 }
 
 bool RunRecorder::finish(const v1::RunStop& stop) {
-  flush_block();
+  flush();
   *metadata_.mutable_stop() = stop;
   if (!write_metadata()) write_failed_ = true;
   return !write_failed_;

@@ -1,7 +1,10 @@
 // Records one run to disk in the layout of proto/run_files.h: samples.csv is
-// append-only, written in blocks and flushed after each; metadata.json is
-// written at start and rewritten atomically with the stop document at the end.
-// A run cut short by a crash is readable up to its last flushed block.
+// append-only, written in blocks of whole rows and flushed after each;
+// metadata.json is written at start (with the descriptor), rewritten
+// atomically at each segment event and fault, and with the stop document at
+// the end. A run cut short by a crash or a kill is readable up to its last
+// flushed block. The drain thread flushes before it publishes samples, so
+// every sample a client has seen can be fetched back from the file.
 #pragma once
 
 #include <cstdio>
@@ -22,7 +25,13 @@ class RunRecorder {
                                              v1::RunStart& start, std::string& error);
   ~RunRecorder();
 
+  // Stores the descriptor (run_id is set here) and rewrites the metadata.
+  void describe(v1::RunDescriptor descriptor);
   void append(const Sample& sample);
+  // Writes the buffered rows and flushes them to the OS.
+  void flush();
+  void record(const v1::SegmentEvent& event);
+  void record(const v1::Fault& fault);
   // Flushes the samples and writes the final metadata. Returns false on a write error.
   bool finish(const v1::RunStop& stop);
 
@@ -31,7 +40,6 @@ class RunRecorder {
 
  private:
   RunRecorder(std::filesystem::path directory, std::FILE* samples, v1::RunMetadata metadata);
-  void flush_block();
   bool write_metadata();
 
   static constexpr std::size_t kBlockSamples = 4096;

@@ -44,6 +44,7 @@ SupervisorParams supervisor_params_from_config(const v1::DaemonConfig& c) {
   p.max_lateral_speed_m_per_s = s.max_lateral_speed_m_per_s();
   p.max_lateral_acceleration_m_per_s2 = s.max_lateral_acceleration_m_per_s2();
   p.frozen_sensor_ticks = s.frozen_sensor_ticks();
+  p.frozen_channel_ticks = s.frozen_channel_ticks();
   p.stale_sensor_ticks = std::max<std::uint32_t>(1, s.stale_sensor_ticks());
   p.lateral_position_range_m = s.lateral_position_range_m();
   p.lateral_force_range_n = s.lateral_force_range_n();
@@ -124,6 +125,12 @@ TripReason SafetySupervisor::evaluate(const SupervisorInput& in, std::uint64_t t
     return latch(TripReason::kSensorStale, tick, "%.0f consecutive reads failed (limit %.0f)",
                  failed_reads_, p_.stale_sensor_ticks);
   }
+  if (overrun_trip(in.overruns, tick)) {
+    return latch(TripReason::kLoopOverrun, tick, "%.0f overruns within %g s", p_.overrun_trip_count,
+                 p_.overrun_window_s);
+  }
+  // A failed read carries no values (NaN, hal/transducer.h): nothing more to check this tick.
+  if (!fresh) return TripReason::kNone;
   const double channels[4] = {f.lateral_position_m, f.lateral_force_n, f.normal_force_n,
                               f.normal_displacement_m};
   static constexpr const char* kNames[4] = {"lateral position", "lateral force", "normal force",
@@ -132,6 +139,7 @@ TripReason SafetySupervisor::evaluate(const SupervisorInput& in, std::uint64_t t
     if (!std::isfinite(channels[i])) {
       trip_.reason = TripReason::kSensorNotFinite;
       trip_.tick = tick;
+      trip_.lateral_position_suspect = i == 0;
       std::snprintf(trip_.detail.data(), trip_.detail.size(), "%s reads %f", kNames[i], channels[i]);
       return trip_.reason;
     }
@@ -142,27 +150,30 @@ TripReason SafetySupervisor::evaluate(const SupervisorInput& in, std::uint64_t t
     if (ranges[i] > 0 && std::fabs(channels[i]) > ranges[i]) {
       trip_.reason = TripReason::kSensorOutOfRange;
       trip_.tick = tick;
+      trip_.lateral_position_suspect = i == 0;
       std::snprintf(trip_.detail.data(), trip_.detail.size(), "%s reads %g, full scale +-%g (SI)",
                     kNames[i], channels[i], ranges[i]);
       return trip_.reason;
     }
   }
-  if (fresh && p_.frozen_sensor_ticks > 0) {
-    for (int i = 0; i < 4; ++i) {
-      if (repeats_[i].update(channels[i]) >= p_.frozen_sensor_ticks) {
-        trip_.reason = TripReason::kSensorFrozen;
-        trip_.tick = tick;
-        std::snprintf(trip_.detail.data(), trip_.detail.size(),
-                      "%s repeated %g for %u ticks", kNames[i], channels[i], p_.frozen_sensor_ticks);
-        return trip_.reason;
-      }
+  std::uint32_t least_repeats = ~0u;
+  for (int i = 0; i < 4; ++i) {
+    const std::uint32_t repeats = repeats_[i].update(channels[i]);
+    least_repeats = std::min(least_repeats, repeats);
+    if (p_.frozen_channel_ticks > 0 && repeats >= p_.frozen_channel_ticks) {
+      trip_.reason = TripReason::kSensorFrozen;
+      trip_.tick = tick;
+      trip_.lateral_position_suspect = i == 0;
+      std::snprintf(trip_.detail.data(), trip_.detail.size(), "%s repeated %g for %u ticks", kNames[i],
+                    channels[i], p_.frozen_channel_ticks);
+      return trip_.reason;
     }
   }
-  if (overrun_trip(in.overruns, tick)) {
-    return latch(TripReason::kLoopOverrun, tick, "%.0f overruns within %g s", p_.overrun_trip_count,
-                 p_.overrun_window_s);
+  if (p_.frozen_sensor_ticks > 0 && least_repeats >= p_.frozen_sensor_ticks) {
+    trip_.lateral_position_suspect = true;
+    return latch(TripReason::kSensorFrozen, tick, "all four channels repeated their values for %.0f ticks",
+                 p_.frozen_sensor_ticks, 0);
   }
-
   // Filtered forces, velocity and acceleration.
   const double normal = normal_force_.update(f.normal_force_n);
   const double lateral = lateral_force_.update(f.lateral_force_n);

@@ -6,12 +6,17 @@
 // Checks, in this order (the first that fails is the recorded reason):
 //   emergency stop      a client asked for it
 //   backend lost        read() or write() reported kLinkDown
-//   sensor stale        stale_sensor_ticks consecutive failed reads (kTimeout)
+//   sensor stale        stale_sensor_ticks consecutive failed reads (kTimeout);
+//                       a failed read carries NaN (hal/transducer.h), so the
+//                       checks of values below skip that tick
 //   sensor not finite   NaN or infinity on any channel
 //   sensor out of range beyond a channel's full scale (supervisor.*_range_*)
-//   sensor frozen       a channel bit-identical for frozen_sensor_ticks ticks
-//                       (a live ADC always toggles its last bits; 0 turns it off)
+//   sensor frozen       all four channels bit-identical for frozen_sensor_ticks
+//                       ticks (the readout stopped), or one channel for
+//                       frozen_channel_ticks (only where noise exceeds the
+//                       resolution of every channel; 0 turns either off)
 //   loop overrun        overrun_trip_count overruns within overrun_window_s
+//                       (checked right after the stale count)
 //   normal force        filtered contact force above limits.max_normal_force_n
 //   lateral force       |filtered lateral force| above limits.max_lateral_force_n
 //   lateral travel      |position| beyond limits.max_lateral_travel_m
@@ -86,6 +91,7 @@ struct SupervisorParams {
   double max_lateral_speed_m_per_s = 0;
   double max_lateral_acceleration_m_per_s2 = 0;
   std::uint32_t frozen_sensor_ticks = 0;
+  std::uint32_t frozen_channel_ticks = 0;
   std::uint32_t stale_sensor_ticks = 1;
   double lateral_position_range_m = 0;
   double lateral_force_range_n = 0;
@@ -106,7 +112,7 @@ SupervisorParams supervisor_params_from_config(const v1::DaemonConfig& config);
 
 // What the supervisor sees of one tick.
 struct SupervisorInput {
-  hal::SensorFrame frame;         // the latest reading (unchanged after a failed read)
+  hal::SensorFrame frame;         // the latest reading (NaN after a failed read)
   hal::IoResult read = hal::IoResult::kOk;
   hal::IoResult last_write = hal::IoResult::kOk;
   std::uint64_t overruns = 0;     // the backend's running count
@@ -122,6 +128,9 @@ struct SupervisorInput {
 struct Trip {
   TripReason reason = TripReason::kNone;
   std::uint64_t tick = 0;
+  // The lateral position reading itself failed (frozen, not finite, out of
+  // range): the stop sequence must not hold the tip by it.
+  bool lateral_position_suspect = false;
   std::array<char, 192> detail{};
 };
 
@@ -153,6 +162,7 @@ class SafetySupervisor {
   Trip trip_;
   LowPass normal_force_, lateral_force_, velocity_, acceleration_;
   std::array<RepeatCounter, 4> repeats_;
+  std::uint32_t frame_repeats_ = 0;
   double previous_position_m_ = 0;
   double previous_velocity_ = 0;
   std::uint64_t motion_samples_ = 0;

@@ -14,14 +14,14 @@ double towards_zero(double value, double step) {
 
 }  // namespace
 
-void StopSequence::begin(const hal::DriveCommand& drive, const hal::SensorFrame& frame,
+void StopSequence::begin(const hal::DriveCommand& drive, double hold_position_m,
                          std::uint32_t segment, std::uint32_t ticks_per_sample) {
   phase_ = StopPhase::kUnload;
   phase_ticks_ = 0;
   settle_ticks_ = 2ull * std::max<std::uint32_t>(1, ticks_per_sample);
   normal_drive_n_ = std::isfinite(drive.normal_force_n) ? drive.normal_force_n : 0.0;
-  lateral_open_loop_ = !std::isfinite(frame.lateral_position_m);
-  lateral_ = lateral_open_loop_ ? drive.lateral_force_n : frame.lateral_position_m;
+  lateral_open_loop_ = !std::isfinite(hold_position_m);
+  lateral_ = lateral_open_loop_ ? drive.lateral_force_n : hold_position_m;
   sp_ = TickSetpoints{};
   sp_.segment = segment;
   sp_.ticks_per_sample = ticks_per_sample;

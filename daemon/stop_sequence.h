@@ -3,8 +3,10 @@
 //
 //   1. unload   the normal axis goes to open-loop force and its drive ramps
 //               from the present drive to 0 at unload_rate_n_per_s; the
-//               lateral axis holds its measured position (displacement mode,
-//               bumpless), so an unloading tip is not dragged;
+//               lateral axis holds its position (displacement mode,
+//               bumpless): the present position setpoint, or in force
+//               control the measured position, so an unloading tip is not
+//               dragged;
 //   2. hold     both held for hold_s once the normal drive is 0;
 //   3. retract  the lateral setpoint moves to the neutral point x = 0 at
 //               retract_speed_m_per_s;
@@ -12,8 +14,9 @@
 //               displacement loop lags a ramp), at least two recorded
 //               samples and at most max_settle_s; then done().
 //
-// If the lateral position reading is not finite when the sequence begins,
-// the lateral axis cannot be held by position: it holds its last drive and
+// Without a finite position to hold (the reading failed, is not finite, or
+// the trip says the position reading itself is suspect), the
+// lateral axis cannot be held by position: it holds its last drive and
 // retracts by ramping the drive to 0 (the spring returns the tip), at the
 // spring force rate k * retract_speed.
 #pragma once
@@ -41,8 +44,9 @@ class StopSequence {
  public:
   explicit StopSequence(const StopSequenceParams& params) : p_(params) {}
 
-  // Starts from the present drive and reading; ticks_per_sample sets the settle time.
-  void begin(const hal::DriveCommand& drive, const hal::SensorFrame& frame, std::uint32_t segment,
+  // Starts from the present drive, holding the lateral axis at hold_position_m
+  // (not finite: by its drive); ticks_per_sample sets the settle time.
+  void begin(const hal::DriveCommand& drive, double hold_position_m, std::uint32_t segment,
              std::uint32_t ticks_per_sample);
 
   // The setpoints of the next tick; frame is the present reading.

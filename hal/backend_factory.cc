@@ -1,10 +1,27 @@
 #include "hal/backend_factory.h"
 
+#include <algorithm>
+#include <cmath>
+
+#include "hal/modbus_link.h"
+#include "hal/modbus_register_map.h"
+#include "hal/modbus_transducer.h"
 #include "hal/sim_transducer.h"
 #include "sim/fault_injection.h"
 #include "sim/instrument_params.h"
 
 namespace tribo::hal {
+
+namespace {
+
+MapRequirements map_requirements(const v1::DaemonConfig& config) {
+  const auto& limits = config.limits();
+  const auto& lateral = config.controller().lateral_displacement();
+  return MapRequirements{limits.max_lateral_travel_m(), limits.max_lateral_force_n(), limits.max_normal_force_n(),
+                         std::max(std::fabs(lateral.output_min()), std::fabs(lateral.output_max()))};
+}
+
+}  // namespace
 
 std::unique_ptr<Transducer> make_transducer(const v1::DaemonConfig& config, std::uint64_t seed) {
   switch (config.backend_case()) {
@@ -13,6 +30,10 @@ std::unique_ptr<Transducer> make_transducer(const v1::DaemonConfig& config, std:
                                              config.controller().loop_rate_hz(),
                                              config.controller().pace_to_wall_clock(),
                                              sim::fault_schedule_from_config(config.sim().faults()));
+    case v1::DaemonConfig::kModbus:
+      return std::make_unique<ModbusTransducer>(link_settings_from_config(config.modbus()),
+                                                register_map_from_config(config.modbus().register_map()),
+                                                config.controller().loop_rate_hz(), seed);
     case v1::DaemonConfig::BACKEND_NOT_SET:
       break;
   }
@@ -23,16 +44,22 @@ std::optional<std::string> validate_backend_config(const v1::DaemonConfig& confi
   switch (config.backend_case()) {
     case v1::DaemonConfig::kSim:
       return sim::validate_sim_config(config.sim());
+    case v1::DaemonConfig::kModbus:
+      if (auto e = validate_link_config(config.modbus())) return e;
+      if (!config.modbus().has_register_map()) return "modbus.register_map: missing";
+      return validate_register_map(config.modbus().register_map(), map_requirements(config));
     case v1::DaemonConfig::BACKEND_NOT_SET:
       break;
   }
-  return "backend: no backend configured (set sim { ... })";
+  return "backend: no backend configured (set sim { ... } or modbus { ... })";
 }
 
 std::string backend_name(const v1::DaemonConfig& config) {
   switch (config.backend_case()) {
     case v1::DaemonConfig::kSim:
       return "sim";
+    case v1::DaemonConfig::kModbus:
+      return "modbus";
     case v1::DaemonConfig::BACKEND_NOT_SET:
       break;
   }

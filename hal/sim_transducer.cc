@@ -1,5 +1,7 @@
 #include "hal/sim_transducer.h"
 
+#include <limits>
+
 namespace tribo::hal {
 
 SimTransducer::SimTransducer(const sim::InstrumentParams& params, std::uint64_t seed,
@@ -11,8 +13,12 @@ SimTransducer::SimTransducer(const sim::InstrumentParams& params, std::uint64_t 
 }
 
 IoResult SimTransducer::read(SensorFrame& frame) {
-  if (faults_.link_down()) return IoResult::kLinkDown;
-  if (faults_.read_timeout()) return IoResult::kTimeout;
+  if (faults_.link_down() || faults_.read_timeout()) {
+    // As a real backend does (hal/transducer.h): a failed read hands on no stale value.
+    constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+    frame = SensorFrame{kNaN, kNaN, kNaN, kNaN, status_bits_};
+    return faults_.link_down() ? IoResult::kLinkDown : IoResult::kTimeout;
+  }
   const sim::Measurement m =
       faults_.empty() ? instrument_.measurement() : faults_.corrupt(instrument_.measurement());
   frame = SensorFrame{m.normal_force_n, m.normal_displacement_m, m.lateral_force_n,

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <string_view>
 
 namespace tribo::hal {
@@ -31,10 +32,31 @@ struct DriveCommand {
   double lateral_force_n = 0;  // actuator force on the lateral axis
 };
 
+// On anything but kOk a real backend sets the frame's values to NaN: a failed
+// read never hands on a stale value. health().last_error says why.
 enum class IoResult {
   kOk,
-  kTimeout,   // no answer in time; values not updated
+  kTimeout,   // no valid, fresh answer in time (timeout, exception, corrupt or stale data)
   kLinkDown,  // backend unreachable
+};
+
+// What the backend's link did so far (a real backend's I/O; the simulated one
+// has none). Read from other threads while the loop runs: implementations
+// keep it in atomics. Mirrored by tribo.v1.BackendHealth.
+struct BackendHealth {
+  bool connected = true;
+  std::uint64_t transactions = 0;        // completed successfully
+  std::uint64_t timeouts = 0;            // no complete answer in time
+  std::uint64_t exceptions = 0;          // the device answered with an exception
+  std::uint64_t bad_frames = 0;          // malformed, corrupt or stale answers
+  std::uint64_t link_losses = 0;
+  std::uint64_t reconnect_attempts = 0;
+  double last_io_s = 0;                  // duration of the last transaction
+  double max_io_s = 0;
+  std::string first_error;               // the first failure: the cause of what followed
+  std::string last_error;                // the latest failure; empty if none
+
+  std::uint64_t errors() const { return timeouts + exceptions + bad_frames + link_losses; }
 };
 
 class Transducer {
@@ -52,6 +74,9 @@ class Transducer {
 
   // Ticks whose deadline had already passed when wait_next_tick() was called.
   virtual std::uint64_t overruns() const { return 0; }
+
+  // Safe to call from any thread while the loop runs.
+  virtual BackendHealth health() const { return {}; }
 };
 
 }  // namespace tribo::hal

@@ -43,6 +43,16 @@ void append_block(const v1::SampleBlock& src, v1::SampleBlock& dst) {
   dst.mutable_status_flags()->MergeFrom(src.status_flags());
 }
 
+void describe_channels(v1::RunDescriptor& descriptor) {
+  for (const ChannelInfo& c : kSampleChannels) {
+    v1::Channel* out = descriptor.add_channels();
+    out->set_name(std::string(c.name));
+    out->set_unit(std::string(c.unit));
+    out->set_description(std::string(c.description));
+    out->set_block_field(std::string(c.block_field));
+  }
+}
+
 std::string csv_header() {
   std::string header;
   for (const ChannelInfo& c : kSampleChannels) {

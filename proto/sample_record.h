@@ -29,24 +29,27 @@ struct ChannelInfo {
   std::string_view name;
   std::string_view unit;
   std::string_view description;
+  std::string_view block_field;  // the tribo.v1.SampleBlock field carrying it
 };
 
 // Channel order of the CSV columns (column name: name + "_" + unit).
 inline constexpr std::array<ChannelInfo, 9> kSampleChannels{{
-    {"t", "s", "time since run start"},
-    {"segment", "index", "protocol segment being executed (0-based)"},
-    {"normal_setpoint", "N", "commanded normal force"},
-    {"normal_force", "N", "measured normal (contact) force"},
-    {"normal_displacement", "m", "measured normal displacement"},
-    {"lateral_setpoint", "m", "commanded lateral position"},
-    {"lateral_position", "m", "measured lateral position"},
-    {"lateral_force", "N", "measured lateral force (drive minus spring)"},
-    {"flags", "bits", "tribo.v1.StatusFlag bits"},
+    {"t", "s", "time since run start", "time_s"},
+    {"segment", "index", "protocol segment being executed (0-based)", "segment_index"},
+    {"normal_setpoint", "N", "commanded normal force", "normal_setpoint_n"},
+    {"normal_force", "N", "measured normal (contact) force", "normal_force_n"},
+    {"normal_displacement", "m", "measured normal displacement", "normal_displacement_m"},
+    {"lateral_setpoint", "m", "commanded lateral position", "lateral_setpoint_m"},
+    {"lateral_position", "m", "measured lateral position", "lateral_position_m"},
+    {"lateral_force", "N", "measured lateral force (drive minus spring)", "lateral_force_n"},
+    {"flags", "bits", "tribo.v1.StatusFlag bits", "status_flags"},
 }};
 
 void append_sample(const Sample& s, v1::SampleBlock& block);
 Sample sample_at(const v1::SampleBlock& block, int index);
 int sample_count(const v1::SampleBlock& block);
+// The channel table as the run descriptor carries it.
+void describe_channels(v1::RunDescriptor& descriptor);
 // Appends the samples of src to dst (dst keeps its first_sequence and run_id).
 void append_block(const v1::SampleBlock& src, v1::SampleBlock& dst);
 

@@ -30,7 +30,7 @@ bool is_sensor_fault(FaultKind k) {
 
 std::vector<FaultSpec> fault_schedule_from_config(const v1::FaultSchedule& schedule) {
   std::vector<FaultSpec> out;
-  for (const v1::Fault& f : schedule.faults()) {
+  for (const v1::InjectedFault& f : schedule.faults()) {
     FaultSpec s;
     switch (f.kind()) {
       case v1::SENSOR_FREEZE: s.kind = FaultKind::kSensorFreeze; break;
@@ -63,7 +63,7 @@ std::vector<FaultSpec> fault_schedule_from_config(const v1::FaultSchedule& sched
 
 std::optional<std::string> validate_fault_schedule(const v1::FaultSchedule& schedule) {
   for (int i = 0; i < schedule.faults_size(); ++i) {
-    const v1::Fault& f = schedule.faults(i);
+    const v1::InjectedFault& f = schedule.faults(i);
     const std::string at = "sim.faults.faults[" + std::to_string(i) + "].";
     std::ostringstream msg;
     if (f.kind() == v1::FAULT_KIND_UNSPECIFIED || !v1::FaultKind_IsValid(f.kind())) {

@@ -39,7 +39,7 @@ TEST(DaemonConfig, ErrorsNameTheFieldTheValueAndTheLimit) {
   EXPECT_NE(e->find("controller.normal_force.output_min"), std::string::npos) << *e;
 
   c = tribo::testing::default_config();
-  v1::Fault* f = c.mutable_sim()->mutable_faults()->add_faults();
+  v1::InjectedFault* f = c.mutable_sim()->mutable_faults()->add_faults();
   f->set_kind(v1::ACTUATOR_STUCK);
   f->set_channel(v1::CHANNEL_LATERAL_FORCE);
   e = validate_daemon_config(c);

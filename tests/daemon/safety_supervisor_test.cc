@@ -122,16 +122,51 @@ TEST(SafetySupervisor, ReadingBeyondFullScaleTrips) {
   expect_trip(f, testing::parse_protocol(kScratch), TripReason::kSensorOutOfRange, kFaultAt, kFaultAt + 2e-4);
 }
 
-TEST(SafetySupervisor, FrozenReadingTripsAfterTheConfiguredTicks) {
+// The readout stops: every channel repeats its last value.
+TEST(SafetySupervisor, AFrozenFrameTripsAfterTheConfiguredTicks) {
   ServiceFixture f;
-  f.add_fault(v1::SENSOR_FREEZE, v1::CHANNEL_LATERAL_FORCE, kFaultAt, 0);
+  for (const auto channel : {v1::CHANNEL_LATERAL_POSITION, v1::CHANNEL_LATERAL_FORCE, v1::CHANNEL_NORMAL_FORCE,
+                             v1::CHANNEL_NORMAL_DISPLACEMENT}) {
+    f.add_fault(v1::SENSOR_FREEZE, channel, kFaultAt, 0.1);
+  }
   const double ticks = f.config.supervisor().frozen_sensor_ticks();
+  // The position reading is suspect: the lateral axis retracts by its drive.
   expect_trip(f, testing::parse_protocol(kScratch), TripReason::kSensorFrozen, kFaultAt + (ticks - 1) * 1e-4,
-              kFaultAt + (ticks + 1.5) * 1e-4);
+              kFaultAt + (ticks + 1.5) * 1e-4, /*lateral_held=*/false);
+  const auto& b = f.sink.samples;
+  EXPECT_NEAR(b.lateral_position_m(sample_count(b) - 1), 0.0, 0.5e-6);
+  EXPECT_NE(f.sink.stops[0].reason().find("all four channels"), std::string::npos) << f.sink.stops[0].reason();
+}
+
+// One channel freezes; the simulated sensors' noise exceeds their resolution,
+// so per-channel detection can be on.
+TEST(SafetySupervisor, AFrozenChannelTripsWhenPerChannelDetectionIsOn) {
+  ServiceFixture f;
+  f.config.mutable_supervisor()->set_frozen_channel_ticks(200);
+  f.add_fault(v1::SENSOR_FREEZE, v1::CHANNEL_LATERAL_FORCE, kFaultAt, 0);
+  expect_trip(f, testing::parse_protocol(kScratch), TripReason::kSensorFrozen, kFaultAt + 199e-4, kFaultAt + 201.5e-4);
+  EXPECT_NE(f.sink.stops[0].reason().find("lateral force repeated"), std::string::npos) << f.sink.stops[0].reason();
+}
+
+TEST(SafetySupervisor, AFrozenChannelAloneDoesNotTripByDefault) {
+  ServiceFixture f;
+  f.add_fault(v1::SENSOR_FREEZE, v1::CHANNEL_LATERAL_FORCE, kFaultAt, 0.5);
+  f.start();
+  f.run(testing::parse_protocol(kScratch));
+  ASSERT_EQ(f.sink.stops.size(), 1u);
+  EXPECT_EQ(f.sink.stops[0].exit_status(), v1::SUCCESS) << f.sink.stops[0].reason();
+}
+
+// The overrun trip is off in the shipped config (a shared VM paced to the
+// wall clock overruns in bursts); a real-time controller sets it like this.
+void with_overrun_trip(ServiceFixture& f) {
+  f.config.mutable_supervisor()->set_overrun_trip_count(10);
+  f.config.mutable_supervisor()->set_overrun_window_s(0.01);
 }
 
 TEST(SafetySupervisor, RepeatedLoopOverrunsTrip) {
   ServiceFixture f;
+  with_overrun_trip(f);
   f.add_fault(v1::LOOP_OVERRUN, v1::FAULT_CHANNEL_UNSPECIFIED, kFaultAt, 0.005);  // one per tick
   const double count = f.config.supervisor().overrun_trip_count();
   expect_trip(f, testing::parse_protocol(kScratch), TripReason::kLoopOverrun, kFaultAt + (count - 1) * 1e-4,
@@ -140,6 +175,7 @@ TEST(SafetySupervisor, RepeatedLoopOverrunsTrip) {
 
 TEST(SafetySupervisor, OccasionalOverrunsDoNotTrip) {
   ServiceFixture f;
+  with_overrun_trip(f);
   // Five single overruns 20 ms apart: never 10 within 10 ms.
   for (int i = 0; i < 5; ++i) f.add_fault(v1::LOOP_OVERRUN, v1::FAULT_CHANNEL_UNSPECIFIED, kFaultAt + 0.02 * i, 1e-4);
   f.start();
@@ -152,7 +188,7 @@ TEST(SafetySupervisor, OccasionalOverrunsDoNotTrip) {
 TEST(SafetySupervisor, NormalForceBeyondTheLimitTrips) {
   ServiceFixture f;
   // The normal actuator sticks at 12 mN for 50 ms: the contact force exceeds 10 mN.
-  v1::Fault& stuck = f.add_fault(v1::ACTUATOR_STUCK, v1::CHANNEL_NORMAL_ACTUATOR, kFaultAt, 0.05, 12e-3);
+  v1::InjectedFault& stuck = f.add_fault(v1::ACTUATOR_STUCK, v1::CHANNEL_NORMAL_ACTUATOR, kFaultAt, 0.05, 12e-3);
   stuck.set_use_value(true);
   expect_trip(f, testing::parse_protocol(kScratch), TripReason::kNormalForce, kFaultAt, kFaultAt + 3e-3);
 }
@@ -172,7 +208,7 @@ void without_tracking_check(ServiceFixture& f) {
 TEST(SafetySupervisor, LateralForceBeyondTheLimitTrips) {
   ServiceFixture f;
   without_snap_down_check(f);
-  v1::Fault& stuck = f.add_fault(v1::ACTUATOR_STUCK, v1::CHANNEL_LATERAL_ACTUATOR, kFaultAt, 0.02, 4e-3);
+  v1::InjectedFault& stuck = f.add_fault(v1::ACTUATOR_STUCK, v1::CHANNEL_LATERAL_ACTUATOR, kFaultAt, 0.02, 4e-3);
   stuck.set_use_value(true);
   expect_trip(f, testing::parse_protocol(kScratch), TripReason::kLateralForce, kFaultAt, kFaultAt + 3e-3);
 }

@@ -100,9 +100,9 @@ struct ServiceFixture {
     ASSERT_FALSE(start_error) << start_error->message();
     service->wait_until_idle();
   }
-  v1::Fault& add_fault(v1::FaultKind kind, v1::FaultChannel channel, double start_s, double duration_s,
+  v1::InjectedFault& add_fault(v1::FaultKind kind, v1::FaultChannel channel, double start_s, double duration_s,
                        double value = 0) {
-    v1::Fault& f = *config.mutable_sim()->mutable_faults()->add_faults();
+    v1::InjectedFault& f = *config.mutable_sim()->mutable_faults()->add_faults();
     f.set_kind(kind);
     f.set_channel(channel);
     f.set_start_s(start_s);

@@ -35,19 +35,23 @@ namespace {
 
 TEST(TickAllocation, TheTickPathAllocatesNothing) {
   v1::DaemonConfig config = tribo::testing::default_config();
-  // A noise burst and a frozen lateral force channel: the supervisor trips
-  // at about 13 s and the stop sequence runs to its end.
+  // A noise burst and a frozen readout: the supervisor trips at about 13 s
+  // and the stop sequence runs to its end.
   auto& faults = *config.mutable_sim()->mutable_faults();
-  v1::Fault* burst = faults.add_faults();
+  v1::InjectedFault* burst = faults.add_faults();
   burst->set_kind(v1::NOISE_BURST);
   burst->set_channel(v1::CHANNEL_NORMAL_FORCE);
   burst->set_start_s(10);
   burst->set_duration_s(0.5);
   burst->set_value(1e-6);
-  v1::Fault* freeze = faults.add_faults();
-  freeze->set_kind(v1::SENSOR_FREEZE);
-  freeze->set_channel(v1::CHANNEL_LATERAL_FORCE);
-  freeze->set_start_s(13);
+  for (const auto channel : {v1::CHANNEL_LATERAL_POSITION, v1::CHANNEL_LATERAL_FORCE, v1::CHANNEL_NORMAL_FORCE,
+                             v1::CHANNEL_NORMAL_DISPLACEMENT}) {
+    v1::InjectedFault* freeze = faults.add_faults();
+    freeze->set_kind(v1::SENSOR_FREEZE);
+    freeze->set_channel(channel);
+    freeze->set_start_s(13);
+    freeze->set_duration_s(0.1);
+  }
   const ProtocolCheck check = validate_protocol(testing::load_protocol_file("standard_scratch.textproto"), config);
   ASSERT_TRUE(check.ok());
   auto transducer = hal::make_transducer(config, 3);

@@ -4,6 +4,7 @@
 
 #include "client/tribo_client.h"
 #include "proto/text_format_file.h"
+#include "tests/e2e/e2e_support.h"
 #include "tests/support/daemon_process.h"
 
 namespace tribo {
@@ -57,7 +58,7 @@ v1::StatusReply status(client::TriboClient& client) {
 TEST(ControlApi, GainsChangeWhileRunningAndStatusShowsTheTiming) {
   TempDir data;
   DaemonProcess daemon(data.path());
-  client::TriboClient client({"127.0.0.1", daemon.port()});
+  client::TriboClient client({"127.0.0.1", daemon.port()}, testing::controller_session());
   start_and_wait(client, 10);
 
   v1::ClientMessage set;
@@ -90,7 +91,7 @@ TEST(ControlApi, GainsChangeWhileRunningAndStatusShowsTheTiming) {
 TEST(ControlApi, EmergencyStopLatchesAFaultUntilReArmed) {
   TempDir data;
   DaemonProcess daemon(data.path());
-  client::TriboClient client({"127.0.0.1", daemon.port()});
+  client::TriboClient client({"127.0.0.1", daemon.port()}, testing::controller_session());
   start_and_wait(client, 10);
   v1::ClientMessage stop;
   stop.mutable_emergency_stop()->set_reason("e2e");
@@ -124,7 +125,7 @@ TEST(ControlApi, EmergencyStopLatchesAFaultUntilReArmed) {
 TEST(ControlApi, AutotuneReportsTheUltimateGainAndPeriod) {
   TempDir data;
   DaemonProcess daemon(data.path());
-  client::TriboClient client({"127.0.0.1", daemon.port()});
+  client::TriboClient client({"127.0.0.1", daemon.port()}, testing::controller_session());
   v1::ClientMessage m;
   m.mutable_autotune();
   const v1::AutotuneReply r = client.request(m).autotune();

@@ -18,6 +18,13 @@ namespace tribo {
 namespace {
 
 using testing::DaemonProcess;
+
+client::SessionOptions controller_options() {
+  client::SessionOptions s;
+  s.role = v1::CONTROLLER;
+  return s;
+}
+const client::SessionOptions controller = controller_options();
 using testing::TempDir;
 
 const std::string kStandard =
@@ -30,7 +37,7 @@ v1::Protocol standard_protocol() {
 }
 
 client::RunResult run_standard(const DaemonProcess& daemon, std::optional<std::uint64_t> seed) {
-  client::TriboClient client({"127.0.0.1", daemon.port()});
+  client::TriboClient client({"127.0.0.1", daemon.port()}, controller);
   return client::run_protocol(client, standard_protocol(), seed);
 }
 
@@ -123,7 +130,7 @@ TEST(TribodEndToEnd, SameSeedGivesIdenticalSampleFilesAndAnotherSeedDoesNot) {
 TEST(TribodEndToEnd, OutOfLimitProtocolIsRejectedBeforeAnythingMoves) {
   TempDir data;
   DaemonProcess daemon(data.path());
-  client::TriboClient client({"127.0.0.1", daemon.port()});
+  client::TriboClient client({"127.0.0.1", daemon.port()}, controller);
   v1::Protocol p = standard_protocol();
   p.mutable_segments(1)->mutable_normal()->set_end_un(20000);  // 20 mN
   p.mutable_segments(2)->mutable_normal()->set_end_un(20000);
@@ -196,7 +203,7 @@ namespace {
 TEST(TribodEndToEnd, SigtermMidRunUnloadsSafelyAndFinalizesTheRecording) {
   TempDir data;
   DaemonProcess daemon(data.path());
-  client::TriboClient client({"127.0.0.1", daemon.port()});
+  client::TriboClient client({"127.0.0.1", daemon.port()}, controller);
   v1::Protocol p = standard_protocol();
   // A 50 min loaded dwell at +2 µm: still running when the signal comes.
   p.mutable_segments(2)->set_duration_s(3000);
@@ -230,6 +237,13 @@ TEST(TribodEndToEnd, SigtermMidRunUnloadsSafelyAndFinalizesTheRecording) {
   ASSERT_GT(sample_count(b), 10000);
   EXPECT_EQ(b.normal_setpoint_n(sample_count(b) - 1), 0.0) << "unloaded before exiting";
   EXPECT_TRUE(b.status_flags(sample_count(b) - 1) & v1::SAFE_UNLOAD);
+  // The finalized metadata keeps the descriptor and where the unload began.
+  EXPECT_EQ(run->metadata.run_descriptor().channels_size(), 9);
+  ASSERT_GT(run->metadata.segment_events_size(), 0);
+  const auto& unload = run->metadata.segment_events(run->metadata.segment_events_size() - 1);
+  EXPECT_EQ(unload.kind(), v1::UNLOAD_BEGIN);
+  EXPECT_TRUE(b.status_flags(static_cast<int>(unload.sequence())) & v1::SAFE_UNLOAD);
+  EXPECT_FALSE(b.status_flags(static_cast<int>(unload.sequence()) - 1) & v1::SAFE_UNLOAD);
 }
 
 }  // namespace

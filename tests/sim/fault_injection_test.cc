@@ -126,7 +126,7 @@ TEST(FaultInjection, LinkLossAndTimeoutsFailTheIo) {
 
 TEST(FaultInjection, SchedulesAreValidatedWithTheFieldNamed) {
   v1::FaultSchedule s;
-  v1::Fault* f = s.add_faults();
+  v1::InjectedFault* f = s.add_faults();
   f->set_kind(v1::SENSOR_NAN);
   f->set_channel(v1::CHANNEL_LATERAL_ACTUATOR);
   auto e = validate_fault_schedule(s);

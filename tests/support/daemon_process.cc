@@ -81,6 +81,14 @@ int DaemonProcess::terminate() {
   return status;
 }
 
+void DaemonProcess::kill_hard() {
+  if (pid_ <= 0) return;
+  kill(pid_, SIGKILL);
+  int status = 0;
+  waitpid(pid_, &status, 0);
+  pid_ = -1;
+}
+
 DaemonProcess::~DaemonProcess() { terminate(); }
 
 CommandResult run_command(const std::vector<std::string>& argv_in) {

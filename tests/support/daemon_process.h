@@ -34,6 +34,8 @@ class DaemonProcess {
   std::uint16_t port() const { return port_; }
   // Sends SIGTERM and waits; returns the exit status (as from waitpid).
   int terminate();
+  // SIGKILL: a crash, as far as the recording can tell.
+  void kill_hard();
 
   static std::string default_config_path();
   static std::string tribod_path();

@@ -1,0 +1,110 @@
+#!/usr/bin/python3
+"""The Python client against a real tribod: run a protocol into numpy arrays,
+compare with the daemon's recording, refuse observers' control commands, fetch
+a recorded run, and plot a run to PNG with the example.
+
+    /usr/bin/python3 test_client.py --tribod build/daemon/tribod --source-dir .
+(PYTHONPATH must hold client/python and build/python.)"""
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import unittest
+
+import numpy as np
+
+from tribo_client import Client, TriboError, load_protocol_file
+
+ARGS = None
+
+
+def short_protocol():
+    p = load_protocol_file(os.path.join(ARGS.source_dir, "config/protocols/standard_scratch.textproto"))
+    p.name = "short-scratch"
+    for seg, duration in zip(p.segments, (0.5, 0.5, 1.0, 0.5, 0.5)):
+        seg.duration_s = duration
+    p.segments[2].lateral.end_um = 2.5
+    p.segments[3].lateral.end_um = 2.5
+    return p
+
+
+class Daemon:
+    def __init__(self, data_dir):
+        self.proc = subprocess.Popen(
+            [ARGS.tribod, "--config", os.path.join(ARGS.source_dir, "config/tribod.textproto"),
+             "--port", "0", "--data-dir", data_dir],
+            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        line = self.proc.stdout.readline()  # "tribod listening on 127.0.0.1:PORT"
+        self.address = line.split()[-1]
+
+    def stop(self):
+        self.proc.terminate()
+        self.proc.wait(timeout=30)
+
+
+class PythonClientTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory()
+        cls.data = os.path.join(cls.tmp.name, "runs")
+        cls.daemon = Daemon(cls.data)
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.daemon.stop()
+        cls.tmp.cleanup()
+
+    def test_run_streams_into_numpy_arrays_equal_to_the_recording(self):
+        with Client(self.daemon.address, role="controller") as c:
+            self.assertEqual(c.hello.role, 2)  # CONTROLLER
+            run = c.run(short_protocol(), seed=3)
+        self.assertEqual(run.exit_status, "SUCCESS")
+        n = run.stop.sample_count
+        self.assertEqual(n, 3000)
+        np.testing.assert_array_equal(run.sequence, np.arange(n))
+        self.assertEqual([ch.name for ch in run.descriptor.channels][:2], ["t", "segment"])
+        self.assertEqual([e.segment_index for e in run.segment_events], [0, 1, 2, 3, 4])
+        csv = np.loadtxt(os.path.join(self.data, run.run_id, "samples.csv"), delimiter=",", skiprows=1)
+        self.assertEqual(csv.shape, (n, 9))
+        np.testing.assert_array_equal(run.samples["time_s"], csv[:, 0])
+        np.testing.assert_array_equal(run.samples["lateral_force_n"], csv[:, 7])
+        np.testing.assert_array_equal(run.samples["segment_index"], csv[:, 1].astype(np.uint32))
+
+        with Client(self.daemon.address) as observer:
+            fetched = observer.fetch(run.run_id)
+            np.testing.assert_array_equal(fetched.samples["normal_force_n"], run.samples["normal_force_n"])
+            self.assertIn(run.run_id, [r.run_id for r in observer.list_runs()])
+
+    def test_observers_cannot_control(self):
+        with Client(self.daemon.address) as observer:
+            with self.assertRaises(TriboError) as caught:
+                observer.start_run()
+            self.assertEqual(caught.exception.code, "PERMISSION_DENIED")
+            self.assertEqual(caught.exception.field, "role")
+            self.assertEqual(observer.status().backend_health.backend, "sim")
+
+    def test_example_plots_a_run_to_png(self):
+        png = os.path.join(self.tmp.name, "run.png")
+        protocol = os.path.join(self.tmp.name, "short.textproto")
+        from google.protobuf import text_format
+        with open(protocol, "w", encoding="utf-8") as f:
+            f.write(text_format.MessageToString(short_protocol()))
+        result = subprocess.run(
+            [sys.executable, os.path.join(ARGS.source_dir, "client/python/examples/plot_run.py"),
+             protocol, png, "--address", self.daemon.address],
+            capture_output=True, text=True, timeout=120, env=os.environ)
+        self.assertEqual(result.returncode, 0, result.stderr)
+        self.assertIn("SUCCESS", result.stdout)
+        with open(png, "rb") as f:
+            self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n")
+        self.assertGreater(os.path.getsize(png), 10000)
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--tribod", required=True)
+    parser.add_argument("--source-dir", required=True)
+    ARGS, rest = parser.parse_known_args()
+    unittest.main(argv=[sys.argv[0]] + rest, verbosity=2)

@@ -1,0 +1,221 @@
+"""A blocking client: handshake, requests matched by id, run documents queued
+for events(), runs streamed into numpy arrays with gaps fetched back from the
+daemon's recording."""
+
+import collections
+import os
+import socket
+
+import numpy as np
+from google.protobuf import text_format
+
+from .framing import encode_frame, read_frame
+
+try:
+    from tribo.v1 import api_pb2, protocol_pb2
+except ImportError as e:  # pragma: no cover - a setup problem, said plainly
+    raise ImportError(
+        "tribo.v1 protobuf modules not found: build the project (cmake) and add "
+        "build/python to PYTHONPATH") from e
+
+API_VERSION = 1
+DEFAULT_ADDRESS = "127.0.0.1:7460"
+# SampleBlock fields, in the channel order of proto/sample_record.h.
+SAMPLE_FIELDS = ("time_s", "segment_index", "normal_setpoint_n", "normal_force_n",
+                 "normal_displacement_m", "lateral_setpoint_m", "lateral_position_m",
+                 "lateral_force_n", "status_flags")
+_INTEGER_FIELDS = {"segment_index", "status_flags"}
+_ROLES = {"observer": api_pb2.OBSERVER, "controller": api_pb2.CONTROLLER}
+
+
+class TriboError(Exception):
+    """The daemon's typed error (code, field, message), or a transport failure."""
+
+    def __init__(self, error):
+        self.code = api_pb2.ErrorCode.Name(error.code)
+        self.field = error.field
+        self.message = error.message
+        super().__init__(f"{self.code}: {self.field + ': ' if self.field else ''}{self.message}")
+
+
+def load_protocol_file(path):
+    """Parses a protocol file (protobuf text format, tribo.v1.Protocol)."""
+    with open(path, encoding="utf-8") as f:
+        return text_format.Parse(f.read(), protocol_pb2.Protocol())
+
+
+def _parse_address(address):
+    host, _, port = address.rpartition(":")
+    return (host or "127.0.0.1", int(port))
+
+
+class Run:
+    """One run as a client saw it: documents and samples as numpy arrays."""
+
+    def __init__(self, run_id):
+        self.run_id = run_id
+        self.start = None
+        self.descriptor = None
+        self.stop = None
+        self.segment_events = []
+        self.faults = []
+        self.gaps = []
+        self.fetched_samples = 0
+        self.sequence = np.zeros(0, dtype=np.uint64)
+        self.samples = {f: np.zeros(0) for f in SAMPLE_FIELDS}
+        self._blocks = []
+
+    @property
+    def exit_status(self):
+        return api_pb2.ExitStatus.Name(self.stop.exit_status) if self.stop else None
+
+    def add_block(self, block, decimation=1):
+        n = len(block.time_s)
+        if n == 0:
+            return
+        seq = block.first_sequence + decimation * np.arange(n, dtype=np.uint64)
+        self._blocks.append((seq, {f: np.asarray(getattr(block, f),
+                                                 dtype=np.uint32 if f in _INTEGER_FIELDS else float)
+                                   for f in SAMPLE_FIELDS}))
+
+    def assemble(self):
+        """Orders everything received by sequence number, drops duplicates."""
+        if not self._blocks:
+            return
+        seq = np.concatenate([b[0] for b in self._blocks])
+        order = np.argsort(seq, kind="stable")
+        seq = seq[order]
+        keep = np.concatenate(([True], seq[1:] != seq[:-1]))
+        self.sequence = seq[keep]
+        for f in SAMPLE_FIELDS:
+            self.samples[f] = np.concatenate([b[1][f] for b in self._blocks])[order][keep]
+
+
+class Client:
+    """A session with tribod. role: "observer" (default) or "controller"
+    (token: the daemon's control token; default $TRIBO_TOKEN)."""
+
+    def __init__(self, address=None, role="observer", token=None, name="tribo-python", timeout_s=60.0):
+        address = address or os.environ.get("TRIBO_ADDRESS", DEFAULT_ADDRESS)
+        self._sock = socket.create_connection(_parse_address(address), timeout=timeout_s)
+        self._sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self._next_id = 1
+        self._events = collections.deque()
+        hello = api_pb2.Hello(api_version=API_VERSION, client_name=name, role=_ROLES[role],
+                              token=token if token is not None else os.environ.get("TRIBO_TOKEN", ""))
+        self.hello = self.request(hello=hello).hello
+
+    def close(self):
+        self._sock.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    # -- requests
+
+    def request(self, **body):
+        """Sends ClientMessage(body) and returns the reply (a ServerMessage);
+        raises TriboError for an error reply."""
+        message = api_pb2.ClientMessage(request_id=self._next_id, **body)
+        self._next_id += 1
+        self._sock.sendall(encode_frame(message))
+        while True:
+            reply = self._read()
+            if reply.request_id == 0 and not reply.HasField("error"):
+                self._events.append(reply)
+                continue
+            if reply.HasField("error"):
+                raise TriboError(reply.error)
+            if reply.request_id == message.request_id:
+                return reply
+
+    def _read(self):
+        reply = api_pb2.ServerMessage()
+        reply.ParseFromString(read_frame(self._sock))
+        return reply
+
+    def status(self):
+        return self.request(get_status=api_pb2.GetStatus()).status
+
+    def list_runs(self):
+        return list(self.request(list_runs=api_pb2.ListRuns()).list_runs.runs)
+
+    def subscribe(self, decimation=1):
+        self.request(subscribe=api_pb2.Subscribe(decimation=decimation))
+
+    def load_protocol(self, protocol):
+        return self.request(load_protocol=api_pb2.LoadProtocol(protocol=protocol)).load_protocol
+
+    def start_run(self, seed=None):
+        start = api_pb2.StartRun() if seed is None else api_pb2.StartRun(seed=seed)
+        return self.request(start_run=start).start_run.run_id
+
+    def abort_run(self, reason=""):
+        return self.request(abort_run=api_pb2.AbortRun(reason=reason)).abort_run
+
+    def events(self):
+        """Run documents (ServerMessage with request_id 0), blocking."""
+        while True:
+            if self._events:
+                yield self._events.popleft()
+                continue
+            message = self._read()
+            if message.request_id == 0:
+                yield message
+
+    # -- runs
+
+    def run(self, protocol, seed=None, decimation=1, on_document=None):
+        """Loads and runs a protocol (needs the controller role), streams its
+        samples into a Run; fetches any range the stream missed (decimation 1)."""
+        self.load_protocol(protocol)
+        self.subscribe(decimation)
+        run = Run(self.start_run(seed))
+        for doc in self.events():
+            if on_document:
+                on_document(doc)
+            kind = doc.WhichOneof("body")
+            if kind == "samples" and doc.samples.run_id == run.run_id:
+                run.add_block(doc.samples, decimation)
+            elif kind == "run_start" and doc.run_start.run_id == run.run_id:
+                run.start = doc.run_start
+            elif kind == "run_descriptor" and doc.run_descriptor.run_id == run.run_id:
+                run.descriptor = doc.run_descriptor
+            elif kind == "segment_event" and doc.segment_event.run_id == run.run_id:
+                run.segment_events.append(doc.segment_event)
+            elif kind == "fault" and doc.fault.run_id == run.run_id:
+                run.faults.append(doc.fault)
+            elif kind == "gap" and doc.gap.run_id == run.run_id:
+                run.gaps.append(doc.gap)
+            elif kind == "run_stop" and doc.run_stop.run_id == run.run_id:
+                run.stop = doc.run_stop
+                break
+        if decimation <= 1:
+            for gap in run.gaps:
+                for block in self._fetch_blocks(run.run_id, gap.first_sequence, gap.end_sequence):
+                    run.add_block(block)
+                    run.fetched_samples += len(block.time_s)
+        run.assemble()
+        return run
+
+    def _fetch_blocks(self, run_id, start, end=None):
+        while end is None or start < end:
+            fetch = api_pb2.FetchSamples(run_id=run_id, from_sequence=start,
+                                         max_samples=0 if end is None else end - start)
+            page = self.request(fetch_samples=fetch).fetch_samples
+            yield page.samples
+            if page.next_sequence == start or page.end_of_recording:
+                return
+            start = page.next_sequence
+
+    def fetch(self, run_id, start=0, end=None):
+        """Samples [start, end) of a recorded run (end None: all recorded) as a Run."""
+        run = Run(run_id)
+        run.start = self.request(get_run=api_pb2.GetRun(run_id=run_id)).get_run.metadata.start
+        for block in self._fetch_blocks(run_id, start, end):
+            run.add_block(block)
+        run.assemble()
+        return run

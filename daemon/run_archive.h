@@ -1,0 +1,39 @@
+// Answers the API's questions about recorded runs (list, metadata, fetch,
+// CSV export) from the data directory, the running run included: whatever
+// has been streamed is on disk already. Run ids are checked to name a
+// directory right under the data directory before any path is built.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+
+#include "proto/run_files.h"
+#include "tribo/v1/api.pb.h"
+
+namespace tribo::daemon {
+
+// The most samples one reply carries (a page stays well below 4 MiB).
+inline constexpr std::uint64_t kMaxFetchSamples = 32768;
+inline constexpr std::uint64_t kMaxExportRows = 16384;
+
+// Keeps a row index per recently read run, so that paging costs a seek.
+// Not thread-safe: the API server uses it from its io thread.
+class RunArchive {
+ public:
+  explicit RunArchive(std::filesystem::path data_dir) : data_dir_(std::move(data_dir)) {}
+
+  v1::ListRunsReply list_runs(const v1::ListRuns& request) const;
+  std::optional<v1::Error> get_run(const v1::GetRun& request, v1::GetRunReply& reply) const;
+  std::optional<v1::Error> fetch_samples(const v1::FetchSamples& request, v1::FetchSamplesReply& reply);
+  std::optional<v1::Error> export_csv(const v1::ExportCsv& request, v1::ExportCsvReply& reply);
+
+ private:
+  wire::RowIndex& index_of(const std::string& run_id);
+
+  std::filesystem::path data_dir_;
+  std::map<std::string, wire::RowIndex> indexes_;
+};
+
+}  // namespace tribo::daemon

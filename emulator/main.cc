@@ -1,0 +1,91 @@
+// tribo-bench: the simulated instrument behind the Modbus register map, for
+// hardware-in-the-loop runs of tribod without hardware and for the tests of
+// the Modbus backend. README.md "The bench emulator" says how to use it.
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include "emulator/bench_config.h"
+#include "emulator/bench_server.h"
+
+namespace {
+
+constexpr const char* kUsage =
+    "usage: tribo-bench [--config FILE] [--port N] [--bind ADDRESS]\n"
+    "  --config FILE    tribo.v1.BenchConfig, protobuf text format (default config/tribo-bench.textproto)\n"
+    "  --port N         Modbus TCP port; 0 picks a free one (overrides port)\n"
+    "  --bind ADDRESS   address to listen on (overrides bind_address)\n"
+    "On start it prints 'tribo-bench listening on ADDRESS:PORT' (or the RTU device) on stdout.\n";
+
+std::atomic<bool> g_stop{false};
+
+extern "C" void on_signal(int) { g_stop.store(true); }
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  spdlog::set_default_logger(spdlog::stderr_color_mt("tribo-bench"));
+  spdlog::set_pattern("[%Y-%m-%dT%H:%M:%S.%e] [%n] [%l] %v");
+  std::string config_path = "config/tribo-bench.textproto";
+  std::optional<unsigned long> port;
+  std::optional<std::string> bind;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    const bool has_value = i + 1 < argc;
+    if (arg == "--help" || arg == "-h") {
+      std::cout << kUsage;
+      return 0;
+    } else if (arg == "--config" && has_value) {
+      config_path = argv[++i];
+    } else if (arg == "--port" && has_value) {
+      char* end = nullptr;
+      port = std::strtoul(argv[++i], &end, 10);
+      if (*end != '\0' || *port > 65535) {
+        std::cerr << kUsage;
+        return 2;
+      }
+    } else if (arg == "--bind" && has_value) {
+      bind = argv[++i];
+    } else {
+      std::cerr << kUsage;
+      return 2;
+    }
+  }
+  tribo::bench::BenchSetup setup;
+  if (auto error = tribo::bench::load_bench_setup(config_path, setup)) {
+    std::cerr << "tribo-bench: " << *error << "\n";
+    return 2;
+  }
+  if (port) setup.bench.set_port(static_cast<std::uint32_t>(*port));
+  if (bind) setup.bench.set_bind_address(*bind);
+
+  struct sigaction action {};
+  action.sa_handler = on_signal;
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+  std::signal(SIGPIPE, SIG_IGN);
+
+  std::unique_ptr<tribo::bench::BenchServer> server;
+  try {
+    server = std::make_unique<tribo::bench::BenchServer>(setup);
+  } catch (const std::exception& e) {
+    std::cerr << "tribo-bench: " << e.what() << "\n";
+    return 1;
+  }
+  std::printf("tribo-bench listening on %s\n", server->endpoint().c_str());
+  std::fflush(stdout);
+  spdlog::info("serving {} (unit {}): plant step {} s, {} faults scheduled", server->endpoint(),
+               setup.modbus.modbus().unit_id(), 1.0 / setup.modbus.controller().loop_rate_hz(),
+               setup.bench.faults_size());
+  server->run(g_stop);
+  spdlog::info("stopped after {} plant steps in the last session", server->instrument().steps());
+  return 0;
+}

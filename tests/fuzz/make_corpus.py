@@ -1,0 +1,73 @@
+#!/usr/bin/python3
+"""Writes the seed corpus of the fuzz targets (committed under corpus/).
+
+    PYTHONPATH=client/python:build/python /usr/bin/python3 tests/fuzz/make_corpus.py
+"""
+
+import os
+
+from google.protobuf import text_format
+from tribo.v1 import api_pb2, protocol_pb2
+from tribo_client.framing import encode_frame
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+
+
+def write(target, name, data):
+    d = os.path.join(HERE, "corpus", target)
+    os.makedirs(d, exist_ok=True)
+    with open(os.path.join(d, name), "wb") as f:
+        f.write(data)
+
+
+def standard():
+    with open(os.path.join(ROOT, "config/protocols/standard_scratch.textproto"), encoding="utf-8") as f:
+        return text_format.Parse(f.read(), protocol_pb2.Protocol())
+
+
+def frames(*messages):
+    return b"".join(encode_frame(m) for m in messages)
+
+
+def main():
+    hello = api_pb2.ClientMessage(request_id=1, hello=api_pb2.Hello(api_version=1, client_name="seed",
+                                                                    role=api_pb2.CONTROLLER, token="t"))
+    load = api_pb2.ClientMessage(request_id=2, load_protocol=api_pb2.LoadProtocol(protocol=standard()))
+    status = api_pb2.ClientMessage(request_id=3, get_status=api_pb2.GetStatus())
+    fetch = api_pb2.ClientMessage(request_id=4, fetch_samples=api_pb2.FetchSamples(
+        run_id="20260101-000000-000", from_sequence=100, max_samples=10))
+    # Prefix: max frame selector (0: 4 MiB), chunk size - 1.
+    write("frame_decoder", "session", bytes([0, 255]) + frames(hello, load, status, fetch))
+    write("frame_decoder", "byte_by_byte", bytes([0, 0]) + frames(hello, status))
+    write("frame_decoder", "small_max", bytes([2, 7]) + frames(hello, load))
+    write("frame_decoder", "oversized", bytes([0, 3]) + b"\x80\x80\x80\x80\x04")
+    write("frame_decoder", "bad_header", bytes([1, 1]) + b"\xff" * 8)
+    write("frame_decoder", "garbage", bytes([0, 16]) + b"\x05\xff\xff\xff\xff\xff" + frames(status))
+
+    p = standard()
+    write("protocol_validator", "standard.bin", p.SerializeToString())
+    write("protocol_validator", "standard.textproto",
+          ("# standard\n" + text_format.MessageToString(p)).encode())
+    short = standard()
+    for seg, d in zip(short.segments, (0.5, 0.5, 1.0, 0.5, 0.5)):
+        seg.duration_s = d
+    short.segments[2].lateral.end_um = 2.5
+    short.segments[3].lateral.end_um = 2.5
+    short.segments[2].acquisition_rate_hz = 10000
+    write("protocol_validator", "short.bin", short.SerializeToString())
+    over = standard()
+    over.segments[1].normal.end_uN = 20000
+    write("protocol_validator", "overload.bin", over.SerializeToString())
+    cross = standard()
+    cross.segments[2].lateral.end_um = -5
+    write("protocol_validator", "crosses_zero.bin", cross.SerializeToString())
+    modes = standard()
+    modes.segments[2].normal.mode = protocol_pb2.NORMAL_CLOSED_LOOP_FORCE
+    modes.segments[2].lateral.mode = protocol_pb2.LATERAL_FORCE
+    modes.segments[2].lateral.end_uN = 100
+    write("protocol_validator", "modes.bin", modes.SerializeToString())
+
+
+if __name__ == "__main__":
+    main()

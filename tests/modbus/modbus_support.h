@@ -1,0 +1,55 @@
+// Shared set-up for the Modbus tests: the shipped configs, temporary config
+// files, and tribo-bench started as a child process on an ephemeral port.
+#pragma once
+
+#include <sys/types.h>
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "tribo/v1/daemon_config.pb.h"
+#include "tribo/v1/modbus_config.pb.h"
+
+namespace tribo::testing {
+
+std::string modbus_config_path();  // config/tribod-modbus.textproto
+std::string bench_config_path();   // config/tribo-bench.textproto
+std::string tribo_bench_path();
+
+v1::DaemonConfig modbus_daemon_config();  // loaded and validated
+v1::DaemonConfig sim_daemon_config();     // config/tribod.textproto
+
+void write_text_proto(const std::filesystem::path& path, const google::protobuf::Message& message);
+
+// tribo-bench with the given bench config, TCP on 127.0.0.1 and an ephemeral
+// port (or RTU if the config says so: port() is then 0); stopped (SIGTERM,
+// wait) when destroyed, and by the kernel if the test process dies first.
+class BenchProcess {
+ public:
+  explicit BenchProcess(const std::filesystem::path& bench_config);
+  ~BenchProcess();
+  BenchProcess(const BenchProcess&) = delete;
+  BenchProcess& operator=(const BenchProcess&) = delete;
+
+  std::uint16_t port() const { return port_; }
+  // Sends SIGTERM and waits; returns the waitpid status.
+  int terminate();
+
+ private:
+  pid_t pid_ = -1;
+  std::uint16_t port_ = 0;
+};
+
+// A bench config in dir that serves modbus_config (written next to it) with
+// the physics of config/tribod.textproto and the given faults; over TCP, or
+// over RTU on rtu's device if given.
+std::filesystem::path write_bench_config(const std::filesystem::path& dir, const v1::DaemonConfig& modbus_config,
+                                         const std::vector<v1::BenchFault>& faults = {},
+                                         const v1::ModbusRtuLink* rtu = nullptr);
+
+// The daemon config pointed at a bench on this port.
+v1::DaemonConfig with_port(v1::DaemonConfig config, std::uint16_t port);
+
+}  // namespace tribo::testing
