@@ -122,6 +122,24 @@ TEST(ControlApi, EmergencyStopLatchesAFaultUntilReArmed) {
   EXPECT_EQ(status(client).state(), v1::ARMED);
 }
 
+TEST(ControlApi, AnyClientMayStopButOnlyTheControllerTunes) {
+  TempDir data;
+  DaemonProcess daemon(data.path());
+  client::TriboClient observer({"127.0.0.1", daemon.port()}, testing::observer_session());
+  v1::ClientMessage tune;
+  tune.mutable_autotune();
+  try {
+    observer.request(tune);
+    FAIL() << "an observer tuned the loop";
+  } catch (const client::ClientError& e) {
+    EXPECT_EQ(e.error().code(), v1::PERMISSION_DENIED);
+  }
+  v1::ClientMessage stop;
+  stop.mutable_emergency_stop()->set_reason("observer");
+  EXPECT_FALSE(observer.request(stop).emergency_stop().run_was_active());
+  EXPECT_EQ(status(observer).state(), v1::FAULTED);
+}
+
 TEST(ControlApi, AutotuneReportsTheUltimateGainAndPeriod) {
   TempDir data;
   DaemonProcess daemon(data.path());
