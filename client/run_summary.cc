@@ -30,11 +30,19 @@ v1::RunSummary summarize_run(const RunResult& run) {
   s.set_sample_count(static_cast<std::uint32_t>(sample_count(run.samples)));
   s.set_duration_s(static_cast<double>(run.stop.cycle_count()) / run.start.loop_rate_hz());
   s.set_seed(run.start.seed());
+  // segment_index counts the unrolled segments (RunStart.segments: repeat
+  // blocks expanded); older daemons sent only the protocol.
+  const auto& unrolled = run.start.segments();
   const auto& segments = run.start.protocol().segments();
   for (const auto& m : analysis::sliding_segment_metrics(run.samples)) {
     v1::SlidingSummary* out = s.add_scratches();
     out->set_segment(m.segment);
-    if (static_cast<int>(m.segment) < segments.size()) out->set_segment_name(segments[m.segment].name());
+    const int i = static_cast<int>(m.segment);
+    if (!unrolled.empty()) {
+      if (i < unrolled.size()) out->set_segment_name(unrolled[i].name());
+    } else if (i < segments.size()) {
+      out->set_segment_name(segments[i].name());
+    }
     out->set_velocity_um_s(m.velocity_m_per_s * kMicro);
     out->set_normal_force_un(m.normal_force_n * kMicro);
     out->set_mean_friction_un(m.mean_friction_n * kMicro);

@@ -32,6 +32,9 @@ bool is_control_command(v1::ClientMessage::BodyCase body) {
     case v1::ClientMessage::kLoadProtocol:
     case v1::ClientMessage::kStartRun:
     case v1::ClientMessage::kAbortRun:
+    case v1::ClientMessage::kSetGains:  // issue 4; EmergencyStop stays open to every client
+    case v1::ClientMessage::kRearm:
+    case v1::ClientMessage::kAutotune:
       return true;
     default:
       return false;
@@ -185,6 +188,22 @@ void ClientSession::dispatch(const v1::ClientMessage& request, v1::ServerMessage
       break;
     case v1::ClientMessage::kExportCsv:
       error = server_.archive().export_csv(request.export_csv(), *reply.mutable_export_csv());
+      break;
+    case v1::ClientMessage::kSetGains:
+      error = service_.set_gains(request.set_gains().loop(), request.set_gains().gains(),
+                                 *reply.mutable_set_gains());
+      break;
+    case v1::ClientMessage::kGetGains:
+      *reply.mutable_get_gains() = service_.gains();
+      break;
+    case v1::ClientMessage::kRearm:
+      error = service_.rearm(*reply.mutable_rearm());
+      break;
+    case v1::ClientMessage::kEmergencyStop:
+      error = service_.emergency_stop(request.emergency_stop().reason(), *reply.mutable_emergency_stop());
+      break;
+    case v1::ClientMessage::kAutotune:
+      error = service_.autotune(request.autotune(), *reply.mutable_autotune());
       break;
     default:
       error = v1::Error();

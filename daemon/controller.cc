@@ -6,31 +6,220 @@
 
 namespace tribo::daemon {
 
+namespace {
+
+AntiWindup anti_windup_from_proto(v1::AntiWindup a) {
+  switch (a) {
+    case v1::ANTI_WINDUP_NONE: return AntiWindup::kNone;
+    case v1::BACK_CALCULATION: return AntiWindup::kBackCalculation;
+    default: return AntiWindup::kConditionalIntegration;
+  }
+}
+
+v1::AntiWindup anti_windup_to_proto(AntiWindup a) {
+  switch (a) {
+    case AntiWindup::kNone: return v1::ANTI_WINDUP_NONE;
+    case AntiWindup::kBackCalculation: return v1::BACK_CALCULATION;
+    case AntiWindup::kConditionalIntegration: break;
+  }
+  return v1::CONDITIONAL_INTEGRATION;
+}
+
+}  // namespace
+
 PidGains pid_gains_from_proto(const v1::PidGains& g) {
-  return PidGains{g.kp(), g.ki(), g.kd(), g.setpoint_weight_p(), g.setpoint_weight_d(),
-                  g.derivative_filter_hz(), g.output_min(), g.output_max()};
+  PidGains p;
+  p.kp = g.kp();
+  p.ki = g.ki();
+  p.kd = g.kd();
+  p.setpoint_weight_p = g.setpoint_weight_p();
+  p.setpoint_weight_d = g.setpoint_weight_d();
+  p.derivative_filter_hz = g.derivative_filter_hz();
+  p.output_min = g.output_min();
+  p.output_max = g.output_max();
+  p.anti_windup = anti_windup_from_proto(g.anti_windup());
+  p.tracking_time_s = g.tracking_time_s();
+  p.feedforward_gain = g.feedforward_gain();
+  return p;
+}
+
+v1::PidGains pid_gains_to_proto(const PidGains& p) {
+  v1::PidGains g;
+  g.set_kp(p.kp);
+  g.set_ki(p.ki);
+  g.set_kd(p.kd);
+  g.set_setpoint_weight_p(p.setpoint_weight_p);
+  g.set_setpoint_weight_d(p.setpoint_weight_d);
+  g.set_derivative_filter_hz(p.derivative_filter_hz);
+  g.set_output_min(p.output_min);
+  g.set_output_max(p.output_max);
+  g.set_anti_windup(anti_windup_to_proto(p.anti_windup));
+  g.set_tracking_time_s(p.tracking_time_s);
+  g.set_feedforward_gain(p.feedforward_gain);
+  return g;
 }
 
 ControllerParams controller_params_from_config(const v1::ControllerConfig& c) {
-  return ControllerParams{pid_gains_from_proto(c.lateral_displacement()), 1.0 / c.loop_rate_hz()};
+  ControllerParams p;
+  p.lateral = pid_gains_from_proto(c.lateral_displacement());
+  p.lateral_force = pid_gains_from_proto(c.lateral_force());
+  p.normal_force = pid_gains_from_proto(c.normal_force());
+  p.normal_displacement = pid_gains_from_proto(c.normal_displacement());
+  p.period_s = 1.0 / c.loop_rate_hz();
+  return p;
 }
 
-Controller::Controller(const ControllerParams& params) : params_(params) {
-  pid_reset(params_.lateral, 0.0, 0.0, 0.0, lateral_);
+ControllerParams controller_params_from_config(const v1::DaemonConfig& config) {
+  ControllerParams p = controller_params_from_config(config.controller());
+  p.lateral_spring_n_per_m = config.transducer().lateral().spring_n_per_m();
+  p.normal_spring_n_per_m = config.transducer().normal().spring_n_per_m();
+  return p;
+}
+
+Controller::Controller(const ControllerParams& params) : params_(params) {}
+
+PidGains& Controller::gains_ref(Loop loop) {
+  switch (loop) {
+    case Loop::kLateralDisplacement: return params_.lateral;
+    case Loop::kLateralForce: return params_.lateral_force;
+    case Loop::kNormalForce: return params_.normal_force;
+    case Loop::kNormalDisplacement: break;
+  }
+  return params_.normal_displacement;
+}
+
+PidState& Controller::state_ref(Loop loop) {
+  switch (loop) {
+    case Loop::kLateralDisplacement: return lateral_displacement_;
+    case Loop::kLateralForce: return lateral_force_;
+    case Loop::kNormalForce: return normal_force_;
+    case Loop::kNormalDisplacement: break;
+  }
+  return normal_displacement_;
+}
+
+const PidGains& Controller::gains(Loop loop) const {
+  return const_cast<Controller*>(this)->gains_ref(loop);
+}
+
+void Controller::set_gains(Loop loop, const PidGains& gains) {
+  pid_change_gains(gains_ref(loop), gains, state_ref(loop));
+  gains_ref(loop) = gains;
 }
 
 ControlOutput Controller::step(const Setpoints& sp, const hal::SensorFrame& sensors) {
+  TickSetpoints t;
+  t.segment = sp.segment;
+  t.ticks_per_sample = sp.ticks_per_sample;
+  t.normal = sp.normal_force_n;
+  t.lateral = sp.lateral_position_m;
+  return step(t, sensors);
+}
+
+ControlOutput Controller::step(const TickSetpoints& sp, const hal::SensorFrame& f) {
   ControlOutput out;
-  out.drive.normal_force_n = sp.normal_force_n;
-  if (std::isfinite(sensors.lateral_position_m)) {
-    last_lateral_drive_n_ = pid_update(params_.lateral, sp.lateral_position_m,
-                                       sensors.lateral_position_m, params_.period_s, lateral_);
-    if (lateral_.saturated) out.flags |= v1::LATERAL_OUTPUT_SATURATED;
-  } else {
-    out.flags |= v1::SENSOR_INVALID;  // hold the last drive; never feed NaN forward
-  }
-  out.drive.lateral_force_n = last_lateral_drive_n_;
+  drive_.normal_force_n = normal_step(sp, f, out);
+  drive_.lateral_force_n = lateral_step(sp, f, out);
+  out.drive = drive_;
   return out;
+}
+
+double Controller::normal_step(const TickSetpoints& sp, const hal::SensorFrame& f,
+                               ControlOutput& out) {
+  const double k = params_.normal_spring_n_per_m;
+  const bool enter = !normal_active_ || sp.normal_mode != normal_mode_;
+  normal_active_ = true;
+  normal_mode_ = sp.normal_mode;
+  out.normal_setpoint_n = sp.normal;
+  switch (sp.normal_mode) {
+    case NormalMode::kOpenLoopForce:
+      return sp.normal;
+    case NormalMode::kClosedLoopForce: {
+      out.flags |= v1::NORMAL_CLOSED_LOOP;
+      const PidGains& g = params_.normal_force;
+      if (enter) pid_reset(g, sp.normal, f.normal_force_n, sp.normal, drive_.normal_force_n, normal_force_);
+      const double u = pid_update(g, sp.normal, f.normal_force_n, sp.normal, params_.period_s, normal_force_);
+      if (normal_force_.input_invalid) out.flags |= v1::SENSOR_INVALID;
+      return u;
+    }
+    case NormalMode::kDisplacement: {
+      out.flags |= v1::NORMAL_CLOSED_LOOP;
+      const PidGains& g = params_.normal_displacement;
+      const double ff = k * sp.normal;
+      if (enter) pid_reset(g, sp.normal, f.normal_displacement_m, ff, drive_.normal_force_n, normal_displacement_);
+      const double u = pid_update(g, sp.normal, f.normal_displacement_m, ff, params_.period_s, normal_displacement_);
+      if (normal_displacement_.input_invalid) out.flags |= v1::SENSOR_INVALID;
+      out.normal_setpoint_n = u;  // the recorded normal setpoint is the commanded drive
+      return u;
+    }
+  }
+  return drive_.normal_force_n;
+}
+
+double Controller::lateral_hold(const hal::SensorFrame& f, ControlOutput& out) {
+  const PidGains& g = params_.lateral;
+  const double ff = params_.lateral_spring_n_per_m * hold_position_m_;
+  const double u = pid_update(g, hold_position_m_, f.lateral_position_m, ff, params_.period_s,
+                              lateral_displacement_);
+  if (lateral_displacement_.input_invalid) out.flags |= v1::SENSOR_INVALID;
+  if (lateral_displacement_.saturated) out.flags |= v1::LATERAL_OUTPUT_SATURATED;
+  out.lateral_setpoint_m = hold_position_m_;
+  return u;
+}
+
+double Controller::lateral_step(const TickSetpoints& sp, const hal::SensorFrame& f,
+                                ControlOutput& out) {
+  const double k = params_.lateral_spring_n_per_m;
+  const double x = f.lateral_position_m;
+  const bool new_mode = !lateral_active_ || sp.lateral_mode != lateral_mode_;
+  // A force segment restarts its loop after a break-away hold in the previous one.
+  const bool enter = new_mode || (sp.segment_start && sp.lateral_mode == LateralMode::kForce && breakaway_);
+  lateral_active_ = true;
+  lateral_mode_ = sp.lateral_mode;
+  if (new_mode || sp.segment_start) {
+    breakaway_ = false;
+    excursion_origin_m_ = x;
+  }
+  switch (sp.lateral_mode) {
+    case LateralMode::kDisplacement: {
+      const PidGains& g = params_.lateral;
+      const double ff = k * sp.lateral;
+      if (enter) pid_reset(g, sp.lateral, std::isfinite(x) ? x : sp.lateral, ff, drive_.lateral_force_n, lateral_displacement_);
+      const double u = pid_update(g, sp.lateral, x, ff, params_.period_s, lateral_displacement_);
+      if (lateral_displacement_.input_invalid) out.flags |= v1::SENSOR_INVALID;
+      if (lateral_displacement_.saturated) out.flags |= v1::LATERAL_OUTPUT_SATURATED;
+      out.lateral_setpoint_m = sp.lateral;
+      return u;
+    }
+    case LateralMode::kForce: {
+      out.flags |= v1::LATERAL_FORCE_CONTROL;
+      out.lateral_setpoint_m = x;
+      if (!breakaway_ && std::isfinite(x) && std::isfinite(excursion_origin_m_) &&
+          std::fabs(x - excursion_origin_m_) > sp.max_excursion_m) {
+        breakaway_ = true;
+        hold_position_m_ = x;
+        pid_reset(params_.lateral, x, x, k * x, drive_.lateral_force_n, lateral_displacement_);
+      }
+      if (breakaway_) {
+        out.flags |= v1::BREAKAWAY_HOLD;
+        return lateral_hold(f, out);
+      }
+      const PidGains& g = params_.lateral_force;
+      const double ff = sp.lateral + k * x;
+      if (enter) {
+        pid_reset(g, sp.lateral, std::isfinite(f.lateral_force_n) ? f.lateral_force_n : sp.lateral,
+                  std::isfinite(ff) ? ff : sp.lateral, drive_.lateral_force_n, lateral_force_);
+      }
+      const double u = pid_update(g, sp.lateral, f.lateral_force_n, ff, params_.period_s, lateral_force_);
+      if (lateral_force_.input_invalid) out.flags |= v1::SENSOR_INVALID;
+      if (lateral_force_.saturated) out.flags |= v1::LATERAL_OUTPUT_SATURATED;
+      return u;
+    }
+    case LateralMode::kOpenLoopDrive:
+      out.lateral_setpoint_m = x;
+      return sp.lateral;
+  }
+  return drive_.lateral_force_n;
 }
 
 }  // namespace tribo::daemon

@@ -14,4 +14,7 @@ std::optional<std::string> load_daemon_config(const std::string& path, v1::Daemo
 
 std::optional<std::string> validate_daemon_config(const v1::DaemonConfig& config);
 
+// Checks one set of PID gains; `at` prefixes the field names in errors.
+std::optional<std::string> validate_pid_gains(const std::string& at, const v1::PidGains& gains);
+
 }  // namespace tribo::daemon

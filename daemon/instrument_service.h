@@ -5,6 +5,7 @@
 // from its I/O thread, run documents leave through RunEventSink.
 #pragma once
 
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <memory>
@@ -43,6 +44,20 @@ class InstrumentService {
   std::optional<v1::Error> abort_run(const std::string& reason);
   v1::StatusReply status() const;
 
+  // Control and safety (issue 4). Gains apply to the next runs and,
+  // bumplessly, to the running one.
+  std::optional<v1::Error> set_gains(v1::ControlLoop loop, const v1::PidGains& gains,
+                                     v1::SetGainsReply& reply);
+  v1::GetGainsReply gains() const;
+  // FAULTED -> ARMED (or IDLE without a protocol) once the instrument's
+  // present state is safe; the reply carries the measured values the next
+  // run's setpoints start from.
+  std::optional<v1::Error> rearm(v1::RearmReply& reply);
+  // Trips the running run's supervisor, or latches FAULTED when idle.
+  std::optional<v1::Error> emergency_stop(const std::string& reason, v1::EmergencyStopReply& reply);
+  // Relay autotune of the lateral displacement loop; not while running.
+  std::optional<v1::Error> autotune(const v1::Autotune& request, v1::AutotuneReply& reply);
+
   // Aborts a running run (safe unload) and waits until it is recorded.
   void shutdown(const std::string& reason);
   // Waits until no run is active (tests).
@@ -70,6 +85,10 @@ class InstrumentService {
   std::unique_ptr<ActiveRun> run_;
   std::string last_run_id_;
   std::uint64_t last_cycle_count_ = 0;
+  std::array<v1::PidGains, 4> gains_;  // by ControlLoop - 1: the gains in force
+  std::string trip_reason_;            // the latched (or last) trip
+  double trip_time_s_ = 0;
+  v1::StatusReply last_timing_;        // timing fields of the last run
   double loaded_duration_s_ = 0;
   struct DrainCounters {
     std::uint64_t recorded = 0, dropped = 0, sensor_invalid = 0;

@@ -1,36 +1,92 @@
 #include "daemon/pid.h"
 
 #include <algorithm>
+#include <cmath>
 #include <numbers>
 
 namespace tribo::daemon {
 
-void pid_reset(const PidGains& g, double setpoint, double measurement, double output,
-               PidState& s) {
-  s.derivative = 0;
-  s.previous_d_input = g.setpoint_weight_d * setpoint - measurement;
-  s.integral = output - g.kp * (g.setpoint_weight_p * setpoint - measurement);
-  s.saturated = false;
+namespace {
+
+double proportional(const PidGains& g, double r, double y) {
+  return g.kp * (g.setpoint_weight_p * r - y);
 }
 
-double pid_update(const PidGains& g, double setpoint, double measurement, double dt_s,
-                  PidState& s) {
+double filter_time_s(const PidGains& g) {
+  return g.derivative_filter_hz > 0 ? 1.0 / (2.0 * std::numbers::pi * g.derivative_filter_hz) : 0.0;
+}
+
+}  // namespace
+
+double pid_tracking_time_s(const PidGains& g, double dt_s) {
+  if (g.tracking_time_s > 0) return g.tracking_time_s;
+  if (!(g.kp > 0) || !(g.ki > 0)) return dt_s;
+  const double ti = g.kp / g.ki;
+  if (g.kd > 0) return std::sqrt(ti * g.kd / g.kp);
+  return ti;
+}
+
+void pid_reset(const PidGains& g, double setpoint, double measurement, double feedforward,
+               double output, PidState& s) {
+  s.derivative = 0;
+  s.previous_d_input = g.setpoint_weight_d * setpoint - measurement;
+  s.integral = output - proportional(g, setpoint, measurement) - g.feedforward_gain * feedforward;
+  s.output = output;
+  s.setpoint = setpoint;
+  s.measurement = measurement;
+  s.feedforward = feedforward;
+  s.saturated = false;
+  s.input_invalid = false;
+}
+
+double pid_update(const PidGains& g, double setpoint, double measurement, double feedforward,
+                  double dt_s, PidState& s) {
+  if (!(dt_s > 0) || !std::isfinite(dt_s) || !std::isfinite(setpoint) ||
+      !std::isfinite(measurement) || !std::isfinite(feedforward)) {
+    s.input_invalid = true;
+    return s.output;
+  }
+  s.input_invalid = false;
   const double error = setpoint - measurement;
-  const double p = g.kp * (g.setpoint_weight_p * setpoint - measurement);
+  const double p = proportional(g, setpoint, measurement);
 
   const double d_input = g.setpoint_weight_d * setpoint - measurement;
-  const double tf = g.derivative_filter_hz > 0 ? 1.0 / (2.0 * std::numbers::pi * g.derivative_filter_hz) : 0.0;
+  const double tf = filter_time_s(g);
   s.derivative = (tf * s.derivative + g.kd * (d_input - s.previous_d_input)) / (tf + dt_s);
   s.previous_d_input = d_input;
 
-  const double candidate_integral = s.integral + g.ki * dt_s * error;
-  const double unclamped = p + candidate_integral + s.derivative;
+  const double candidate = s.integral + g.ki * dt_s * error;
+  const double unclamped = p + candidate + s.derivative + g.feedforward_gain * feedforward;
   const double output = std::clamp(unclamped, g.output_min, g.output_max);
-  const bool winding_up = (unclamped > g.output_max && error > 0) ||
-                          (unclamped < g.output_min && error < 0);
-  if (!winding_up) s.integral = candidate_integral;
+  switch (g.anti_windup) {
+    case AntiWindup::kNone:
+      s.integral = candidate;
+      break;
+    case AntiWindup::kConditionalIntegration: {
+      const bool winding_up = (unclamped > g.output_max && error > 0) ||
+                              (unclamped < g.output_min && error < 0);
+      if (!winding_up) s.integral = candidate;
+      break;
+    }
+    case AntiWindup::kBackCalculation: {
+      const double gain = std::min(1.0, dt_s / pid_tracking_time_s(g, dt_s));
+      s.integral = candidate + gain * (output - unclamped);
+      break;
+    }
+  }
   s.saturated = output != unclamped;
+  s.output = output;
+  s.setpoint = setpoint;
+  s.measurement = measurement;
+  s.feedforward = feedforward;
   return output;
+}
+
+void pid_change_gains(const PidGains& old_gains, const PidGains& new_gains, PidState& s) {
+  s.derivative = old_gains.kd > 0 ? s.derivative * (new_gains.kd / old_gains.kd) : 0.0;
+  s.previous_d_input = new_gains.setpoint_weight_d * s.setpoint - s.measurement;
+  s.integral = s.output - proportional(new_gains, s.setpoint, s.measurement) - s.derivative -
+               new_gains.feedforward_gain * s.feedforward;
 }
 
 }  // namespace tribo::daemon

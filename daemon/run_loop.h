@@ -1,10 +1,19 @@
-// The real-time loop of one run: read sensors, supervise, control, write the
-// drive, hand the sample on, wait for the next tick. It allocates nothing,
-// takes no lock and does no I/O; samples leave through the SPSC queue.
+// The real-time loop of one run. Each tick:
 //
-// On an abort request or a safety trip the loop stops the load function and
-// unloads: the normal force setpoint ramps to zero at unload_rate_n_per_s
-// while the lateral position is held, then the run ends.
+//   read      the sensors through the HAL (a failed read keeps the last frame)
+//   supervise apply pending gain changes; the supervisor checks the reading,
+//             the applied drive and the link (daemon/safety_supervisor.h)
+//   control   setpoints from the segment runner, or from the safe stop
+//             sequence once stopping; the controller computes the drive
+//   write     the drive to the HAL
+//   record    the tick into the acquisition filter; finished samples leave
+//             through the SPSC queue
+//   wait      the HAL's clock: lock-step plant step or absolute-deadline sleep
+//
+// It allocates nothing, takes no lock and does no I/O after construction
+// (tests/daemon/tick_allocation_test.cc counts). On an abort request, an
+// emergency stop or a safety trip the loop stops the segment runner and runs
+// the safe stop sequence (daemon/stop_sequence.h), then the run ends.
 #pragma once
 
 #include <atomic>
@@ -14,6 +23,9 @@
 #include "daemon/load_function.h"
 #include "daemon/safety_supervisor.h"
 #include "daemon/sample_queue.h"
+#include "daemon/stop_sequence.h"
+#include "daemon/tick_timing.h"
+#include "daemon/acquisition.h"
 #include "hal/transducer.h"
 #include "proto/sample_record.h"
 
@@ -21,30 +33,94 @@ namespace tribo::daemon {
 
 struct RunLoopConfig {
   ControllerParams controller;
-  SafetyLimits limits;
-  double unload_rate_n_per_s = 10e-3;
+  SupervisorParams supervisor;
+  StopSequenceParams stop;
   // true: when the queue is full, wait for the consumer (the simulated plant
   // waits with us); false: count the sample as dropped and go on.
   bool backpressure = true;
 };
 
-// Counters the loop publishes for status requests from other threads.
+RunLoopConfig run_loop_config_from(const v1::DaemonConfig& config);
+
+struct GainUpdate {
+  Loop loop = Loop::kLateralDisplacement;
+  PidGains gains;
+};
+
+// Requests from other threads to the loop; all lock-free.
+struct RunControl {
+  std::atomic<bool> abort_requested{false};
+  std::atomic<bool> emergency_stop{false};
+  // One producer at a time (the service pushes under its mutex).
+  SpscQueue<GainUpdate> gain_updates{16};
+};
+
+// What the loop publishes for status requests from other threads.
 struct RunTelemetry {
   std::atomic<std::uint64_t> cycles{0};
   std::atomic<std::uint64_t> samples{0};
   std::atomic<std::uint64_t> samples_dropped{0};
+  std::atomic<std::uint64_t> overruns{0};
+  std::atomic<bool> tripped{false};
+  TickTiming timing;
 };
 
 enum class RunEnd { kCompleted, kAborted, kTripped };
 
 struct RunOutcome {
   RunEnd end = RunEnd::kCompleted;
-  TripReason trip = TripReason::kNone;
+  Trip trip;
   std::uint64_t cycles = 0;
+  double trip_time_s = 0;
+};
+
+// reason text + ": " + detail, e.g. "lateral force beyond the limit: filtered ..."
+std::string trip_description(const Trip& trip);
+
+class RunLoop {
+ public:
+  RunLoop(hal::Transducer& transducer, const LoadFunction& load_function,
+          const RunLoopConfig& config, SpscQueue<Sample>& queue, RunControl& control,
+          RunTelemetry& telemetry);
+
+  // One tick; false once the run has ended (then outcome() is final).
+  bool tick();
+  const RunOutcome& outcome() const { return outcome_; }
+
+  const Controller& controller() const { return controller_; }
+  const SafetySupervisor& supervisor() const { return supervisor_; }
+  const StopSequence& stop_sequence() const { return stop_; }
+
+ private:
+  void start_stopping(RunEnd end);
+  void finish();
+  void record(const Sample& tick_sample, std::uint32_t ticks_per_sample);
+
+  hal::Transducer& transducer_;
+  SegmentRunner runner_;
+  RunLoopConfig config_;
+  SpscQueue<Sample>& queue_;
+  RunControl& control_;
+  RunTelemetry& telemetry_;
+  Controller controller_;
+  SafetySupervisor supervisor_;
+  StopSequence stop_;
+  Acquisition acquisition_;
+  double period_s_;
+
+  RunOutcome outcome_;
+  bool finished_ = false;
+  bool stopping_ = false;
+  std::uint64_t tick_ = 0;
+  hal::SensorFrame frame_;
+  double last_lateral_position_m_ = 0;
+  double last_normal_displacement_m_ = 0;
+  hal::IoResult last_write_ = hal::IoResult::kOk;
+  TickSetpoints sp_;
 };
 
 RunOutcome execute_run(hal::Transducer& transducer, const LoadFunction& load_function,
-                       const RunLoopConfig& config, SpscQueue<Sample>& queue,
-                       const std::atomic<bool>& abort_requested, RunTelemetry& telemetry);
+                       const RunLoopConfig& config, SpscQueue<Sample>& queue, RunControl& control,
+                       RunTelemetry& telemetry);
 
 }  // namespace tribo::daemon

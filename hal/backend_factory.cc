@@ -7,6 +7,7 @@
 #include "hal/modbus_register_map.h"
 #include "hal/modbus_transducer.h"
 #include "hal/sim_transducer.h"
+#include "sim/fault_injection.h"
 #include "sim/instrument_params.h"
 
 namespace tribo::hal {
@@ -27,7 +28,8 @@ std::unique_ptr<Transducer> make_transducer(const v1::DaemonConfig& config, std:
     case v1::DaemonConfig::kSim:
       return std::make_unique<SimTransducer>(sim::instrument_params_from_config(config.sim()), seed,
                                              config.controller().loop_rate_hz(),
-                                             config.controller().pace_to_wall_clock());
+                                             config.controller().pace_to_wall_clock(),
+                                             sim::fault_schedule_from_config(config.sim().faults()));
     case v1::DaemonConfig::kModbus:
       return std::make_unique<ModbusTransducer>(link_settings_from_config(config.modbus()),
                                                 register_map_from_config(config.modbus().register_map()),

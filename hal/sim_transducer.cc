@@ -1,28 +1,44 @@
 #include "hal/sim_transducer.h"
 
+#include <limits>
+
 namespace tribo::hal {
 
 SimTransducer::SimTransducer(const sim::InstrumentParams& params, std::uint64_t seed,
-                             double loop_rate_hz, bool pace_to_wall_clock)
-    : instrument_(params, seed), period_s_(1.0 / loop_rate_hz) {
+                             double loop_rate_hz, bool pace_to_wall_clock,
+                             std::vector<sim::FaultSpec> faults)
+    : instrument_(params, seed), period_s_(1.0 / loop_rate_hz), faults_(std::move(faults), seed) {
   if (pace_to_wall_clock) pacer_ = std::make_unique<WallClockPacer>(period_s_);
+  faults_.advance(0.0, sim::DriveInput{});
 }
 
 IoResult SimTransducer::read(SensorFrame& frame) {
-  const sim::Measurement& m = instrument_.measurement();
+  if (faults_.link_down() || faults_.read_timeout()) {
+    // As a real backend does (hal/transducer.h): a failed read hands on no stale value.
+    constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+    frame = SensorFrame{kNaN, kNaN, kNaN, kNaN, status_bits_};
+    return faults_.link_down() ? IoResult::kLinkDown : IoResult::kTimeout;
+  }
+  const sim::Measurement m =
+      faults_.empty() ? instrument_.measurement() : faults_.corrupt(instrument_.measurement());
   frame = SensorFrame{m.normal_force_n, m.normal_displacement_m, m.lateral_force_n,
                       m.lateral_position_m, status_bits_};
   return IoResult::kOk;
 }
 
 IoResult SimTransducer::write(const DriveCommand& command) {
+  if (faults_.link_down()) return IoResult::kLinkDown;  // the drive holds its last value
   command_ = command;
   return IoResult::kOk;
 }
 
 void SimTransducer::wait_next_tick() {
+  const sim::DriveInput commanded{command_.normal_force_n, command_.lateral_force_n};
   const sim::StepReport report =
-      instrument_.step(sim::DriveInput{command_.normal_force_n, command_.lateral_force_n}, period_s_);
+      instrument_.step(faults_.empty() ? commanded : faults_.actuate(commanded), period_s_);
+  ++ticks_;
+  // Tick times as the controller counts them (k periods), not a running sum.
+  if (!faults_.empty()) faults_.advance(static_cast<double>(ticks_) * period_s_, commanded);
   status_bits_ = (report.substep_cap_hit ? kSubstepCapHit : kSensorOk) |
                  (report.snapped ? kLateralSnapDown : kSensorOk) |
                  (report.handover ? kDriveHandover : kSensorOk);

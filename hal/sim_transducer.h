@@ -5,9 +5,11 @@
 
 #include <cstdint>
 #include <memory>
+#include <vector>
 
 #include "hal/transducer.h"
 #include "hal/wall_clock_pacer.h"
+#include "sim/fault_injection.h"
 #include "sim/instrument.h"
 
 namespace tribo::hal {
@@ -15,14 +17,16 @@ namespace tribo::hal {
 class SimTransducer : public Transducer {
  public:
   SimTransducer(const sim::InstrumentParams& params, std::uint64_t seed, double loop_rate_hz,
-                bool pace_to_wall_clock);
+                bool pace_to_wall_clock, std::vector<sim::FaultSpec> faults = {});
 
   std::string_view backend_name() const override { return "sim"; }
   double period_s() const override { return period_s_; }
   IoResult read(SensorFrame& frame) override;
   IoResult write(const DriveCommand& command) override;
   void wait_next_tick() override;
-  std::uint64_t overruns() const override { return pacer_ ? pacer_->overruns() : 0; }
+  std::uint64_t overruns() const override {
+    return (pacer_ ? pacer_->overruns() : 0) + faults_.overruns();
+  }
 
   // The plant's true state: for tests and diagnostics, never for control.
   const sim::SimInstrument& instrument() const { return instrument_; }
@@ -33,6 +37,8 @@ class SimTransducer : public Transducer {
   DriveCommand command_;
   std::uint32_t status_bits_ = 0;
   std::unique_ptr<WallClockPacer> pacer_;
+  sim::FaultInjector faults_;  // sim/fault_injection.h; empty: no faults
+  std::uint64_t ticks_ = 0;
 };
 
 }  // namespace tribo::hal

@@ -367,7 +367,8 @@ TEST(ApiStreaming, ASafetyTripSendsAFaultBeforeTheStop) {
   EXPECT_EQ(log.stop->exit_status(), v1::FAULT);
   ASSERT_EQ(log.faults.size(), 1u);
   const v1::Fault& fault = log.faults[0];
-  EXPECT_EQ(fault.reason(), "lateral force beyond the limit");
+  // The reason, then the supervisor's detail (value and limit).
+  EXPECT_EQ(fault.reason().rfind("lateral force beyond the limit: ", 0), 0u) << fault.reason();
   EXPECT_TRUE(log.documents[log.documents.size() - 2].has_fault()) << "the fault comes right before the stop";
   ASSERT_FALSE(log.events.empty());
   EXPECT_EQ(log.events.back().kind(), v1::UNLOAD_BEGIN);

@@ -45,8 +45,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     return 0;
   }
   const auto& limits = config().limits();
-  const tribo::daemon::ProtocolCheck result =
-      tribo::daemon::validate_protocol(protocol, limits, config().controller());
+  const tribo::daemon::ProtocolCheck result = tribo::daemon::validate_protocol(protocol, config());
   for (const auto& e : result.errors) check(!e.message.empty());
   if (!result.ok()) return 0;
 
@@ -58,9 +57,19 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     check(s.start_tick == next_tick);
     next_tick += s.tick_count;
     check(s.ticks_per_sample >= 1);
-    check(within(s.normal_begin_n, limits.max_normal_force_n()) && within(s.normal_end_n, limits.max_normal_force_n()));
-    check(within(s.lateral_begin_m, limits.max_lateral_travel_m()) &&
-          within(s.lateral_end_m, limits.max_lateral_travel_m()));
+  }
+  // The setpoints at every segment's first and last tick, from an instrument
+  // at rest: finite, and within the force and travel limits of their mode.
+  tribo::daemon::SegmentRunner runner(lf);
+  const tribo::daemon::MeasuredStart at_rest;
+  for (const auto& s : lf.segments()) {
+    for (const std::uint64_t tick : {s.start_tick, s.start_tick + s.tick_count - 1}) {
+      const tribo::daemon::TickSetpoints sp = runner.at(tick, at_rest);
+      const bool normal_force = sp.normal_mode != tribo::daemon::NormalMode::kDisplacement;
+      check(within(sp.normal, normal_force ? limits.max_normal_force_n() : limits.max_normal_travel_m()));
+      const bool lateral_force = sp.lateral_mode == tribo::daemon::LateralMode::kForce;
+      check(within(sp.lateral, lateral_force ? limits.max_lateral_force_n() : limits.max_lateral_travel_m()));
+    }
   }
   check(next_tick == lf.total_ticks());
   return 0;

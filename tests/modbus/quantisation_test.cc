@@ -82,16 +82,16 @@ v1::Protocol short_scratch() {
 }
 
 analysis::SlidingSegmentMetrics scratch_metrics(hal::Transducer& transducer, const v1::DaemonConfig& config) {
-  const daemon::ProtocolCheck check = daemon::validate_protocol(short_scratch(), config.limits(), config.controller());
+  const daemon::ProtocolCheck check = daemon::validate_protocol(short_scratch(), config);
   if (!check.ok()) throw std::runtime_error(check.errors.front().message);
-  daemon::RunLoopConfig loop;
-  loop.controller = daemon::controller_params_from_config(config.controller());
-  loop.limits = daemon::safety_limits_from_config(config.limits());
+  const daemon::RunLoopConfig loop = daemon::run_loop_config_from(config);
   daemon::SpscQueue<Sample> queue(1 << 13);
-  std::atomic<bool> abort{false};
+  daemon::RunControl control;
   daemon::RunTelemetry telemetry;
-  const daemon::RunOutcome outcome = daemon::execute_run(transducer, check.load_function, loop, queue, abort, telemetry);
-  if (outcome.end != daemon::RunEnd::kCompleted) throw std::runtime_error("the run did not complete");
+  const daemon::RunOutcome outcome = daemon::execute_run(transducer, check.load_function, loop, queue, control, telemetry);
+  if (outcome.end != daemon::RunEnd::kCompleted) {
+    throw std::runtime_error("the run did not complete: " + daemon::trip_description(outcome.trip));
+  }
   v1::SampleBlock block;
   Sample s;
   while (queue.try_pop(s)) append_sample(s, block);

@@ -31,6 +31,8 @@ TEST(ModbusConfig, ShippedConfigIsValidAndMatchesTheSimulatedOne) {
   EXPECT_EQ(modbus.controller().SerializeAsString(), sim.controller().SerializeAsString());
   EXPECT_EQ(modbus.limits().SerializeAsString(), sim.limits().SerializeAsString());
   EXPECT_EQ(modbus.server().SerializeAsString(), sim.server().SerializeAsString());
+  // The same instrument: the supervisor's nominal transducer constants.
+  EXPECT_EQ(modbus.transducer().SerializeAsString(), sim.transducer().SerializeAsString());
 }
 
 TEST(ModbusConfig, ValidationNamesTheEntry) {

@@ -1,0 +1,179 @@
+#include "daemon/autotune.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <sstream>
+#include <vector>
+
+namespace tribo::daemon {
+
+namespace {
+
+constexpr double kSteadySpread = 0.02;  // (max - min) / mean of the measured cycles
+constexpr double kSteadyDrift = 0.005;  // between consecutive windows of cycles
+constexpr double kHoldS = 1.0;      // hold before the relay: the I-PD lag decays (tau ~0.2 s)
+constexpr double kBiasWindowS = 0.2;  // the bias is the mean drive over this
+
+class Axis {
+ public:
+  Axis(hal::Transducer& t, const AutotuneParams& p) : t_(t), p_(p), dt_(t.period_s()) { t_.read(frame_); }
+
+  double position() const { return frame_.lateral_position_m; }
+  double drive() const { return drive_; }
+  std::uint64_t ticks() const { return ticks_; }
+  bool out_of_travel() const {
+    return !std::isfinite(frame_.lateral_position_m) || std::fabs(frame_.lateral_position_m) > p_.max_travel_m;
+  }
+
+  void apply(double lateral_drive_n) {
+    drive_ = lateral_drive_n;
+    t_.write(hal::DriveCommand{0.0, drive_});
+    t_.wait_next_tick();
+    t_.read(frame_);
+    ++ticks_;
+  }
+
+  // Moves the PID setpoint from `from` to `to` at the move speed, then holds
+  // for hold_s; returns the mean drive over the last bias window.
+  double move(PidState& s, double from, double to, double hold_s) {
+    const double distance = to - from;
+    const auto move_ticks = static_cast<std::uint64_t>(std::ceil(std::fabs(distance) / p_.move_speed_m_per_s / dt_));
+    const auto hold_ticks = static_cast<std::uint64_t>(std::ceil(hold_s / dt_));
+    const auto window = static_cast<std::uint64_t>(std::ceil(kBiasWindowS / dt_));
+    double sum = 0;
+    std::uint64_t n = 0;
+    for (std::uint64_t k = 0; k < move_ticks + hold_ticks && !out_of_travel(); ++k) {
+      const double r = k < move_ticks ? from + distance * static_cast<double>(k + 1) / static_cast<double>(move_ticks) : to;
+      apply(pid_update(p_.present, r, position(), 0.0, dt_, s));
+      if (k + window >= move_ticks + hold_ticks) {
+        sum += drive_;
+        ++n;
+      }
+    }
+    return n > 0 ? sum / static_cast<double>(n) : drive_;
+  }
+
+ private:
+  hal::Transducer& t_;
+  const AutotuneParams& p_;
+  double dt_;
+  hal::SensorFrame frame_;
+  double drive_ = 0;
+  std::uint64_t ticks_ = 0;
+};
+
+double tail_mean(const std::vector<double>& v, std::size_t n, std::size_t skip = 0) {
+  double sum = 0;
+  for (std::size_t i = v.size() - n - skip; i < v.size() - skip; ++i) sum += v[i];
+  return sum / static_cast<double>(n);
+}
+
+// (max - min) / mean of the last n values.
+double spread(const std::vector<double>& v, std::size_t n) {
+  const auto first = v.end() - static_cast<std::ptrdiff_t>(n);
+  const auto [lo, hi] = std::minmax_element(first, v.end());
+  double sum = 0;
+  for (auto it = first; it != v.end(); ++it) sum += *it;
+  return (*hi - *lo) / (sum / static_cast<double>(n));
+}
+
+// Settled: the last n values spread less than kSteadySpread, and their mean
+// differs from the mean of the n before by less than kSteadyDrift (a slowly
+// growing or beating oscillation is not yet the limit cycle).
+bool settled(const std::vector<double>& v, std::size_t n) {
+  if (v.size() < 2 * n) return false;
+  const double last = tail_mean(v, n), before = tail_mean(v, n, n);
+  return spread(v, n) < kSteadySpread && std::fabs(last - before) < kSteadyDrift * last;
+}
+
+std::string fmt(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+}  // namespace
+
+AutotuneResult relay_autotune(hal::Transducer& transducer, const AutotuneParams& p) {
+  AutotuneResult result;
+  const double dt = transducer.period_s();
+  Axis axis(transducer, p);
+  const double start = std::isfinite(axis.position()) ? axis.position() : 0.0;
+  PidState pid;
+  pid_reset(p.present, start, start, 0.0, 0.0, pid);
+  const double bias = axis.move(pid, start, p.position_m, kHoldS);
+  if (axis.out_of_travel()) {
+    axis.apply(0.0);
+    result.error = "the lateral position left the travel while moving to the relay position";
+    return result;
+  }
+
+  // The relay experiment. A lightly damped plant takes tens of cycles to
+  // settle onto the limit cycle: measure once the last `cycles` periods and
+  // amplitudes agree within kSteadySpread.
+  const double d = p.relay_amplitude_n, eps = p.hysteresis_m;
+  const std::size_t n = std::max<std::uint32_t>(2, p.cycles);
+  double u = bias + d;
+  std::vector<double> switch_times;  // switches to +d
+  std::vector<double> periods, amplitudes;  // per cycle
+  double lo = axis.position(), hi = axis.position();
+  const auto max_ticks = static_cast<std::uint64_t>(p.max_duration_s / dt);
+  bool steady = false;
+  for (std::uint64_t k = 0; k < max_ticks && !steady; ++k) {
+    const double e = p.position_m - axis.position();
+    if (e > eps && u < bias) {
+      u = bias + d;
+      const double t = static_cast<double>(k) * dt;
+      if (!switch_times.empty()) {
+        periods.push_back(t - switch_times.back());
+        amplitudes.push_back(0.5 * (hi - lo));
+        steady = settled(periods, n) && settled(amplitudes, n);
+      }
+      switch_times.push_back(t);
+      lo = hi = axis.position();
+    } else if (e < -eps && u > bias) {
+      u = bias - d;
+    }
+    lo = std::min(lo, axis.position());
+    hi = std::max(hi, axis.position());
+    axis.apply(u);
+    if (axis.out_of_travel()) {
+      axis.apply(0.0);
+      result.error = "the relay oscillation left the travel (" + fmt(p.max_travel_m * 1e6) +
+                     " µm); lower the relay amplitude";
+      return result;
+    }
+  }
+  // Back to the start with the present PID, bumplessly.
+  const double end_position = axis.position();
+  pid_reset(p.present, end_position, end_position, 0.0, axis.drive(), pid);
+  axis.move(pid, p.position_m, start, kHoldS);
+  result.ticks = axis.ticks();
+  if (!steady) {
+    result.error = "no steady limit cycle within " + fmt(p.max_duration_s) + " s (" +
+                   std::to_string(periods.size()) + " relay cycles)";
+    return result;
+  }
+  const double period = tail_mean(periods, n);
+  const double amplitude = tail_mean(amplitudes, n);
+  if (!(amplitude > eps)) {
+    result.error = "the oscillation amplitude " + fmt(amplitude) + " m does not exceed the hysteresis";
+    return result;
+  }
+  const double ku = 4 * d / (std::numbers::pi * std::sqrt(amplitude * amplitude - eps * eps));
+  result.ok = true;
+  result.ultimate_gain_n_per_m = ku;
+  result.ultimate_period_s = period;
+  result.amplitude_m = amplitude;
+  result.cycles = static_cast<std::uint32_t>(n);
+  result.settling_cycles = static_cast<std::uint32_t>(periods.size() - n);
+  result.proposed = p.present;
+  result.proposed.kp = 0.6 * ku;
+  result.proposed.ki = result.proposed.kp / (period / 2);
+  result.proposed.kd = result.proposed.kp * (period / 8);
+  result.rule = "Ziegler-Nichols PID from the relay: kp = 0.6 Ku, ki = kp / (Pu/2), kd = kp Pu/8";
+  return result;
+}
+
+}  // namespace tribo::daemon

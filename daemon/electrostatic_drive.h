@@ -1,0 +1,51 @@
+// The nominal electrostatic drive of a three-plate capacitive transducer axis
+// (physics.md §2): which plate voltages produce a drive force at the present
+// position, the negative stiffness they add, and how close the plate is to
+// snap-down (pull-in). The supervisor and the validator use it with the
+// config's nominal constants (tribo.v1.TransducerConstants), never with the
+// simulator's parameters, so the same checks run against real hardware.
+//
+// Drive model: the centre plate (tip) is grounded; the drive plates sit at
+// gaps g+ = d+ - x and g- = d- + x (x towards the + plate) and both carry the
+// bias Vb. A force F > 0 raises the + plate to V+ (the - plate stays at Vb),
+// F < 0 the - plate: one plate at a time, as in the dissertation (§3.2.5).
+//
+//   F   = eps A / 2 (V+^2 / g+^2 - V-^2 / g-^2)
+//   k_e = eps A (V+^2 / g+^3 + V-^2 / g-^3)          negative stiffness
+//   k_eff = k_spring + k_support - k_e               must stay positive
+//
+// k_support is whatever else holds the plate (the contact, for the normal
+// axis under load). The pull-in voltage at the present gap is the active
+// plate's voltage at which k_eff reaches 0; from rest with the spring alone
+// (no bias) it is sqrt(8 k d^3 / (27 eps A)) at x = d/3 (143 V for d = 85 µm,
+// k = 100 N/m, A = 1 cm^2), which this reproduces at x = d/3.
+#pragma once
+
+#include "tribo/v1/daemon_config.pb.h"
+
+namespace tribo::daemon {
+
+struct ElectrostaticAxis {
+  double spring_n_per_m = 0;
+  double plate_area_m2 = 0;
+  double gap_positive_m = 0;
+  double gap_negative_m = 0;
+  double bias_v = 0;
+  double max_drive_v = 0;
+  double permittivity_f_per_m = 8.8541878128e-12;  // eps0 eps_r
+};
+
+struct DriveAssessment {
+  bool gap_closed = false;         // x at or beyond a plate: no valid state
+  double active_voltage_v = 0;     // the raised plate's voltage
+  double negative_stiffness_n_per_m = 0;
+  double stiffness_ratio = 0;      // k_eff / k_spring
+  double pull_in_voltage_v = 0;    // of the active plate at this gap and support
+};
+
+ElectrostaticAxis electrostatic_axis_from_config(const v1::TransducerAxisConstants& c);
+
+DriveAssessment assess_drive(const ElectrostaticAxis& axis, double force_n, double position_m,
+                             double support_stiffness_n_per_m);
+
+}  // namespace tribo::daemon

@@ -1,0 +1,51 @@
+#include "daemon/daemon_config.h"
+
+#include <gtest/gtest.h>
+
+#include "tests/sim/sim_test_support.h"
+
+namespace tribo::daemon {
+namespace {
+
+TEST(DaemonConfig, TheShippedConfigIsValid) {
+  EXPECT_FALSE(validate_daemon_config(tribo::testing::default_config()));
+}
+
+// physics.md §2: a 600 V bias on both plates of A = 1 cm^2 at 85 µm adds
+// 2 x 519 N/m of negative stiffness against the 100 N/m spring.
+TEST(DaemonConfig, ABiasThatWouldSnapThePlateDownAtRestIsRejected) {
+  v1::DaemonConfig c = tribo::testing::default_config();
+  c.mutable_transducer()->mutable_normal()->set_bias_v(600);
+  const auto e = validate_daemon_config(c);
+  ASSERT_TRUE(e);
+  EXPECT_NE(e->find("transducer.normal.bias_v = 600"), std::string::npos) << *e;
+  EXPECT_NE(e->find("1038.06 N/m"), std::string::npos) << *e;
+  // A small bias keeps the margin: 50 V adds 14 N/m.
+  c.mutable_transducer()->mutable_normal()->set_bias_v(50);
+  EXPECT_FALSE(validate_daemon_config(c)) << *validate_daemon_config(c);
+}
+
+TEST(DaemonConfig, ErrorsNameTheFieldTheValueAndTheLimit) {
+  v1::DaemonConfig c = tribo::testing::default_config();
+  c.mutable_supervisor()->set_force_filter_hz(8000);
+  auto e = validate_daemon_config(c);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(*e, "supervisor.force_filter_hz = 8000: must be in [0.001, 5000]");
+
+  c = tribo::testing::default_config();
+  c.mutable_controller()->mutable_normal_force()->set_output_max(-1);
+  e = validate_daemon_config(c);
+  ASSERT_TRUE(e);
+  EXPECT_NE(e->find("controller.normal_force.output_min"), std::string::npos) << *e;
+
+  c = tribo::testing::default_config();
+  v1::InjectedFault* f = c.mutable_sim()->mutable_faults()->add_faults();
+  f->set_kind(v1::ACTUATOR_STUCK);
+  f->set_channel(v1::CHANNEL_LATERAL_FORCE);
+  e = validate_daemon_config(c);
+  ASSERT_TRUE(e);
+  EXPECT_NE(e->find("sim.faults.faults[0].channel"), std::string::npos) << *e;
+}
+
+}  // namespace
+}  // namespace tribo::daemon
