@@ -2,9 +2,14 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
+#include <cstdlib>
 #include <cmath>
 #include <cstdio>
 #include <map>
+
+#include "analysis/autodiff.h"
+#include "analysis/regression.h"
 
 namespace tribo::analysis {
 
@@ -42,20 +47,89 @@ bool is_scale_parameter(const ParamSpec& s) {
   return s.transform == Transform::kLog && (s.name == "lag_time" || s.name == "dwell_time" || s.name == "backlash_gap");
 }
 
-// Fits the extension: its own parameters first (base fixed; a few starts for
-// time/length scales), then everything together from the best start.
-FitResult fit_extension(const ModelData& data, const ModelParams& current, Effect effect, const Signature& sig,
-                        const std::vector<char>& in_fit, const DiagnosisOptions& options) {
+// The extension switched on at the signature's initial values, with its
+// fixed parameters held.
+ModelParams extended_start(const ModelData& data, const ModelParams& current, Effect effect, const Signature& sig) {
   ModelParams start = current;
-  start.structure.periodic_additive = effect == Effect::kPositionPeriodic ? sig.periodic_additive : current.structure.periodic_additive;
+  if (effect == Effect::kPositionPeriodic) start.structure.periodic_additive = sig.periodic_additive;
   start = with_effect(start, effect, data, sig.initial_values);
   for (const std::string& name : sig.fixed_parameters) {
     const int k = start.index(name);
     if (k >= 0) start.specs[static_cast<std::size_t>(k)].fixed = true;
   }
+  return start;
+}
+
+// Score (Lagrange-multiplier) test of an extension: regresses the present
+// residual on the extension's sensitivities at its initial values, with
+// autocorrelation-inflated errors.
+// Returns the largest |t|; comparable across effects, used to screen and rank.
+double score_test(const ModelData& data, const ModelParams& current, const std::vector<double>& current_model,
+                  Effect effect, const Signature& sig, const std::vector<char>& in_fit) {
+  const ModelParams start = extended_start(data, current, effect, sig);
+  std::vector<int> columns;
+  for (std::size_t k = 0; k < start.specs.size(); ++k) {
+    if (start.specs[k].effect == effect && !start.specs[k].fixed) columns.push_back(static_cast<int>(k));
+  }
+  const int nd = static_cast<int>(columns.size());
+  std::vector<Dual> theta(start.theta.size());
+  for (std::size_t k = 0; k < theta.size(); ++k) theta[k] = Dual(start.theta[k], DerivativeVector::Zero(nd));
+  for (int j = 0; j < nd; ++j) theta[static_cast<std::size_t>(columns[static_cast<std::size_t>(j)])].derivatives()[j] = 1.0;
+  std::vector<Dual> model;
+  simulate_generic<Dual>(data, start, theta, model);
+  std::vector<std::size_t> rows;
+  for (std::size_t i = 0; i < model.size(); ++i) {
+    if (in_fit[i]) rows.push_back(i);
+  }
+  Eigen::MatrixXd X(static_cast<Eigen::Index>(rows.size()), nd);
+  Eigen::VectorXd y(static_cast<Eigen::Index>(rows.size()));
+  for (std::size_t r = 0; r < rows.size(); ++r) {
+    const Dual& m = model[rows[r]];
+    const auto row = static_cast<Eigen::Index>(r);
+    for (int j = 0; j < nd; ++j) X(row, j) = m.derivatives().size() > j ? m.derivatives()[j] : 0.0;
+    y[row] = data.series.force_n[rows[r]] - current_model[rows[r]];
+  }
+  // Drop columns without variation (a parameter these samples do not feel).
+  std::vector<Eigen::Index> keep;
+  for (Eigen::Index j = 0; j < X.cols(); ++j) {
+    if (X.col(j).cwiseAbs().maxCoeff() > 0) keep.push_back(j);
+  }
+  if (keep.empty()) return 0.0;
+  Eigen::MatrixXd Xk(X.rows(), static_cast<Eigen::Index>(keep.size()));
+  for (std::size_t j = 0; j < keep.size(); ++j) Xk.col(static_cast<Eigen::Index>(j)) = X.col(keep[j]);
+  const Regression reg = regress(Xk, y);
+  if (!reg.ok) return 0.0;
+  double best = 0;
+  for (Eigen::Index j = 0; j < reg.coef.size(); ++j) best = std::max(best, std::fabs(reg.t(static_cast<int>(j))));
+  return best;
+}
+
+// The base parameters an extension re-partitions with (fitted with it in
+// the first stage): dwell stiction shares Fs, a log-velocity term shares Fc
+// and Fv, presliding hysteresis and backlash share the bristle, and every
+// additive term shares the offset.
+std::vector<std::string> coupled_base_parameters(Effect effect) {
+  switch (effect) {
+    case Effect::kDwellStiction: return {"Fs", "mu_s", "offset"};
+    case Effect::kFrictionalLag: return {"vs", "offset"};
+    case Effect::kVelocityStrengthening: return {"Fc", "mu_c", "Fv", "offset"};
+    case Effect::kLoadDependence: return {"mu_c", "mu_s", "offset"};
+    case Effect::kPreslidingHysteresis: return {"sigma0", "sigma1", "offset"};
+    case Effect::kBacklash: return {"sigma0", "offset"};
+    default: return {"offset"};
+  }
+}
+
+// Fits the extension: its own parameters first (base fixed; a few starts for
+// time/length scales), then everything together from the best start.
+FitResult fit_extension(const ModelData& data, const ModelParams& current, Effect effect, const Signature& sig,
+                        const std::vector<char>& in_fit, const DiagnosisOptions& options) {
+  const ModelParams start = extended_start(data, current, effect, sig);
   ModelParams own = start;
+  const std::vector<std::string> coupled = coupled_base_parameters(effect);
   for (auto& spec : own.specs) {
-    if (!spec.effect && spec.name != "offset") spec.fixed = true;
+    const bool is_coupled = std::find(coupled.begin(), coupled.end(), spec.name) != coupled.end();
+    if (!spec.effect && !is_coupled) spec.fixed = true;
   }
   std::vector<double> multipliers = {1.0};
   for (const auto& spec : own.specs) {
@@ -275,7 +349,12 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
   const std::vector<char> heldout(out.motion.heldout.begin(), out.motion.heldout.end());
   const std::vector<char> everything(series.size(), 1);
 
+  const auto base_start = std::chrono::steady_clock::now();
   out.base = fit_lugre(data, options.base, in_fit, options.lugre);
+  if (std::getenv("TRIBO_FIT_TIMING")) {
+    std::fprintf(stderr, "base fit: %.2f s, %d iterations\n",
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - base_start).count(), out.base.result.iterations);
+  }
   Current current = evaluate(data, out.base.result);
   out.model_before = current.model;
   out.before = {error_stats(series.force_n, current.model, in_fit), error_stats(series.force_n, current.model, heldout),
@@ -291,16 +370,21 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
       if (current.fit.params.structure.has(e)) continue;
       Signature sig = compute_signature(e, input);
       RejectedEffect& st = status[e];
-      st.signature_strength = sig.strength;
+      if (sig.applicable) {
+        sig.score_t = score_test(data, current.fit.params, current.model, e, sig, in_fit);
+        sig.summary += fmt("; score test t = %.1f", sig.score_t);
+      }
+      st.signature_strength = sig.applicable ? std::max(sig.strength, sig.score_t / options.score_t_threshold) : 0.0;
       if (!sig.applicable) {
         st.reason = "not applicable to these data: " + sig.summary;
-      } else if (sig.strength < options.min_signature_strength) {
+      } else if (st.signature_strength < options.min_signature_strength) {
         st.reason = "no residual signature: " + sig.summary;
       } else {
         screened.push_back({sig, e});
       }
     }
-    std::sort(screened.begin(), screened.end(), [](const auto& a, const auto& b) { return a.first.strength > b.first.strength; });
+    // Rank by the score test, the one statistic comparable across effects.
+    std::sort(screened.begin(), screened.end(), [](const auto& a, const auto& b) { return a.first.score_t > b.first.score_t; });
     if (static_cast<int>(screened.size()) > options.max_candidates_per_round) {
       for (std::size_t k = static_cast<std::size_t>(options.max_candidates_per_round); k < screened.size(); ++k) {
         status[screened[k].second].reason = "signature present but weaker than the candidates fitted this round: " + screened[k].first.summary;
@@ -319,7 +403,12 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
       trial.effect = e;
       trial.round = round;
       trial.signature = sig;
+      const auto trial_start = std::chrono::steady_clock::now();
       FitResult fit = fit_extension(data, current.fit.params, e, sig, in_fit, options);
+      if (std::getenv("TRIBO_FIT_TIMING")) {
+        std::fprintf(stderr, "trial %s: %.2f s, %d iterations\n", std::string(effect_name(e)).c_str(),
+                     std::chrono::duration<double>(std::chrono::steady_clock::now() - trial_start).count(), fit.iterations);
+      }
       const std::vector<double> model = simulate(data, fit.params);
       trial.fitted = true;
       trial.delta_aicc = aicc(fit.rss, fit.n, n_eff, fit.k) - aicc_current;
@@ -346,7 +435,10 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
     }
     if (!best) break;
     const CandidateTrial& winner = out.trials[*best];
-    current = evaluate(data, std::move(fits[*best - first_trial]));
+    // Polish the accepted model to convergence, so that the next round's
+    // candidates are not credited with what more iterations alone would give.
+    FitResult polished = fit_model(data, fits[*best - first_trial].params, in_fit, options.lugre.fit);
+    current = evaluate(data, polished.rss <= fits[*best - first_trial].rss ? std::move(polished) : std::move(fits[*best - first_trial]));
     out.accepted.push_back({winner.effect, {}, winner});
     status.erase(winner.effect);
   }

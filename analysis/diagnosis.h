@@ -39,11 +39,12 @@ struct DiagnosisOptions {
   SegmentationOptions segmentation;
   LugreFitOptions lugre;
   FitOptions candidate_fit{25, 1e-6};
-  double min_signature_strength = 1.0;
+  double min_signature_strength = 1.0;   // max(signature strength, score t / score_t_threshold)
+  double score_t_threshold = 2.0;
   double min_heldout_gain = 0.02;
-  double min_block_agreement = 0.5;
-  double max_delta_aicc = -10.0;
-  int max_candidates_per_round = 4;
+  double min_block_agreement = 0.75;
+  double max_delta_aicc = -2.0;
+  int max_candidates_per_round = 10;
   int max_rounds = 6;
 };
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
+#include <string>
 
 #include "analysis/autodiff.h"
 
@@ -54,7 +55,8 @@ struct Index {
   int fc = -1, fs = -1, vs = -1, sigma0 = -1, sigma1 = -1, fv = -1, offset = -1, mass = -1;
   int dwell_dfs = -1, dwell_time = -1, lag = -1, logv = -1, load_exponent = -1;
   int per_cos = -1, per_sin = -1, per_length = -1, asym_levels = -1, asym_viscous = -1;
-  int tilt = -1, drift[3] = {-1, -1, -1}, breakaway = -1, gap = -1;
+  int tilt = -1, breakaway = -1, gap = -1;
+  std::vector<int> drift;
 };
 
 Index index_of(const ModelParams& p) {
@@ -79,9 +81,7 @@ Index index_of(const ModelParams& p) {
   k.asym_levels = p.index("asym_levels");
   k.asym_viscous = p.index("asym_viscous");
   k.tilt = p.index("tilt_tan");
-  k.drift[0] = p.index("drift_1");
-  k.drift[1] = p.index("drift_2");
-  k.drift[2] = p.index("drift_3");
+  for (int j = 1; p.index("drift_" + std::to_string(j)) >= 0; ++j) k.drift.push_back(p.index("drift_" + std::to_string(j)));
   k.breakaway = p.index("breakaway_ratio");
   k.gap = p.index("backlash_gap");
   if (k.fc < 0 || k.fs < 0 || k.vs < 0 || k.sigma0 < 0 || k.sigma1 < 0 || k.fv < 0 || k.offset < 0) {
@@ -116,6 +116,19 @@ T bristle_step(const T& z, double v, const T& h, const T& alpha_over_g) {
 }  // namespace
 
 double param_value(const ParamSpec& spec, double theta) { return transform(spec, theta); }
+
+std::vector<double> cubic_bspline_basis(double u, int intervals) {
+  std::vector<double> b(static_cast<std::size_t>(intervals + 3), 0.0);
+  const double x = std::clamp(u, 0.0, 1.0) * intervals;
+  const int k = std::min(static_cast<int>(x), intervals - 1);
+  const double t = x - k;
+  // The four non-zero uniform cubic B-splines on interval k.
+  b[static_cast<std::size_t>(k)] = (1 - t) * (1 - t) * (1 - t) / 6;
+  b[static_cast<std::size_t>(k + 1)] = (3 * t * t * t - 6 * t * t + 4) / 6;
+  b[static_cast<std::size_t>(k + 2)] = (-3 * t * t * t + 3 * t * t + 3 * t + 1) / 6;
+  b[static_cast<std::size_t>(k + 3)] = t * t * t / 6;
+  return b;
+}
 
 double param_theta(const ParamSpec& spec, double value) {
   switch (spec.transform) {
@@ -184,11 +197,41 @@ ModelData::ModelData(const MeasuredSeries& s, const MotionSegmentation& m) : ser
     normal_ref = std::max(median(normal), 1e-30);
     mu_scale = std::max(median(mu), 1e-12);
   }
+  // At rest the measured velocity is sensor noise; fed to LuGre, its |v|
+  // term would drain the bristle (the dither effect of README "The simulated
+  // instrument") although the contact does not move. The model is therefore
+  // driven at zero velocity while the tip rests: inside each hold, from the
+  // first to the last sample within four position-noise widths of the resting
+  // position (the hold's edges, found on smoothed speed, can hold the end and
+  // the start of motion).
+  drive_velocity = s.velocity_m_per_s;
+  const double band = 4 * std::max(m.position_noise_m, 1e-300);
+  for (const Hold& h : m.holds) {
+    std::vector<double> xs(s.position_m.begin() + static_cast<std::ptrdiff_t>(h.first),
+                           s.position_m.begin() + static_cast<std::ptrdiff_t>(h.last) + 1);
+    const double rest = median(xs);
+    std::size_t first = h.first, last = h.last;
+    while (first < last && std::fabs(s.position_m[first] - rest) > band) ++first;
+    while (last > first && std::fabs(s.position_m[last] - rest) > band) --last;
+    for (std::size_t i = first; i <= last; ++i) drive_velocity[i] = 0.0;
+  }
+  // The mean velocity over each sample interval: the position increment when
+  // the velocity was derived from the position (central differences smear a
+  // motion onset half a sample early), else the mean of the measured ends.
+  step_velocity.assign(n, 0.0);
+  for (std::size_t i = 1; i < n; ++i) {
+    if (drive_velocity[i - 1] == 0.0 && drive_velocity[i] == 0.0) continue;
+    step_velocity[i] = s.velocity_measured ? 0.5 * (drive_velocity[i - 1] + drive_velocity[i])
+                                           : (s.position_m[i] - s.position_m[i - 1]) / (s.time_s[i] - s.time_s[i - 1]);
+  }
   const double t0 = s.time_s.front(), span = std::max(s.time_s.back() - t0, 1e-30);
+  drift_functions = std::clamp(static_cast<int>(m.passes.size()) / 2, 3, 12) + 3;
   drift_basis.resize(n);
+  normalised_time.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const double u = 2.0 * (s.time_s[i] - t0) / span - 1.0;
-    drift_basis[i] = {u, 0.5 * (3 * u * u - 1), 0.5 * (5 * u * u * u - 3 * u)};
+    const double u = (s.time_s[i] - t0) / span;
+    normalised_time[i] = 2 * u - 1;
+    drift_basis[i] = cubic_bspline_basis(u, drift_functions - 3);
   }
 }
 
@@ -245,9 +288,13 @@ std::vector<ParamSpec> effect_parameters(Effect e, const ModelData& d, const Mod
     case Effect::kTiltOffset:
       return {{"tilt_tan", "1", Transform::kLinear, 0.01, false, e}};
     case Effect::kDrift:
-      return {{"drift_1", fu, Transform::kLinear, 0.05 * d.force_scale, false, e},
-              {"drift_2", fu, Transform::kLinear, 0.05 * d.force_scale, false, e},
-              {"drift_3", fu, Transform::kLinear, 0.05 * d.force_scale, false, e}};
+    {
+      std::vector<ParamSpec> specs;
+      for (int j = 0; j < d.drift_functions; ++j) {
+        specs.push_back({"drift_" + std::to_string(j + 1), fu, Transform::kLinear, 0.05 * d.force_scale, false, e});
+      }
+      return specs;
+    }
     case Effect::kPreslidingHysteresis:
       return {{"breakaway_ratio", "1", Transform::kLogit, 1.0, false, e}};
     case Effect::kBacklash:
@@ -261,6 +308,10 @@ ModelParams with_effect(const ModelParams& params, Effect e, const ModelData& d,
   ModelParams p = params;
   if (p.structure.has(e)) return p;
   p.structure.effects.push_back(e);
+  if (e == Effect::kDrift) {
+    // The spline carries the constant: the offset would be collinear with it.
+    p.specs[static_cast<std::size_t>(p.index("offset"))].fixed = true;
+  }
   auto specs = effect_parameters(e, d, p.structure);
   for (std::size_t k = 0; k < specs.size(); ++k) {
     ParamSpec spec = specs[k];
@@ -293,7 +344,7 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
   const T fv = val(k.fv), offset = val(k.offset);
   const bool mass = k.mass >= 0, dwell = k.dwell_dfs >= 0, lag = k.lag >= 0, logv = k.logv >= 0;
   const bool load_dep = k.load_exponent >= 0 && s.has_normal(), periodic = k.per_length >= 0;
-  const bool asym = k.asym_levels >= 0, tilt = k.tilt >= 0 && s.has_normal(), drift = k.drift[0] >= 0;
+  const bool asym = k.asym_levels >= 0, tilt = k.tilt >= 0 && s.has_normal(), drift = !k.drift.empty();
   const bool ep = k.breakaway >= 0, backlash = k.gap >= 0;
   const bool load_scaled = st.load_scaled && s.has_normal();
   const T m = mass ? val(k.mass) : T(0.0);
@@ -307,9 +358,9 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
   const T tilt_tan = tilt ? val(k.tilt) : T(0.0);
   const T breakaway = ep ? val(k.breakaway) : T(0.0);
   const T gap = backlash ? val(k.gap) : T(0.0);
-  T drift_c[3] = {T(0.0), T(0.0), T(0.0)};
+  std::vector<T> drift_c;
   if (drift) {
-    for (int j = 0; j < 3; ++j) drift_c[j] = val(k.drift[j]);
+    for (int index : k.drift) drift_c.push_back(val(index));
   }
   const double delta = st.stribeck_exponent;
   const double tiny = 1e-9 * d.force_scale;
@@ -317,7 +368,7 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
   // S(speed) at sample i for a motion of the given sign.
   auto stribeck = [&](std::size_t i, const T& speed, double sign) -> T {
     T static_level = fs;
-    if (dwell && d.motion.dwell_before_s[i] > 0) {
+    if (dwell && d.motion.dwell_before_s[i] > 0) {  // a pass after a hold, or the hold itself
       const double t2 = d.motion.dwell_before_s[i];
       static_level = static_level + dwell_dfs * (t2 / (t2 + dwell_time));
     }
@@ -344,11 +395,11 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
   auto lagged_velocity = [&](std::size_t i) -> T {
     const T target = s.time_s[i] - lag_time;
     const double tv = value_of(target);
-    if (tv <= s.time_s.front()) return T(s.velocity_m_per_s.front() + 0.0 * lag_time);
+    if (tv <= s.time_s.front()) return T(d.drive_velocity.front() + 0.0 * lag_time);
     while (lag_k + 1 < n && s.time_s[lag_k + 1] <= tv) ++lag_k;
-    if (lag_k + 1 >= n) return T(s.velocity_m_per_s.back() + 0.0 * lag_time);
+    if (lag_k + 1 >= n) return T(d.drive_velocity.back() + 0.0 * lag_time);
     const double t0 = s.time_s[lag_k], t1 = s.time_s[lag_k + 1];
-    const double v0 = s.velocity_m_per_s[lag_k], v1 = s.velocity_m_per_s[lag_k + 1];
+    const double v0 = d.drive_velocity[lag_k], v1 = d.drive_velocity[lag_k + 1];
     return v0 + (target - t0) * ((v1 - v0) / (t1 - t0));
   };
 
@@ -357,7 +408,7 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
     if (mass) f = f + m * s.acceleration_m_per_s2[i];
     if (tilt) f = f + tilt_tan * s.normal_force_n[i];
     if (drift) {
-      for (int j = 0; j < 3; ++j) f = f + drift_c[j] * d.drift_basis[i][static_cast<std::size_t>(j)];
+      for (std::size_t j = 0; j < drift_c.size(); ++j) f = f + drift_c[j] * d.drift_basis[i][j];
     }
     if (periodic && st.periodic_additive) {
       const T phase = per_wavenumber * s.position_m[i];
@@ -368,12 +419,48 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
 
   force.resize(n);
   if (friction_out) friction_out->assign(n, T(0.0));
-  const auto& v = s.velocity_m_per_s;
+  const auto& v = d.drive_velocity;
   const auto& x = s.position_m;
 
+  auto absolute = [](const T& a) { return value_of(a) >= 0 ? a : T(-a); };
+
+  // Bristle over the interval [t(i-1), t(i)], the velocity linear in between.
+  // One exact exponential step at the mean velocity and mean level, unless the
+  // velocity changes much while the bristle relaxes within a fraction of the
+  // interval (onsets, reversals): then sub-steps, each with its own velocity
+  // and level.
+  auto advance = [&](T z, std::size_t i, const T& level_prev, const T& level_now, const T& vlag_prev, const T& vlag_now) {
+    const double h = s.time_s[i] - s.time_s[i - 1];
+    const double va = v[i - 1], vb = v[i], mean = d.step_velocity[i];
+    const double g_min = std::min(value_of(level_prev), value_of(level_now)) / value_of(sigma0);
+    const double rate = std::max(std::fabs(va), std::fabs(vb)) / std::max(g_min, 1e-300);
+    // A relaxed bristle follows a steady velocity exactly in one step; it is
+    // a velocity that changes sign or by a quarter within the interval that
+    // needs sub-steps.
+    const bool steady = va * vb > 0 && std::fabs(vb - va) <= 0.25 * std::max(std::fabs(va), std::fabs(vb));
+    const int m = steady ? 1 : std::clamp(static_cast<int>(std::ceil(rate * h / 0.5)), 1, 16);
+    if (m == 1) {
+      const double vm = mean;
+      const T g = 0.5 * (level_prev + level_now) / sigma0;
+      const T alpha = ep ? plasticity(breakaway, vm, z, g) : T(1.0);
+      return bristle_step(z, vm, T(h), T(alpha / g));
+    }
+    for (int k = 0; k < m; ++k) {
+      const double u = (k + 0.5) / m;
+      const double vk = mean + (vb - va) * (u - 0.5);
+      const T speed = lag ? absolute(vlag_prev + (vlag_now - vlag_prev) * u) : T(std::fabs(vk));
+      const T level_k = stribeck(i, speed, sign_of(vk));
+      if (value_of(level_k) <= tiny) return T(0.0 * sigma0);
+      const T g = level_k / sigma0;
+      const T alpha = ep ? plasticity(breakaway, vk, z, g) : T(1.0);
+      z = bristle_step(z, vk, T(h / m), T(alpha / g));
+    }
+    return z;
+  };
+
   // Initial state: steady sliding if moving, else relaxed.
-  T vlag_prev = lag ? lagged_velocity(0) : T(v[0]);
-  T level = stribeck(0, value_of(vlag_prev) >= 0 ? vlag_prev : T(-vlag_prev), sign_of(v[0]));
+  T vlag = lag ? lagged_velocity(0) : T(v[0]);
+  T level = stribeck(0, absolute(vlag), sign_of(v[0]));
   T z = (v[0] != 0 && value_of(level) > tiny) ? T(sign_of(v[0]) * level / sigma0) : T(0.0 * sigma0);
   int contact = v[0] >= 0 ? +1 : -1;  // backlash: side in contact
   bool in_gap = false;
@@ -381,17 +468,10 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
 
   for (std::size_t i = 0; i < n; ++i) {
     T friction = T(0.0 * sigma0);
+    const T level_prev = level, vlag_prev = vlag;
     if (i > 0) {
-      const double v_step = 0.5 * (v[i - 1] + v[i]);
-      const double sign = sign_of(v_step);
-      T speed = T(std::fabs(v_step));
-      if (lag) {
-        const T vlag = lagged_velocity(i);
-        const T mean = 0.5 * (vlag_prev + vlag);
-        speed = value_of(mean) >= 0 ? mean : T(-mean);
-        vlag_prev = vlag;
-      }
-      level = stribeck(i, speed, sign);
+      if (lag) vlag = lagged_velocity(i);
+      level = stribeck(i, lag ? absolute(vlag) : T(std::fabs(v[i])), sign_of(v[i]));
     }
     if (value_of(level) <= tiny) {
       z = T(0.0 * sigma0);
@@ -402,13 +482,13 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
     const T g = level / sigma0;
     if (i > 0) {
       const double h = s.time_s[i] - s.time_s[i - 1];
-      const double v_step = 0.5 * (v[i - 1] + v[i]);
-      const T alpha = ep ? plasticity(breakaway, v_step, z, g) : T(1.0);
+      const double v_step = d.step_velocity[i];
+      const T from = value_of(level_prev) > tiny ? level_prev : level;
       if (!backlash) {
-        z = bristle_step(z, v_step, T(h), T(alpha / g));
+        z = advance(z, i, from, level, vlag_prev, vlag);
       } else {
         if (!in_gap) {
-          const T z_new = bristle_step(z, v_step, T(h), T(alpha / g));
+          const T z_new = advance(z, i, from, level, vlag_prev, vlag);
           if (contact * value_of(z_new) < 0 && contact * value_of(z) >= 0 && sign_of(v_step) != contact) {
             // The force would change sign: contact opens where z crosses zero.
             const T f = z / (z - z_new);

@@ -64,6 +64,9 @@ struct ModelParams {
 };
 
 // Reference scales and per-sample regressors derived once from the data.
+// Cubic B-spline basis values at u in [0, 1] with n uniform intervals (n + 3 functions).
+std::vector<double> cubic_bspline_basis(double u, int intervals);
+
 struct ModelData {
   ModelData(const MeasuredSeries& series, const MotionSegmentation& motion);
 
@@ -75,7 +78,15 @@ struct ModelData {
   double speed_floor = 1e-3;   // log-velocity regularisation (1 % of speed_ref)
   double normal_ref = 1;       // median normal load in contact
   double mass_scale = 1;       // force_scale / typical |a|
-  std::vector<std::array<double, 3>> drift_basis;  // Legendre P1..P3 of normalised time
+  // Drift: a cubic B-spline in time over the record, one knot interval per
+  // two passes (3 to 12 intervals); the basis functions sum to one, so the
+  // offset is held fixed while drift is in the model. Also the normalised
+  // time u in [-1, 1].
+  int drift_functions = 6;
+  std::vector<std::vector<double>> drift_basis;
+  std::vector<double> normalised_time;
+  std::vector<double> drive_velocity;  // the measured velocity, zero inside holds
+  std::vector<double> step_velocity;   // mean velocity over (t[i-1], t[i]); [0] unused
 };
 
 // The base LuGre model (no effects) with rough initial values.

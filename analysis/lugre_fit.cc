@@ -26,10 +26,10 @@ bool sliding_sample(const ModelData& d, std::size_t i) {
   return m.distance_since_start_m[i] >= 0.2 * length && d.series.velocity_m_per_s[i] * pass.direction > 0;
 }
 
-LinearStart linear_start(const ModelData& d, const ModelStructure& st, const std::vector<char>& in_fit) {
+LinearStart linear_start(const ModelData& d, const ModelStructure& st, const std::vector<char>& in_fit, bool offset) {
   const auto& s = d.series;
   const bool load = st.load_scaled && s.has_normal();
-  const int cols = st.fit_mass ? 4 : 3;
+  const int cols = 2 + (offset ? 1 : 0) + (st.fit_mass ? 1 : 0);
   std::vector<std::size_t> rows;
   for (std::size_t i = 0; i < s.size(); ++i) {
     if (in_fit[i] && d.motion.pass_of[i] >= 0) rows.push_back(i);
@@ -44,15 +44,15 @@ LinearStart linear_start(const ModelData& d, const ModelStructure& st, const std
     const double sgn = s.velocity_m_per_s[i] > 0 ? 1.0 : -1.0;
     A(row, 0) = sgn * (load ? std::max(s.normal_force_n[i], 0.0) : 1.0);
     A(row, 1) = s.velocity_m_per_s[i];
-    A(row, 2) = 1.0;
-    if (st.fit_mass) A(row, 3) = s.acceleration_m_per_s2[i];
+    if (offset) A(row, 2) = 1.0;
+    if (st.fit_mass) A(row, cols - 1) = s.acceleration_m_per_s2[i];
     b[row] = s.force_n[i];
   }
   const Eigen::VectorXd x = A.colPivHouseholderQr().solve(b);
   out.coulomb = x[0];
   out.viscous = x[1];
-  out.offset = x[2];
-  if (st.fit_mass) out.mass = x[3];
+  out.offset = offset ? x[2] : 0.0;
+  if (st.fit_mass) out.mass = x[cols - 1];
   return out;
 }
 
@@ -128,52 +128,62 @@ LugreFit fit_lugre(const ModelData& d, const ModelStructure& st, const std::vect
   LugreFit out;
   const bool load = st.load_scaled && d.series.has_normal();
   ModelParams start = base_params(d, st);
-  const LinearStart lin = linear_start(d, st, in_fit);
-  const double level_name_scale = load ? d.mu_scale : d.force_scale;
-  double fc = lin.coulomb > 0 ? lin.coulomb : level_name_scale;
-  double fs = 1.2 * fc, vs = 0.2 * d.speed_ref, fv = lin.viscous;
-  double offset = load ? lin.offset : lin.offset;
-
+  // Sliding one way only, a constant offset and the Coulomb level are the
+  // same thing: the force channel is taken as zeroed.
+  const bool both_directions =
+      std::any_of(d.motion.passes.begin(), d.motion.passes.end(), [](const Pass& p) { return p.direction > 0; }) &&
+      std::any_of(d.motion.passes.begin(), d.motion.passes.end(), [](const Pass& p) { return p.direction < 0; });
+  const LinearStart lin = linear_start(d, st, in_fit, both_directions);
+  const std::string fc_name = load ? "mu_c" : "Fc", fs_name = load ? "mu_s" : "Fs";
+  struct Levels {
+    double fc, fs, vs, fv, offset;
+  };
+  // Level starts: the linear Coulomb + viscous fit (a flat Stribeck curve),
+  // and the steady-state Stribeck curve when it could be fitted sensibly.
+  std::vector<Levels> levels;
+  const double linear_fc = lin.coulomb > 0 ? lin.coulomb : (load ? d.mu_scale : d.force_scale);
+  levels.push_back({linear_fc, 1.01 * linear_fc, 0.2 * d.speed_ref, lin.viscous, lin.offset});
   out.steady_points = steady_sliding_points(d, in_fit, lin.mass, load ? lin.offset : 0.0, load);
   if (out.steady_points.size() >= 6) {
     try {
-      out.steady = fit_stribeck_curve(out.steady_points, st.stribeck_exponent, !load);
+      // An offset in the curve also absorbs a load-proportional one (a tilt) in mu units.
+      out.steady = fit_stribeck_curve(out.steady_points, st.stribeck_exponent, both_directions);
       out.steady_fitted = true;
-      const double c = out.steady.value("Fc"), s = out.steady.value("Fs");
+      const double c = out.steady.value("Fc"), f = out.steady.value("Fs");
       if (c > 0) {
-        fc = c;
-        fs = s > 0.05 * c ? s : 1.01 * c;
-        vs = out.steady.value("vs");
-        fv = out.steady.value("Fv");
-        if (!load) offset = out.steady.values.back();
+        const double curve_offset = !load && both_directions ? out.steady.values.back() : lin.offset;
+        levels.push_back({c, f > 0.05 * c ? f : 1.01 * c, out.steady.value("vs"), out.steady.value("Fv"), curve_offset});
       }
     } catch (const std::exception&) {
       out.steady_fitted = false;
     }
   }
-  const std::string fc_name = load ? "mu_c" : "Fc", fs_name = load ? "mu_s" : "Fs";
-  start.set_value(fc_name, fc);
-  start.set_value(fs_name, fs);
-  start.set_value("vs", vs);
-  start.set_value("Fv", fv);
-  start.set_value("offset", offset);
-  if (st.fit_mass) start.set_value("mass", lin.mass);
 
-  // Multi-start over presliding length and damping.
-  const double force_level = load ? fc * d.normal_ref : fc;
+  // Multi-start over the level starts, presliding length and damping.
   const double length = median_pass_length(d);
   struct Start {
     ModelParams params;
     double rss;
   };
   std::vector<Start> starts;
-  for (double g_fraction : {1e-4, 1e-3, 1e-2, 1e-1}) {
-    for (double damping : {1e-3, 1e-1}) {
-      ModelParams p = start;
-      p.set_value("sigma0", force_level / (g_fraction * length));
-      p.set_value("sigma1", damping * force_level / d.speed_ref);
-      const double rss = residual_sum_of_squares(d, p, in_fit);
-      starts.push_back({p, std::isfinite(rss) ? rss : HUGE_VAL});
+  for (const Levels& l : levels) {
+    ModelParams start = base_params(d, st);
+    start.set_value(fc_name, l.fc);
+    start.set_value(fs_name, l.fs);
+    start.set_value("vs", l.vs);
+    start.set_value("Fv", l.fv);
+    start.set_value("offset", both_directions ? l.offset : 0.0);
+    if (!both_directions) start.specs[static_cast<std::size_t>(start.index("offset"))].fixed = true;
+    if (st.fit_mass) start.set_value("mass", lin.mass);
+    const double force_level = load ? l.fc * d.normal_ref : l.fc;
+    for (double g_fraction : {1e-4, 1e-3, 1e-2, 1e-1}) {
+      for (double damping : {1e-3, 1e-1}) {
+        ModelParams p = start;
+        p.set_value("sigma0", force_level / (g_fraction * length));
+        p.set_value("sigma1", damping * force_level / d.speed_ref);
+        const double rss = residual_sum_of_squares(d, p, in_fit);
+        starts.push_back({p, std::isfinite(rss) ? rss : HUGE_VAL});
+      }
     }
   }
   out.starts_evaluated = static_cast<int>(starts.size());
@@ -182,6 +192,10 @@ LugreFit fit_lugre(const ModelData& d, const ModelStructure& st, const std::vect
   bool have = false;
   for (int s = 0; s < std::min<int>(options.refined_starts, static_cast<int>(starts.size())); ++s) {
     FitResult r = fit_model(d, starts[static_cast<std::size_t>(s)].params, in_fit, options.fit);
+    if (!both_directions) {
+      r.warnings.push_back("the data slide in one direction only: the offset cannot be told from the Coulomb level "
+                           "and is held at zero (the force channel is taken as zeroed)");
+    }
     ++out.starts_refined;
     if (!have || r.rss < out.result.rss) {
       out.result = std::move(r);

@@ -29,9 +29,14 @@ struct ModelFunctor : Eigen::DenseFunctor<double> {
       : Eigen::DenseFunctor<double>(static_cast<int>(free.size()), static_cast<int>(rows.size())),
         data(d), params(p), rows(std::move(rows)), free(std::move(free)) {}
 
+  // The solver's variables are theta + kShift: MINPACK sizes its first trust
+  // region as factor * |x|, which is zero when every parameter starts at its
+  // own scale (theta = 0); shifted, the first step is of order one.
+  static constexpr double kShift = 1.0;
+
   std::vector<double> full_theta(const Eigen::VectorXd& x) const {
     std::vector<double> theta = params.theta;
-    for (std::size_t j = 0; j < free.size(); ++j) theta[static_cast<std::size_t>(free[j])] = x[static_cast<Eigen::Index>(j)];
+    for (std::size_t j = 0; j < free.size(); ++j) theta[static_cast<std::size_t>(free[j])] = x[static_cast<Eigen::Index>(j)] - kShift;
     return theta;
   }
 
@@ -132,11 +137,22 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
 
   ModelFunctor functor(data, initial, rows, free);
   Eigen::VectorXd x(static_cast<Eigen::Index>(free.size()));
-  for (std::size_t j = 0; j < free.size(); ++j) x[static_cast<Eigen::Index>(j)] = initial.theta[static_cast<std::size_t>(free[j])];
+  for (std::size_t j = 0; j < free.size(); ++j) {
+    x[static_cast<Eigen::Index>(j)] = initial.theta[static_cast<std::size_t>(free[j])] + ModelFunctor::kShift;
+  }
   Eigen::LevenbergMarquardt<ModelFunctor> lm(functor);
   lm.setMaxfev(options.max_iterations * 10);
   lm.setFtol(options.tolerance);
   lm.setXtol(options.tolerance);
+  // The first trust region: a step of about one in the normalised parameters
+  // (a factor e for log parameters); MINPACK's default of 100 lets the
+  // first step throw an ill-determined scale e^100 away.
+  lm.setFactor(1.0);
+  // The trust region lives in the normalised parameters themselves (unit
+  // scaling): Marquardt's scaling by the Jacobian's column norms would let a
+  // parameter the data hardly feel take an enormous step.
+  lm.setExternalScaling(true);
+  lm.diag() = Eigen::VectorXd::Ones(static_cast<Eigen::Index>(free.size()));
   // Eigen's own tests stop on tiny relative changes; in the long shallow
   // valleys of undetermined parameters that takes hundreds of iterations for
   // cost changes no data could tell apart. Stop as well once the cost has
@@ -154,7 +170,7 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
       costs.push_back(cost);
       if (std::getenv("TRIBO_FIT_TRACE")) {
         std::fprintf(stderr, "iter %ld cost %.9g theta", static_cast<long>(lm.njev()), cost);
-        for (Eigen::Index j = 0; j < x.size(); ++j) std::fprintf(stderr, " %.3f", x[j]);
+        for (Eigen::Index j = 0; j < x.size(); ++j) std::fprintf(stderr, " %.3f", x[j] - ModelFunctor::kShift);
         std::fprintf(stderr, "\n");
       }
       if (costs.size() > kStallWindow) {
@@ -163,10 +179,12 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
         const double gain = 0.5 * effective_sample_count(r) * (before - cost) / cost;
         stalled = gain < kStallLogLikelihood;
       }
+      if (std::getenv("TRIBO_FIT_TRACE")) std::fprintf(stderr, "  status %d nfev %ld\n", static_cast<int>(status), static_cast<long>(lm.nfev()));
       if (static_cast<int>(lm.njev()) >= options.max_iterations) break;
     } while (status == Eigen::LevenbergMarquardtSpace::Running && !stalled);
   }
   result.iterations = static_cast<int>(lm.njev());
+  if (std::getenv("TRIBO_FIT_TIMING")) std::fprintf(stderr, "  fit: %ld jacobians, %ld evaluations, %zu free, %zu rows\n", static_cast<long>(lm.njev()), static_cast<long>(lm.nfev()), free.size(), rows.size());
   result.converged = status == Eigen::LevenbergMarquardtSpace::RelativeReductionTooSmall ||
                      status == Eigen::LevenbergMarquardtSpace::RelativeErrorTooSmall ||
                      status == Eigen::LevenbergMarquardtSpace::RelativeErrorAndReductionTooSmall ||

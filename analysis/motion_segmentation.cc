@@ -16,28 +16,33 @@ double percentile(std::vector<double> v, double q) {
   return v[k];
 }
 
-// Holds: runs where the smoothed speed stays below the threshold long enough.
-std::vector<Hold> find_holds(const MeasuredSeries& s, double threshold, double min_hold_s) {
+// Smoothed velocity: a centred moving average over window_s.
+std::vector<double> smoothed_velocity(const MeasuredSeries& s, double window_s) {
   const std::size_t n = s.size();
-  // Smooth |v| over a quarter of the minimum hold so that noise spikes do not split a hold.
-  const double window = 0.25 * min_hold_s;
-  std::vector<double> speed(n);
+  std::vector<double> out(n);
   std::size_t lo = 0, hi = 0;
   double sum = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    while (hi < n && s.time_s[hi] <= s.time_s[i] + 0.5 * window) sum += s.velocity_m_per_s[hi++];
-    while (s.time_s[lo] < s.time_s[i] - 0.5 * window) sum -= s.velocity_m_per_s[lo++];
-    speed[i] = std::fabs(sum / static_cast<double>(hi - lo));
+    while (hi < n && s.time_s[hi] <= s.time_s[i] + 0.5 * window_s) sum += s.velocity_m_per_s[hi++];
+    while (s.time_s[lo] < s.time_s[i] - 0.5 * window_s) sum -= s.velocity_m_per_s[lo++];
+    out[i] = sum / static_cast<double>(hi - lo);
   }
+  return out;
+}
+
+// Holds: runs where the smoothed speed stays below the threshold long enough.
+std::vector<Hold> find_holds(const MeasuredSeries& s, const std::vector<double>& smoothed, double threshold,
+                             double min_hold_s) {
+  const std::size_t n = s.size();
   std::vector<Hold> holds;
   std::size_t i = 0;
   while (i < n) {
-    if (speed[i] >= threshold) {
+    if (std::fabs(smoothed[i]) >= threshold) {
       ++i;
       continue;
     }
     std::size_t j = i;
-    while (j + 1 < n && speed[j + 1] < threshold) ++j;
+    while (j + 1 < n && std::fabs(smoothed[j + 1]) < threshold) ++j;
     if (s.time_s[j] - s.time_s[i] >= min_hold_s) holds.push_back({i, j});
     i = j + 1;
   }
@@ -45,8 +50,10 @@ std::vector<Hold> find_holds(const MeasuredSeries& s, double threshold, double m
 }
 
 // Splits the motion run [first, last] into passes by position hysteresis.
-void split_run(const MeasuredSeries& s, std::size_t first, std::size_t last, double delta,
-               std::vector<Pass>& passes) {
+// A reversal needs both: the position back from its extreme by delta, and
+// the smoothed velocity pointing the other way (noise alone does neither).
+void split_run(const MeasuredSeries& s, const std::vector<double>& smoothed, std::size_t first, std::size_t last,
+               double delta, std::vector<Pass>& passes) {
   const auto& x = s.position_m;
   std::size_t start = first;
   int dir = 0;
@@ -59,7 +66,7 @@ void split_run(const MeasuredSeries& s, std::size_t first, std::size_t last, dou
       continue;
     }
     const std::size_t ext = dir > 0 ? hi : lo;
-    if (dir * (x[ext] - x[i]) > delta) {
+    if (dir * (x[ext] - x[i]) > delta && dir * smoothed[i] < 0) {
       Pass p;
       p.first = start;
       p.last = ext;
@@ -134,10 +141,18 @@ MotionSegmentation segment_motion(const MeasuredSeries& s, const SegmentationOpt
   const double dt = duration / static_cast<double>(n - 1);
   std::vector<double> speed(n);
   for (std::size_t i = 0; i < n; ++i) speed[i] = std::fabs(s.velocity_m_per_s[i]);
-  const double v95 = percentile(speed, 0.95);
-  m.hold_speed_m_per_s = std::max(options.hold_speed_fraction * v95, 3.0 * white_noise_rms(s.velocity_m_per_s));
+  // Holds are found on the velocity smoothed over a quarter of the minimum
+  // hold (at least 10 samples), against a threshold above the smoothed noise.
   const double min_hold = options.min_hold_s > 0 ? options.min_hold_s : std::max(0.05, 20 * dt);
-  m.holds = find_holds(s, m.hold_speed_m_per_s, min_hold);
+  const double window = std::max(0.25 * min_hold, 10 * dt);
+  m.smoothing_window_s = window;
+  const std::vector<double> smoothed = smoothed_velocity(s, window);
+  std::vector<double> smoothed_speed(n);
+  for (std::size_t i = 0; i < n; ++i) smoothed_speed[i] = std::fabs(smoothed[i]);
+  const double v95 = percentile(smoothed_speed, 0.95);
+  const double smoothed_noise = white_noise_rms(s.velocity_m_per_s) / std::sqrt(std::max(window / dt, 1.0));
+  m.hold_speed_m_per_s = std::max(options.hold_speed_fraction * v95, 3.0 * smoothed_noise);
+  m.holds = find_holds(s, smoothed, m.hold_speed_m_per_s, min_hold);
 
   const auto [xmin, xmax] = std::minmax_element(s.position_m.begin(), s.position_m.end());
   m.position_noise_m = white_noise_rms(s.position_m);
@@ -146,7 +161,7 @@ MotionSegmentation segment_motion(const MeasuredSeries& s, const SegmentationOpt
   // Passes in the motion runs between holds.
   std::size_t cursor = 0;
   auto motion_until = [&](std::size_t end_exclusive) {
-    if (end_exclusive > cursor) split_run(s, cursor, end_exclusive - 1, m.reversal_distance_m, m.passes);
+    if (end_exclusive > cursor) split_run(s, smoothed, cursor, end_exclusive - 1, m.reversal_distance_m, m.passes);
   };
   for (const Hold& h : m.holds) {
     motion_until(h.first);
@@ -179,6 +194,19 @@ MotionSegmentation segment_motion(const MeasuredSeries& s, const SegmentationOpt
     pass.mean_normal_n = s.has_normal() ? normal / static_cast<double>(pass.last - pass.first + 1) : 0.0;
   }
 
+  // The hold's edges are found on smoothed speed, so motion ends and starts
+  // inside it: its first half keeps the dwell of the motion arriving, its
+  // second half carries its own duration, the dwell of the motion leaving.
+  for (std::size_t k = 0; k < m.holds.size(); ++k) {
+    const Hold& h = m.holds[k];
+    const double mid = 0.5 * (s.time_s[h.first] + s.time_s[h.last]);
+    const double arriving = h.first > 0 ? m.dwell_before_s[h.first - 1] : 0.0;
+    for (std::size_t i = h.first; i <= h.last; ++i) {
+      m.dwell_before_s[i] = s.time_s[i] < mid ? arriving : s.time_s[h.last] - s.time_s[h.first];
+    }
+  }
+
+
   // Condition levels: speed within a factor 1.25, load within 10 %.
   std::vector<double> speeds, loads;
   for (const Pass& p : m.passes) {
@@ -194,16 +222,25 @@ MotionSegmentation segment_motion(const MeasuredSeries& s, const SegmentationOpt
     m.passes[p].load_level = s.has_normal() ? load_level[p] : 0;
   }
 
-  // Held-out passes: alternate in time within each (direction, load level).
+  // Held-out passes: alternate in time within each (direction, load level),
+  // the alternation shifted by one for the other direction and for every
+  // other load level, so that a speed level that recurs in the same place of
+  // every sweep is still fitted at some conditions and held out at others.
   std::map<std::pair<int, int>, int> seen;
   int heldout_passes = 0;
   for (Pass& p : m.passes) {
     const int k = seen[{p.direction, p.load_level}]++;
-    p.heldout = (k % 2) == 1;
-    heldout_passes += p.heldout ? 1 : 0;
+    p.heldout = ((k + p.load_level + (p.direction < 0 ? 1 : 0)) % 2) == 1;
   }
+  // The first and the last pass are always fitted: held-out error then
+  // measures interpolation in time, never extrapolation of a trend in time.
+  if (!m.passes.empty()) {
+    m.passes.front().heldout = false;
+    m.passes.back().heldout = false;
+  }
+  for (const Pass& p : m.passes) heldout_passes += p.heldout ? 1 : 0;
   if (heldout_passes >= options.min_heldout_passes) {
-    m.heldout_scheme = "whole passes, alternating in time within each (direction, load level)";
+    m.heldout_scheme = "whole passes, alternating in time within each (direction, load level), shifted between directions and loads; first and last pass fitted";
     m.block_count = static_cast<int>(m.passes.size());
     int next_pass = 0;
     for (std::size_t i = 0; i < n; ++i) {

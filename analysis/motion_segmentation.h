@@ -3,8 +3,9 @@
 // sample with what the residual signatures look at (direction, distance and
 // time since the pass began, the dwell before it), and assigns whole passes
 // to the fit or the held-out set, alternating in time within each condition
-// (direction, load level), so that held-out error is measured on segments the
-// fit has not seen and never on random samples.
+// (direction, load level; the alternation shifted between the directions and
+// between load levels), so that held-out error is measured on segments the
+// fit has not seen, under every condition, and never on random samples.
 #pragma once
 
 #include <cstddef>
@@ -49,7 +50,7 @@ struct MotionSegmentation {
   std::vector<int> pass_of;                   // per sample: pass index, -1 in holds
   std::vector<double> distance_since_start_m; // since the pass began (0 in holds)
   std::vector<double> time_since_start_s;     // since the pass began (0 in holds)
-  std::vector<double> dwell_before_s;         // dwell before the present pass (0 if none)
+  std::vector<double> dwell_before_s;         // dwell before the present pass (in a hold: its duration; 0 if none)
   std::vector<char> heldout;                  // per sample: 1 held out, 0 fit
   std::vector<int> block_of;                  // per sample: held-out block (pass or chunk)
   std::vector<Pass> passes;
@@ -57,6 +58,7 @@ struct MotionSegmentation {
   std::vector<double> speed_levels_m_per_s;   // representative speed per level
   std::vector<double> load_levels_n;          // representative load per level (empty: none)
   double hold_speed_m_per_s = 0;
+  double smoothing_window_s = 0;              // of the velocity used to find holds and reversals
   double reversal_distance_m = 0;
   double position_noise_m = 0;
   std::string heldout_scheme;

@@ -121,16 +121,29 @@ SignaturePlot binned(const std::vector<double>& x, const std::vector<double>& y,
 // ---------------------------------------------------------------------------
 Signature dwell_stiction(const Context& c) {
   const Effect e = Effect::kDwellStiction;
-  std::vector<double> dwell, excess;
+  // Per onset after a hold: (a) the force excess at onset over the same
+  // pass's later sliding level (immune to drift), against ln(dwell); (b) the
+  // mean residual of the pass's first 30 % (dwell raises Fs, which also lifts
+  // slow sliding through the Stribeck curve), against w ln(dwell), w the
+  // Stribeck weight of Fs there, with w and time as controls.
+  std::vector<double> dwell, excess, early, when, weight;
   double level_sum = 0;
+  const ModelParams& params = c.in.params;
+  const double vs = params.value("vs"), delta = params.structure.stribeck_exponent;
   for (const Pass& p : c.m.passes) {
     if (!p.after_hold || p.dwell_before_s <= 0 || !c.pass_in_fit(p)) continue;
     const double length = pass_length(c.s, p);
-    double onset = 0, steady = 0;
-    int n_onset = 0, n_steady = 0;
+    double onset = 0, steady = 0, first = 0, w = 0;
+    int n_onset = 0, n_steady = 0, n_first = 0;
     for (std::size_t i = p.first; i <= p.last; ++i) {
       const double d = c.m.distance_since_start_m[i];
       const double signed_r = p.direction * c.r[i];
+      if (d < 0.3 * length) {
+        first += signed_r;
+        // How much Fs weighs here: the Stribeck factor at this speed.
+        w += std::exp(-std::pow(std::fabs(c.s.velocity_m_per_s[i]) / vs, delta)) * c.level_factor(i);
+        ++n_first;
+      }
       if (d < std::max(5 * c.g[i], 0.05 * length) || n_onset < 3) {
         onset += signed_r;
         ++n_onset;
@@ -139,32 +152,35 @@ Signature dwell_stiction(const Context& c) {
         ++n_steady;
       }
     }
-    if (n_onset == 0 || n_steady == 0) continue;
+    if (n_onset == 0 || n_steady == 0 || n_first == 0) continue;
     dwell.push_back(p.dwell_before_s);
     excess.push_back(onset / n_onset - steady / n_steady);
+    early.push_back(first / n_first);
+    weight.push_back(w / n_first);
+    when.push_back(c.in.data.normalised_time[(p.first + p.last) / 2]);
     level_sum += c.level_factor((p.first + p.last) / 2);
   }
-  if (dwell.size() < 3) return not_applicable(e, "fewer than 3 motion onsets after a hold in the fit data");
+  if (dwell.size() < 4) return not_applicable(e, "fewer than 4 motion onsets after a hold in the fit data");
   const auto [lo, hi] = std::minmax_element(dwell.begin(), dwell.end());
   if (*hi < 3 * *lo) return not_applicable(e, fmt("dwell times span only %.3g-%.3g s (need a factor 3)", *lo, *hi));
-  Design design;
-  for (std::size_t k = 0; k < dwell.size(); ++k) design.add_row({1.0, std::log(dwell[k])}, excess[k]);
-  const Regression reg = design.fit();
+  Design onset_design, early_design;
+  for (std::size_t k = 0; k < dwell.size(); ++k) {
+    onset_design.add_row({1.0, std::log(dwell[k])}, excess[k]);
+    early_design.add_row({1.0, weight[k], weight[k] * std::log(dwell[k]), when[k]}, early[k]);
+  }
+  const Regression a = onset_design.fit(), b = early_design.fit();
   Signature sig;
   sig.effect = e;
   sig.applicable = true;
-  sig.plot = {"dwell before onset (s)", "onset force excess over the pass's sliding level", dwell, excess, {}};
-  if (!reg.ok) {
-    sig.summary = "onset excess could not be regressed on dwell time";
-    return sig;
-  }
-  const double slope = reg.coef[1], t = reg.t(1);
-  sig.strength = slope > 0 ? t / kScreenT : 0.0;
-  sig.summary = fmt("onset force excess grows with ln(dwell): slope %.3g per e-fold (t = %.1f) over %.0f onsets",
-                    slope, t, static_cast<double>(dwell.size()));
+  sig.plot = {"dwell before onset (s)", "mean direction-signed residual, first 30 % of the pass", dwell, early, {}};
+  const double ta = a.ok && a.coef[1] > 0 ? a.t(1) : 0.0, tb = b.ok && b.coef[2] > 0 ? b.t(2) : 0.0;
+  sig.strength = std::max(ta, tb) / kScreenT;
+  sig.summary = fmt("residual at motion onset grows with ln(dwell): onset excess t = %.1f, early-pass level t = %.1f (time-controlled), %.0f onsets",
+                    ta, tb, static_cast<double>(dwell.size()));
   const double mean_factor = level_sum / static_cast<double>(dwell.size());
-  const double spread = *std::max_element(excess.begin(), excess.end()) - *std::min_element(excess.begin(), excess.end());
-  sig.initial_values = {std::max(1.5 * spread / mean_factor, 1e-12), median(dwell)};
+  const std::vector<double>& y = tb >= ta ? early : excess;
+  const double spread = *std::max_element(y.begin(), y.end()) - *std::min_element(y.begin(), y.end());
+  sig.initial_values = {std::max(2.0 * spread / mean_factor, 1e-12), median(dwell)};
   return sig;
 }
 
@@ -181,7 +197,7 @@ Signature drift(const Context& c) {
     b.dir = dir;
     for (std::size_t i = first; i <= last; ++i) {
       if (!c.in.in_fit[i]) continue;
-      b.t += c.in.data.drift_basis[i][0];
+      b.t += c.in.data.normalised_time[i];
       b.r += c.r[i];
       if (c.s.has_normal()) b.normal += c.s.normal_force_n[i];
       ++b.count;
@@ -204,7 +220,6 @@ Signature drift(const Context& c) {
     }
   }
   if (blocks.size() < 8) return not_applicable(e, "fewer than 8 fit blocks to follow a trend in time");
-  const bool normal_varies = c.s.has_normal();
   const bool any_direction = std::any_of(blocks.begin(), blocks.end(), [](const Block& b) { return b.dir != 0; });
   auto design_for = [&](bool with_drift) {
     Design d;
@@ -212,7 +227,6 @@ Signature drift(const Context& c) {
       const double u = b.t;
       std::vector<double> row = {1.0};
       if (any_direction) row.push_back(b.dir);
-      if (normal_varies) row.push_back(b.normal);
       if (with_drift) {
         row.push_back(u);
         row.push_back(0.5 * (3 * u * u - 1));
@@ -244,11 +258,9 @@ Signature drift(const Context& c) {
   const double rss_full = (1 - full.r_squared), rss_reduced = (1 - reduced.r_squared);
   const double f = rss_full > 0 ? ((rss_reduced - rss_full) / 3.0) / (rss_full / std::max(nb - k_full, 1.0)) : 0.0;
   sig.strength = f / 10.0;
-  const std::size_t first_drift = full.coef.size() - 3;
-  sig.initial_values = {full.coef[static_cast<Eigen::Index>(first_drift)], full.coef[static_cast<Eigen::Index>(first_drift + 1)],
-                        full.coef[static_cast<Eigen::Index>(first_drift + 2)]};
-  sig.summary = fmt("pass/hold mean residual follows time: F = %.1f for 3 Legendre terms over %.0f blocks (P1 coefficient %.3g)",
-                    f, nb, sig.initial_values[0]);
+  const double trend = full.coef[static_cast<Eigen::Index>(full.coef.size() - 3)];
+  sig.summary = fmt("pass/hold mean residual follows time: F = %.1f for 3 Legendre terms over %.0f blocks (linear term %.3g over the record)",
+                    f, nb, trend);
   return sig;
 }
 
@@ -260,36 +272,79 @@ Signature frictional_lag(const Context& c) {
   const double fc = p.value(mu ? "mu_c" : "Fc"), fs = p.value(mu ? "mu_s" : "Fs"), vs = p.value("vs");
   const double delta = p.structure.stribeck_exponent;
   if (std::fabs(fs - fc) < 0.05 * fc) return not_applicable(e, "the fitted Stribeck drop (Fs - Fc) is too small to show a lag");
-  Design design;
-  std::vector<double> qs, rs;
+  const auto& v = c.in.data.drive_velocity;
+  const auto& t = c.s.time_s;
+  auto stribeck = [&](double speed) { return fc + (fs - fc) * std::exp(-std::pow(speed / vs, delta)); };
   int low_speed = 0;
   for (std::size_t i = 0; i < c.s.size(); ++i) {
-    if (!c.sliding(i)) continue;
-    const double speed = std::fabs(c.s.velocity_m_per_s[i]);
-    const double ratio = speed / vs;
-    // dS/d|v| of the base Stribeck curve, times the level factor.
-    const double slope = -(fs - fc) * delta * std::pow(ratio, delta - 1) / vs * std::exp(-std::pow(ratio, delta)) * c.level_factor(i);
-    const double q = -slope * c.s.acceleration_m_per_s2[i];
-    if (speed < 3 * vs) ++low_speed;
-    design.add_row({1.0, static_cast<double>(c.m.direction[i]), q}, c.r[i]);
-    qs.push_back(q);
-    rs.push_back(c.r[i]);
+    if (c.sliding(i) && std::fabs(v[i]) < 3 * vs) ++low_speed;
   }
-  if (low_speed < 20) return not_applicable(e, "the data never accelerate through the Stribeck region (|v| < 3 vs) while sliding");
-  const Regression reg = design.fit();
+  if (low_speed < 20) return not_applicable(e, "the data never slide through the Stribeck region (|v| < 3 vs)");
+  // Regressor for a trial delay tau: what the Stribeck level would change by if
+  // it saw the velocity tau earlier, dir (S(|v(t - tau)|) - S(|v(t)|)) L.
+  const double dt = (t.back() - t.front()) / static_cast<double>(c.s.size() - 1);
+  // For the true delay the regression gain is one: shorter trial delays need
+  // a larger gain, longer ones a smaller. The delay is where the gain
+  // crosses one (log-interpolated); the significance is that delay's t.
+  struct Trial {
+    double tau, coef, t;
+    std::vector<double> q, r;
+  };
+  std::vector<Trial> trials;
+  for (double steps : {1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0}) {
+    const double tau = steps * dt;
+    if (tau > 0.5) break;
+    Design design;
+    Trial trial{tau, 0, 0, {}, {}};
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < c.s.size(); ++i) {
+      if (!(c.sliding(i) || c.zone[i] == Context::Zone::kPresliding)) continue;
+      const double target = t[i] - tau;
+      while (k + 1 < c.s.size() && t[k + 1] <= target) ++k;
+      const double vl = target <= t.front() ? v.front()
+                                            : v[k] + (target - t[k]) / (t[k + 1] - t[k]) * (v[std::min(k + 1, c.s.size() - 1)] - v[k]);
+      const double q = c.m.direction[i] * (stribeck(std::fabs(vl)) - stribeck(std::fabs(v[i]))) * c.level_factor(i);
+      design.add_row({1.0, static_cast<double>(c.m.direction[i]), q}, c.r[i]);
+      trial.q.push_back(q);
+      trial.r.push_back(c.r[i]);
+    }
+    const Regression reg = design.fit();
+    if (!reg.ok) continue;
+    trial.coef = reg.coef[2];
+    trial.t = reg.t(2);
+    trials.push_back(std::move(trial));
+  }
+  double best_t = 0, best_tau = 0, best_coef = 0;
+  std::vector<double> best_q, best_r;
+  for (std::size_t j = 0; j < trials.size(); ++j) {
+    const Trial& a = trials[j];
+    if (a.coef <= 0) continue;
+    const bool crossing = j + 1 < trials.size() && a.coef >= 1 && trials[j + 1].coef < 1 && trials[j + 1].coef > 0;
+    const bool edge = (j == 0 && a.coef < 1) || (j + 1 == trials.size() && a.coef >= 1);
+    if (!crossing && !edge) continue;
+    double tau = a.tau;
+    if (crossing) {
+      const Trial& b = trials[j + 1];
+      const double f = std::log(a.coef) / (std::log(a.coef) - std::log(b.coef));
+      tau = std::exp(std::log(a.tau) + f * (std::log(b.tau) - std::log(a.tau)));
+    }
+    if (a.t > best_t) {
+      best_t = a.t;
+      best_tau = tau;
+      best_coef = a.coef;
+      best_q = a.q;
+      best_r = a.r;
+    }
+  }
   Signature sig;
   sig.effect = e;
   sig.applicable = true;
-  sig.plot = binned(qs, rs, 20, "-a dS/dv (force units per second of lag)", "residual");
-  if (!reg.ok) {
-    sig.summary = "residual could not be regressed on -a dS/dv";
-    return sig;
-  }
-  const double tau = reg.coef[2], t = reg.t(2);
-  sig.strength = tau > 0 ? t / kScreenT : 0.0;
-  const double dt = (c.s.time_s.back() - c.s.time_s.front()) / static_cast<double>(c.s.size() - 1);
-  sig.initial_values = {std::clamp(tau, 2 * dt, 0.5)};
-  sig.summary = fmt("sliding residual follows -a dS/dv with a delay of %.3g s (t = %.1f)", tau, t);
+  sig.strength = best_t / kScreenT;
+  sig.initial_values = {std::max(best_tau, dt)};
+  sig.plot = binned(best_q, best_r, 20, "S(v(t - tau)) - S(v(t)), direction-signed", "residual");
+  sig.summary = best_t > 0 ? fmt("sliding residual follows the Stribeck level of the velocity %.3g s earlier (t = %.1f, gain %.2f)",
+                                 best_tau, best_t, best_coef)
+                           : "no delayed-velocity pattern in the sliding residual";
   return sig;
 }
 
@@ -383,8 +438,9 @@ Signature backlash(const Context& c) {
   }
   std::vector<double> excess, steps;
   double model_zone_sum = 0;
-  for (const Pass& p : c.m.passes) {
-    if (p.after_hold || p.first == 0 || !c.pass_in_fit(p)) continue;
+  for (std::size_t k = 1; k < c.m.passes.size(); ++k) {
+    const Pass& p = c.m.passes[k];
+    if (p.direction == c.m.passes[k - 1].direction || !c.pass_in_fit(p)) continue;
     std::vector<double> sliding_level;
     for (std::size_t i = p.first; i <= p.last; ++i) {
       if (c.steady(i)) sliding_level.push_back(p.direction * measured[i]);
@@ -396,7 +452,7 @@ Signature backlash(const Context& c) {
     model_zone_sum += zf;
     steps.push_back(std::fabs(c.s.position_m[std::min(p.first + 1, p.last)] - c.s.position_m[p.first]));
   }
-  if (excess.size() < 2) return not_applicable(e, "fewer than 2 reversals with sliding after them in the fit data");
+  if (excess.size() < 2) return not_applicable(e, "fewer than 2 direction changes with sliding after them in the fit data");
   const double med = median(excess);
   const double model_zone = model_zone_sum / static_cast<double>(excess.size());
   const double positive = static_cast<double>(std::count_if(excess.begin(), excess.end(), [](double x) { return x > 0; })) /
@@ -412,8 +468,9 @@ Signature backlash(const Context& c) {
   // Plot: direction-signed residual against distance since reversal.
   std::vector<double> x, y;
   const double extent = std::max(4 * med, 10 * threshold);
-  for (const Pass& p : c.m.passes) {
-    if (p.after_hold || p.first == 0 || !c.pass_in_fit(p)) continue;
+  for (std::size_t k = 1; k < c.m.passes.size(); ++k) {
+    const Pass& p = c.m.passes[k];
+    if (p.direction == c.m.passes[k - 1].direction || !c.pass_in_fit(p)) continue;
     for (std::size_t i = p.first; i <= p.last && c.m.distance_since_start_m[i] < extent; ++i) {
       x.push_back(c.m.distance_since_start_m[i]);
       y.push_back(p.direction * c.r[i]);
@@ -426,54 +483,51 @@ Signature backlash(const Context& c) {
 // ---------------------------------------------------------------------------
 Signature velocity_strengthening(const Context& c) {
   const Effect e = Effect::kVelocityStrengthening;
-  std::vector<double> speeds;
-  for (std::size_t i = 0; i < c.s.size(); ++i) {
-    if (c.steady(i)) speeds.push_back(std::fabs(c.s.velocity_m_per_s[i]));
-  }
-  if (speeds.size() < 30) return not_applicable(e, "too few steady sliding samples");
-  std::sort(speeds.begin(), speeds.end());
-  const double lo = speeds[speeds.size() / 20], hi = speeds[speeds.size() * 19 / 20];
-  if (!(lo > 0) || hi < 8 * lo) {
-    return not_applicable(e, fmt("steady sliding speeds span only a factor %.2g (5-95 %%); log-velocity and viscous friction "
-                                 "cannot be told apart below about a decade", lo > 0 ? hi / lo : 0.0));
-  }
-  // Bin means of the direction-signed, level-normalised residual against ln|v|.
-  constexpr int kBins = 12;
-  struct Bin { double v = 0, y = 0; int n = 0; };
-  std::vector<Bin> bins(2 * kBins);
-  for (std::size_t i = 0; i < c.s.size(); ++i) {
-    if (!c.steady(i)) continue;
-    const double speed = std::fabs(c.s.velocity_m_per_s[i]);
-    if (speed < lo || speed > hi) continue;
-    const int b = std::min(kBins - 1, static_cast<int>(kBins * std::log(speed / lo) / std::log(hi / lo)));
-    Bin& bin = bins[static_cast<std::size_t>(b + (c.m.direction[i] > 0 ? kBins : 0))];
-    const double factor = c.level_factor(i);
-    if (!(factor > 0)) continue;
-    bin.v += speed;
-    bin.y += c.m.direction[i] * c.r[i] / factor;
-    ++bin.n;
-  }
+  // Per pass: the mean direction-signed residual (relative to the level
+  // factor) over its plateau, against the plateau speed. The base model is
+  // already viscous (Fv v); a log-velocity law leaves curvature against ln v.
   Design design;
-  std::vector<double> px, py;
-  for (const Bin& b : bins) {
-    if (b.n < 5) continue;
-    const double v = b.v / b.n, y = b.y / b.n;
-    design.add_row({1.0, v, std::log(v)}, y);
-    px.push_back(v);
-    py.push_back(y);
+  std::vector<double> px, py, speeds;
+  for (const Pass& p : c.m.passes) {
+    if (!c.pass_in_fit(p)) continue;
+    const double plateau = p.median_speed_m_per_s;
+    double sum = 0;
+    int k = 0;
+    for (std::size_t i = p.first; i <= p.last; ++i) {
+      const double speed = std::fabs(c.s.velocity_m_per_s[i]);
+      const double factor = c.level_factor(i);
+      if (!c.steady(i) || !(factor > 0) || std::fabs(speed - plateau) > 0.2 * plateau) continue;
+      sum += p.direction * c.r[i] / factor;
+      ++k;
+    }
+    if (k < 5 || !(plateau > 0)) continue;
+    design.add_row({1.0, static_cast<double>(p.direction), plateau, std::log(plateau)}, sum / k);
+    px.push_back(plateau);
+    py.push_back(sum / k);
+    speeds.push_back(plateau);
+  }
+  if (speeds.size() < 6) return not_applicable(e, "fewer than 6 fit passes with a steady plateau");
+  std::sort(speeds.begin(), speeds.end());
+  const double* lo = &speeds.front();
+  const double* hi = &speeds.back();
+  int distinct = 1;
+  for (std::size_t k = 1; k < speeds.size(); ++k) distinct += speeds[k] > 1.25 * speeds[k - 1] ? 1 : 0;
+  if (*hi < 8 * *lo || distinct < 3) {
+    return not_applicable(e, fmt("plateau speeds span a factor %.2g at %.0f distinct levels; log-velocity and viscous "
+                                 "friction cannot be told apart below a decade and three speeds", *hi / *lo, distinct));
   }
   Signature sig;
   sig.effect = e;
   sig.applicable = true;
-  sig.plot = {"sliding speed (m/s)", "direction-signed residual / level factor", px, py, {}};
+  sig.plot = {"plateau speed (m/s)", "mean direction-signed residual / level factor, per pass", px, py, {}};
   const ModelParams& p = c.in.params;
   const bool mu = p.structure.load_scaled;
   const bool inverted = p.value(mu ? "mu_s" : "Fs") < 0.9 * p.value(mu ? "mu_c" : "Fc");
   const Regression reg = design.fit();
-  const double coef = reg.ok ? reg.coef[2] : 0.0, t = reg.ok ? reg.t(2) : 0.0;
-  sig.strength = std::max(coef > 0 ? t / kScreenT : 0.0, inverted ? 1.0 : 0.0);
+  const double coef = reg.ok ? reg.coef[3] : 0.0, t = reg.ok ? reg.t(3) : 0.0;
+  sig.strength = std::max(std::fabs(t) / kScreenT, inverted ? 1.0 : 0.0);
   sig.initial_values = {coef > 0 ? coef : 0.0};
-  sig.summary = fmt("residual against ln|v| over %.2g-%.2g m/s: coefficient %.3g (t = %.1f)", lo, hi, coef, t);
+  sig.summary = fmt("pass residual against ln(speed) over %.2g-%.2g m/s: coefficient %.3g (t = %.1f) beside the viscous term", *lo, *hi, coef, t);
   if (inverted) sig.summary += "; the base fit turned the Stribeck term upside down (Fs < Fc), friction rising with speed";
   return sig;
 }
@@ -670,7 +724,10 @@ Signature position_periodic(const Context& c) {
     xmin = std::min(xmin, c.s.position_m[i]);
     xmax = std::max(xmax, c.s.position_m[i]);
   }
-  const double lambda_min = std::max({4 * median(steps), 20 * c.m.position_noise_m, 1e-300});
+  // Resolved at (nearly) every speed: a temporal artefact in slow passes
+  // would otherwise alias to a short period in position.
+  std::sort(steps.begin(), steps.end());
+  const double lambda_min = std::max({4 * steps[steps.size() * 9 / 10], 20 * c.m.position_noise_m, 1e-300});
   const double lambda_max = (xmax - xmin) / 3;
   if (lambda_max < 2 * lambda_min) return not_applicable(e, "the sliding range holds fewer than 3 resolvable periods");
 

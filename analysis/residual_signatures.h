@@ -40,6 +40,7 @@ struct Signature {
   Effect effect = Effect::kDrift;
   bool applicable = false;
   double strength = 0;
+  double score_t = 0;                   // filled by the diagnosis: score test of the extension
   std::string summary;                  // what was measured, or why not applicable
   std::vector<double> initial_values;   // for effect_parameters(effect), in order
   std::vector<std::string> fixed_parameters;  // held at their initial value: these data cannot determine them
