@@ -392,8 +392,13 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
       screened.resize(static_cast<std::size_t>(options.max_candidates_per_round));
     }
 
+    // AICc with the sample count (the gate), and with the effective sample
+    // count of the present residual, common to both models (reported: with
+    // autocorrelated residuals the plain AICc overstates the evidence).
+    const double n = static_cast<double>(current.fit.n);
     const double n_eff = current.fit.n_effective;
-    const double aicc_current = aicc(current.fit.rss, current.fit.n, n_eff, current.fit.k);
+    const double aicc_current = aicc(current.fit.rss, current.fit.n, n, current.fit.k);
+    const double aicc_current_eff = aicc(current.fit.rss, current.fit.n, n_eff, current.fit.k);
     const double heldout_before = rms_over(series.force_n, current.model, heldout);
     std::optional<std::size_t> best;
     std::vector<FitResult> fits;
@@ -411,7 +416,8 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
       }
       const std::vector<double> model = simulate(data, fit.params);
       trial.fitted = true;
-      trial.delta_aicc = aicc(fit.rss, fit.n, n_eff, fit.k) - aicc_current;
+      trial.delta_aicc = aicc(fit.rss, fit.n, n, fit.k) - aicc_current;
+      trial.delta_aicc_effective = aicc(fit.rss, fit.n, n_eff, fit.k) - aicc_current_eff;
       trial.heldout_rms_before = heldout_before;
       trial.heldout_rms_after = rms_over(series.force_n, model, heldout);
       trial.heldout_gain = heldout_before > 0 ? 1.0 - trial.heldout_rms_after / heldout_before : 0.0;
@@ -420,8 +426,8 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
       trial.warnings = fit.warnings;
       trial.passed = trial.heldout_gain >= options.min_heldout_gain && trial.block_agreement >= options.min_block_agreement &&
                      trial.delta_aicc <= options.max_delta_aicc;
-      trial.verdict = fmt("held-out RMS %+.2f %%, %.0f %% of held-out samples in improved passes, dAICc = %.1f",
-                          -100 * trial.heldout_gain, 100 * trial.block_agreement, trial.delta_aicc);
+      trial.verdict = fmt("held-out RMS %+.2f %%, %.0f %% of held-out samples in improved passes, dAICc = %.1f (%.1f with n_eff)",
+                          -100 * trial.heldout_gain, 100 * trial.block_agreement, trial.delta_aicc, trial.delta_aicc_effective);
       if (trial.passed && (!best || trial.heldout_gain > out.trials[*best].heldout_gain)) best = out.trials.size();
       out.trials.push_back(trial);
       fits.push_back(std::move(fit));

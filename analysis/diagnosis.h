@@ -11,8 +11,11 @@
 //   - held-out RMS error at least min_heldout_gain lower,
 //   - on at least min_block_agreement of the held-out samples' blocks
 //     (passes), sample-weighted,
-//   - and AICc lower by at least -max_delta_aicc (with the effective sample
-//     count of the present model's residual, common to both models).
+//   - and AICc lower by at least -max_delta_aicc. AICc counts every fit
+//     sample; with autocorrelated residuals that overstates the evidence, so
+//     the AICc change with the effective sample count (from the residual's
+//     lag-1 autocorrelation) is reported beside it. The decision rests on the
+//     held-out error.
 // The best passing candidate (largest held-out gain) is accepted and the loop
 // repeats; it stops when nothing passes. Structure left in the residual that
 // no candidate explains is described (the regressor it follows), never
@@ -43,7 +46,7 @@ struct DiagnosisOptions {
   double score_t_threshold = 2.0;
   double min_heldout_gain = 0.02;
   double min_block_agreement = 0.75;
-  double max_delta_aicc = -2.0;
+  double max_delta_aicc = -10.0;
   int max_candidates_per_round = 10;
   int max_rounds = 6;
 };
@@ -71,7 +74,8 @@ struct CandidateTrial {
   int round = 0;
   Signature signature;
   bool fitted = false;
-  double delta_aicc = 0;
+  double delta_aicc = 0;             // with the fit sample count
+  double delta_aicc_effective = 0;   // with the effective sample count
   double heldout_rms_before = 0, heldout_rms_after = 0;
   double heldout_gain = 0;       // 1 - after / before
   double block_agreement = 0;    // share of held-out samples in blocks that improved

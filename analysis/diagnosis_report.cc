@@ -47,7 +47,8 @@ void write_strings(JsonWriter& j, const std::vector<std::string>& v) {
 
 void write_trial(JsonWriter& j, const CandidateTrial& t) {
   j.field("signature", t.signature.summary).field("signature_strength", t.signature.strength);
-  j.field("delta_aicc", t.delta_aicc).field("heldout_rms_before", t.heldout_rms_before);
+  j.field("delta_aicc", t.delta_aicc).field("delta_aicc_effective", t.delta_aicc_effective);
+  j.field("heldout_rms_before", t.heldout_rms_before);
   j.field("heldout_rms_after", t.heldout_rms_after).field("heldout_gain", t.heldout_gain);
   j.field("block_agreement", t.block_agreement).field("round", t.round);
 }
@@ -115,7 +116,8 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
     j.begin_object();
     j.field("name", effect_name(r.effect)).field("reason", r.reason).field("signature_strength", r.signature_strength);
     if (r.last_trial) {
-      j.field("delta_aicc", r.last_trial->delta_aicc).field("heldout_gain", r.last_trial->heldout_gain);
+      j.field("delta_aicc", r.last_trial->delta_aicc).field("delta_aicc_effective", r.last_trial->delta_aicc_effective);
+      j.field("heldout_gain", r.last_trial->heldout_gain);
       j.field("block_agreement", r.last_trial->block_agreement);
     }
     j.end_object();

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <tuple>
 #include <utility>
 
 namespace tribo::analysis {
@@ -222,15 +223,16 @@ MotionSegmentation segment_motion(const MeasuredSeries& s, const SegmentationOpt
     m.passes[p].load_level = s.has_normal() ? load_level[p] : 0;
   }
 
-  // Held-out passes: alternate in time within each (direction, load level),
-  // the alternation shifted by one for the other direction and for every
-  // other load level, so that a speed level that recurs in the same place of
-  // every sweep is still fitted at some conditions and held out at others.
-  std::map<std::pair<int, int>, int> seen;
+  // Held-out passes: alternate in time within each condition (direction, load
+  // level, speed level), the alternation shifted by one for the other
+  // direction and for every other load and speed level, so that each
+  // condition is fitted somewhere and held out somewhere else, and the fit set
+  // never pairs one direction with one speed only.
+  std::map<std::tuple<int, int, int>, int> seen;
   int heldout_passes = 0;
   for (Pass& p : m.passes) {
-    const int k = seen[{p.direction, p.load_level}]++;
-    p.heldout = ((k + p.load_level + (p.direction < 0 ? 1 : 0)) % 2) == 1;
+    const int k = seen[{p.direction, p.load_level, p.speed_level}]++;
+    p.heldout = ((k + p.load_level + p.speed_level + (p.direction < 0 ? 1 : 0)) % 2) == 1;
   }
   // The first and the last pass are always fitted: held-out error then
   // measures interpolation in time, never extrapolation of a trend in time.
@@ -240,7 +242,7 @@ MotionSegmentation segment_motion(const MeasuredSeries& s, const SegmentationOpt
   }
   for (const Pass& p : m.passes) heldout_passes += p.heldout ? 1 : 0;
   if (heldout_passes >= options.min_heldout_passes) {
-    m.heldout_scheme = "whole passes, alternating in time within each (direction, load level), shifted between directions and loads; first and last pass fitted";
+    m.heldout_scheme = "whole passes, alternating in time within each (direction, load, speed) condition, shifted between conditions; first and last pass fitted";
     m.block_count = static_cast<int>(m.passes.size());
     int next_pass = 0;
     for (std::size_t i = 0; i < n; ++i) {

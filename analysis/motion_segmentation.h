@@ -3,9 +3,9 @@
 // sample with what the residual signatures look at (direction, distance and
 // time since the pass began, the dwell before it), and assigns whole passes
 // to the fit or the held-out set, alternating in time within each condition
-// (direction, load level; the alternation shifted between the directions and
-// between load levels), so that held-out error is measured on segments the
-// fit has not seen, under every condition, and never on random samples.
+// (direction, load level, speed level; the alternation shifted between
+// conditions), so that held-out error is measured on segments the fit has not
+// seen, under every condition, and never on random samples.
 #pragma once
 
 #include <cstddef>

@@ -155,11 +155,14 @@ CurveFit fit_one_scale(const std::vector<CurvePoint>& pts, int m, const Basis& b
   fit.std_errors = errors;
   fit.values.insert(fit.values.begin() + scale_position, c);
   fit.std_errors.insert(fit.std_errors.begin() + scale_position, c * se_lnc);
-  fit.scale_determined = !at_edge && se_lnc < 1.0;
+  // The scale means something only where its term's amplitude (the second
+  // linear parameter: Fs - Fc, p2) is clearly non-zero.
+  const bool amplitude_seen = std::fabs(proj.a[1]) > 2 * std::sqrt(std::max(cov(1, 1), 0.0));
+  fit.scale_determined = !at_edge && se_lnc < 1.0 && amplitude_seen;
   if (!fit.scale_determined) {
     fit.warnings.push_back(fit.names[static_cast<std::size_t>(scale_position)] +
-                           " is not determined: the best value lies at the edge of the data range "
-                           "or is uncertain by more than a factor e");
+                           " is not determined: its term is not seen in the data, or the best value lies at the "
+                           "edge of the data range, or it is uncertain by more than a factor e");
   }
   return fit;
 }

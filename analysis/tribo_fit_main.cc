@@ -16,7 +16,9 @@
 #include "analysis/diagnosis.h"
 #include "analysis/diagnosis_report.h"
 #include "analysis/json_writer.h"
+#include "analysis/scratch_metrics.h"
 #include "analysis/series_input.h"
+#include "proto/run_files.h"
 #include "analysis/stribeck_fit.h"
 
 namespace {
@@ -27,6 +29,7 @@ constexpr const char* kUsage = R"(usage:
   tribo-fit diagnose INPUT [options]
   tribo-fit stribeck FILE.csv --x COL --y COL [--weight COL] [--model lugre|eq44]
                      [--stribeck-exponent D] [--no-offset] [--json]
+  tribo-fit metrics RUN_DIR [--json]
   tribo-fit --help
 
 diagnose: fits the LuGre friction model to a measured run (driven by the measured
@@ -64,6 +67,17 @@ m/s^2, forces N (or one consistent unit, e.g. a stress in Pa, see --force-unit).
   --json                print one JSON object (fields: see README)
   --out DIR             also write DIR/diagnosis.json, traces.csv and
                         signatures.csv (plots: analysis/plot_diagnosis.py DIR)
+
+stribeck: fits a steady-state curve to points (x, y[, weight]): the LuGre steady
+state F(v) = sgn(v)(Fc + (Fs - Fc) exp(-(|v|/vs)^D)) + Fv v [+ offset], or eq. 44
+mu(x) = p1 + p2 exp(-p3 x) + p4 x, globally (no initial guess), with robust weights.
+
+metrics: the scratch metrics of a recorded tribo run: per loaded sliding segment
+the mean friction, mu, stiction peak Fs, stretch time ts and distance ds, steady
+lag dl and the Table 5.1 gains sigma = Fs/ds, mki = 2 Fs/(v0 ts^2), mk = mki dl/v0;
+the lateral-force drift in loaded holds; the surface tilt (normal displacement
+against lateral position over the first moving segment at constant load).
+Printed in µm, µN, s as in Table 5.1; --json prints SI units.
 
 exit codes: 0 done; 1 the input could not be read or analysed; 2 bad usage
 )";
@@ -125,6 +139,17 @@ int diagnose_command(int argc, char** argv) {
   }
   if (args->positional.size() != 1) return usage_error("diagnose takes one INPUT (a CSV file or a run directory)");
   const std::filesystem::path input = args->positional[0];
+  std::vector<Effect> candidates(kAllEffects.begin(), kAllEffects.end());
+  if (auto list = args->get("--effects")) {
+    candidates.clear();
+    std::stringstream in(*list);
+    std::string name;
+    while (std::getline(in, name, ',')) {
+      const auto e = effect_from_name(name);
+      if (!e) return usage_error("unknown effect '" + name + "'");
+      candidates.push_back(*e);
+    }
+  }
 
   std::optional<MeasuredSeries> series;
   bool fit_mass = args->flag("--fit-mass");
@@ -183,17 +208,7 @@ int diagnose_command(int argc, char** argv) {
   options.base.fit_mass = fit_mass;
   options.base.load_scaled = series->has_normal() && !args->flag("--no-load-scaling");
   options.base.stribeck_exponent = exponent;
-  if (auto list = args->get("--effects")) {
-    options.candidates.clear();
-    std::stringstream in(*list);
-    std::string name;
-    while (std::getline(in, name, ',')) {
-      const auto e = effect_from_name(name);
-      if (!e) return usage_error("unknown effect '" + name + "'");
-      options.candidates.push_back(*e);
-    }
-  }
-
+  options.candidates = candidates;
   const auto t0 = std::chrono::steady_clock::now();
   Diagnosis d;
   try {
@@ -267,6 +282,59 @@ int stribeck_command(int argc, char** argv) {
   return 0;
 }
 
+int metrics_command(int argc, char** argv) {
+  std::string error;
+  const auto args = parse(argc, argv, error);
+  if (!args) return usage_error(error);
+  if (args->positional.size() != 1) return usage_error("metrics takes one run directory");
+  const auto run = tribo::wire::read_run_directory(args->positional[0], error);
+  if (!run) {
+    std::cerr << "tribo-fit: " << error << "\n";
+    return 1;
+  }
+  const auto scratches = scratch_identification(run->samples);
+  const auto drift = lateral_drift_from_holds(run->samples);
+  const auto tilt = fit_surface_tilt(run->samples);
+  if (args->flag("--json")) {
+    JsonWriter j;
+    j.begin_object().key("scratches").begin_array();
+    for (const auto& s : scratches) {
+      const auto& m = s.metrics;
+      j.begin_object().field("segment", static_cast<int>(m.segment)).field("velocity_m_per_s", m.velocity_m_per_s);
+      j.field("normal_force_n", m.normal_force_n).field("mean_friction_n", m.mean_friction_n).field("mu", m.mu);
+      j.field("stiction_peak_n", m.stiction_peak_n).field("stretch_time_s", s.stretch_time_s);
+      j.field("stretch_distance_m", s.stretch_distance_m).field("steady_lag_m", m.steady_lag_m);
+      j.field("contact_stiffness_n_per_m", s.gains.contact_stiffness_n_per_m).field("mki_n_per_m_s", s.gains.integral_gain);
+      j.field("mk_n_per_m", s.gains.proportional_gain).end_object();
+    }
+    j.end_array().key("drift").begin_object().field("mean_rate_n_per_s", drift.mean_rate_n_per_s).key("holds").begin_array();
+    for (const auto& h : drift.holds) {
+      j.begin_object().field("segment", static_cast<int>(h.segment)).field("duration_s", h.duration_s);
+      j.field("rate_n_per_s", h.rate_n_per_s).field("rate_std_error", h.rate_std_error).end_object();
+    }
+    j.end_array().end_object().key("tilt");
+    if (tilt) j.begin_object().field("segment", static_cast<int>(tilt->segment)).field("slope", tilt->slope).field("samples", tilt->samples).end_object();
+    else j.null();
+    j.end_object();
+    std::cout << j.str();
+    return 0;
+  }
+  for (const auto& s : scratches) {
+    const auto& m = s.metrics;
+    std::printf("segment %u: v0 %+.3f um/s at %.1f uN: friction %.2f uN, mu %.4f\n", m.segment, 1e6 * m.velocity_m_per_s,
+                1e6 * m.normal_force_n, 1e6 * m.mean_friction_n, m.mu);
+    std::printf("  Fs %.2f uN, ts %.4f s, ds %.4f um, dl %.4f um -> sigma %.1f uN/um, mki %.1f, mk %.1f (Table 5.1 units)\n",
+                1e6 * m.stiction_peak_n, s.stretch_time_s, 1e6 * s.stretch_distance_m, 1e6 * m.steady_lag_m,
+                s.gains.contact_stiffness_n_per_m, s.gains.integral_gain, s.gains.proportional_gain);
+  }
+  for (const auto& h : drift.holds) {
+    std::printf("hold segment %u (%.2f s): lateral-force drift %.4g +- %.2g uN/s\n", h.segment, h.duration_s, 1e6 * h.rate_n_per_s,
+                1e6 * h.rate_std_error);
+  }
+  if (tilt) std::printf("surface tilt (segment %u): %.5f (%.3f deg)\n", tilt->segment, tilt->slope, std::atan(tilt->slope) * 180 / M_PI);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -284,5 +352,6 @@ int main(int argc, char** argv) {
   }
   if (command == "diagnose") return diagnose_command(argc, argv);
   if (command == "stribeck") return stribeck_command(argc, argv);
+  if (command == "metrics") return metrics_command(argc, argv);
   return usage_error("unknown command '" + command + "'");
 }

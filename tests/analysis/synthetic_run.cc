@@ -136,7 +136,7 @@ class Truth {
     }
     const double g = level / kSigma0;
     dz = v - alpha(e_.breakaway_ratio, v, s.z, g) * std::fabs(v) * s.z / g;
-    force = kSigma0 * s.z + kSigma1 * dz + kViscous * v;
+    force = kSigma0 * s.z + kSigma1 * dz + (kViscous + e_.extra_viscous_n_s_per_m) * v;
   }
 
   // Advances the state over [t, t + h] in RK4 substeps; returns the friction at the end.

@@ -29,7 +29,8 @@ struct SyntheticEffects {
   double tilt_tan = 0;              // lateral force reading + N tan(theta), also at rest
   double drift_n_per_s = 0;         // lateral force reading + a slow drift
   double breakaway_ratio = 0;       // elasto-plastic presliding (Dupont et al.)
-  double backlash_gap_m = 0;        // play in series, engaged through a stiff spring
+  double backlash_gap_m = 0;        // play in series: the element is unloaded while the gap is open
+  double extra_viscous_n_s_per_m = 0;  // on top of the contact's 0.5 N s/m (not an effect: the base has Fv)
 };
 
 struct SyntheticOptions {
