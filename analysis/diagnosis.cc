@@ -71,24 +71,14 @@ double score_test(const ModelData& data, const ModelParams& current, const std::
   for (std::size_t k = 0; k < start.specs.size(); ++k) {
     if (start.specs[k].effect == effect && !start.specs[k].fixed) columns.push_back(static_cast<int>(k));
   }
-  const int nd = static_cast<int>(columns.size());
-  std::vector<Dual> theta(start.theta.size());
-  for (std::size_t k = 0; k < theta.size(); ++k) theta[k] = Dual(start.theta[k], DerivativeVector::Zero(nd));
-  for (int j = 0; j < nd; ++j) theta[static_cast<std::size_t>(columns[static_cast<std::size_t>(j)])].derivatives()[j] = 1.0;
-  std::vector<Dual> model;
-  simulate_generic<Dual>(data, start, theta, model);
   std::vector<std::size_t> rows;
-  for (std::size_t i = 0; i < model.size(); ++i) {
+  for (std::size_t i = 0; i < in_fit.size(); ++i) {
     if (in_fit[i]) rows.push_back(i);
   }
-  Eigen::MatrixXd X(static_cast<Eigen::Index>(rows.size()), nd);
+  if (columns.empty()) return 0.0;
+  const Eigen::MatrixXd X = model_jacobian(data, start, start.theta, columns, rows);
   Eigen::VectorXd y(static_cast<Eigen::Index>(rows.size()));
-  for (std::size_t r = 0; r < rows.size(); ++r) {
-    const Dual& m = model[rows[r]];
-    const auto row = static_cast<Eigen::Index>(r);
-    for (int j = 0; j < nd; ++j) X(row, j) = m.derivatives().size() > j ? m.derivatives()[j] : 0.0;
-    y[row] = data.series.force_n[rows[r]] - current_model[rows[r]];
-  }
+  for (std::size_t r = 0; r < rows.size(); ++r) y[static_cast<Eigen::Index>(r)] = data.series.force_n[rows[r]] - current_model[rows[r]];
   // Drop columns without variation (a parameter these samples do not feel).
   std::vector<Eigen::Index> keep;
   for (Eigen::Index j = 0; j < X.cols(); ++j) {

@@ -529,6 +529,12 @@ template void simulate_generic<double>(const ModelData&, const ModelParams&, con
                                        std::vector<double>&, std::vector<double>*);
 template void simulate_generic<Dual>(const ModelData&, const ModelParams&, const std::vector<Dual>&,
                                      std::vector<Dual>&, std::vector<Dual>*);
+template void simulate_generic<FixedDual<8>>(const ModelData&, const ModelParams&, const std::vector<FixedDual<8>>&,
+                                             std::vector<FixedDual<8>>&, std::vector<FixedDual<8>>*);
+template void simulate_generic<FixedDual<16>>(const ModelData&, const ModelParams&, const std::vector<FixedDual<16>>&,
+                                              std::vector<FixedDual<16>>&, std::vector<FixedDual<16>>*);
+template void simulate_generic<FixedDual<32>>(const ModelData&, const ModelParams&, const std::vector<FixedDual<32>>&,
+                                              std::vector<FixedDual<32>>&, std::vector<FixedDual<32>>*);
 
 std::vector<double> simulate(const ModelData& data, const ModelParams& params, std::vector<double>* friction) {
   std::vector<double> force;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 #include <cstdio>
 #include <cstdlib>
 
@@ -51,20 +52,7 @@ struct ModelFunctor : Eigen::DenseFunctor<double> {
   }
 
   int df(const Eigen::VectorXd& x, Eigen::MatrixXd& fjac) const {
-    const std::vector<double> theta = full_theta(x);
-    const int nfree = static_cast<int>(free.size());
-    std::vector<Dual> dual(theta.size());
-    for (std::size_t i = 0; i < theta.size(); ++i) dual[i] = Dual(theta[i], DerivativeVector::Zero(nfree));
-    for (int j = 0; j < nfree; ++j) dual[static_cast<std::size_t>(free[static_cast<std::size_t>(j)])].derivatives()[j] = 1.0;
-    std::vector<Dual> model;
-    simulate_generic<Dual>(data, params, dual, model);
-    for (std::size_t r = 0; r < rows.size(); ++r) {
-      const Dual& m = model[rows[r]];
-      for (int j = 0; j < nfree; ++j) {
-        const double d = m.derivatives().size() > j ? m.derivatives()[j] : 0.0;
-        fjac(static_cast<Eigen::Index>(r), j) = std::isfinite(d) ? -d : 0.0;
-      }
-    }
+    fjac = -model_jacobian(data, params, full_theta(x), free, rows);
     return 0;
   }
 
@@ -90,7 +78,41 @@ std::string explain_undetermined(const std::string& name) {
   return name + " is not determined by these data (standard error larger than its scale)";
 }
 
+template <int N>
+Eigen::MatrixXd jacobian_with(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
+                              const std::vector<int>& columns, const std::vector<std::size_t>& rows,
+                              std::vector<double>* model) {
+  using T = FixedDual<N>;
+  std::vector<T> dual(theta.size());
+  for (std::size_t i = 0; i < theta.size(); ++i) dual[i] = T(theta[i]);
+  for (std::size_t j = 0; j < columns.size(); ++j) dual[static_cast<std::size_t>(columns[j])].derivatives()[static_cast<Eigen::Index>(j)] = 1.0;
+  std::vector<T> out;
+  simulate_generic<T>(data, params, dual, out);
+  Eigen::MatrixXd jac(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(columns.size()));
+  for (std::size_t r = 0; r < rows.size(); ++r) {
+    const auto& d = out[rows[r]].derivatives();
+    for (std::size_t j = 0; j < columns.size(); ++j) {
+      const double v = d[static_cast<Eigen::Index>(j)];
+      jac(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(j)) = std::isfinite(v) ? v : 0.0;
+    }
+  }
+  if (model) {
+    model->resize(out.size());
+    for (std::size_t i = 0; i < out.size(); ++i) (*model)[i] = out[i].value();
+  }
+  return jac;
+}
+
 }  // namespace
+
+Eigen::MatrixXd model_jacobian(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
+                               const std::vector<int>& columns, const std::vector<std::size_t>& rows,
+                               std::vector<double>* model) {
+  if (columns.size() <= 8) return jacobian_with<8>(data, params, theta, columns, rows, model);
+  if (columns.size() <= 16) return jacobian_with<16>(data, params, theta, columns, rows, model);
+  if (columns.size() <= 32) return jacobian_with<32>(data, params, theta, columns, rows, model);
+  throw std::invalid_argument("model_jacobian: more than 32 free parameters");
+}
 
 double effective_sample_count(const std::vector<double>& r) {
   if (r.size() < 3) return static_cast<double>(r.size());

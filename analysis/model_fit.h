@@ -16,6 +16,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "analysis/friction_model.h"
 
 namespace tribo::analysis {
@@ -51,6 +53,13 @@ struct FitResult {
 // in_fit[i] != 0 marks the samples of the objective.
 FitResult fit_model(const ModelData& data, const ModelParams& initial, const std::vector<char>& in_fit,
                     const FitOptions& options = {});
+
+// d model / d theta for the given parameter columns at the given rows (time
+// order), by forward-mode autodiff; model (optional) receives the model force
+// at every sample.
+Eigen::MatrixXd model_jacobian(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
+                               const std::vector<int>& columns, const std::vector<std::size_t>& rows,
+                               std::vector<double>* model = nullptr);
 
 // Sum of squared residuals of params over the marked samples (no fitting).
 double residual_sum_of_squares(const ModelData& data, const ModelParams& params, const std::vector<char>& in_fit);

@@ -36,6 +36,8 @@ struct Case {
   std::optional<Effect> mimic;  // the effect it could be mistaken for
 };
 
+void PrintTo(const Case& c, std::ostream* os) { *os << c.name; }
+
 std::vector<Case> cases() {
   auto with = [](auto set) {
     testing::SyntheticEffects e;

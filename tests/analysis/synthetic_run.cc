@@ -26,7 +26,7 @@ struct Segment {
   double normal_end_n;
 };
 
-std::vector<Segment> protocol(bool three_loads) {
+std::vector<Segment> protocol(bool three_loads, int extra_loads) {
   std::vector<Segment> segs;
   const double speeds[] = {0.5e-6, 2e-6, 8e-6, 32e-6};
   // Dwell times alternate long and short within each direction, so that
@@ -34,6 +34,8 @@ std::vector<Segment> protocol(bool three_loads) {
   const double dwells[] = {0.25, 4.0, 8.0, 0.3, 1.0, 6.0, 2.0, 0.5};
   const double travel = 6e-6;
   std::vector<double> loads = three_loads ? std::vector<double>{1e-3, 0.5e-3, 2e-3} : std::vector<double>{1e-3};
+  const double more[] = {1.5e-3, 0.75e-3, 1.25e-3, 1.75e-3};
+  for (int k = 0; k < extra_loads; ++k) loads.push_back(more[k % 4]);
   segs.push_back({1.0, 0.0, 0.0});  // unloaded at rest
   int k = 0;
   for (double load : loads) {
@@ -205,7 +207,7 @@ class Truth {
 }  // namespace
 
 analysis::MeasuredSeries synthetic_run(const SyntheticEffects& effects, std::uint64_t seed, const SyntheticOptions& options) {
-  const Motion motion = build_motion(protocol(options.three_loads));
+  const Motion motion = build_motion(protocol(options.three_loads, options.extra_loads));
   const Truth truth(effects, motion);
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> unit(0.0, 1.0);

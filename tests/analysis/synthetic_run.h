@@ -38,6 +38,7 @@ struct SyntheticOptions {
   double force_noise_n = 2e-6;      // white, per sample
   double position_noise_m = 0.05e-9;
   bool three_loads = true;          // else one load (1 mN)
+  int extra_loads = 0;              // more sweeps at 1.5, 0.75, 1.25 mN ... (longer runs, for benchmarks)
 };
 
 // A run with normal channel (N), lateral position and force; velocity and
