@@ -102,7 +102,7 @@ std::vector<std::string> coupled_base_parameters(Effect effect) {
   switch (effect) {
     case Effect::kDwellStiction: return {"Fs", "mu_s", "offset"};
     case Effect::kFrictionalLag: return {"vs", "offset"};
-    case Effect::kVelocityStrengthening: return {"Fc", "mu_c", "Fv", "offset"};
+    case Effect::kVelocityStrengthening: return {"Fc", "mu_c", "Fs", "mu_s", "vs", "Fv", "offset"};
     case Effect::kLoadDependence: return {"mu_c", "mu_s", "offset"};
     case Effect::kPreslidingHysteresis: return {"sigma0", "sigma1", "offset"};
     case Effect::kBacklash: return {"sigma0", "offset"};
@@ -125,21 +125,24 @@ FitResult fit_extension(const ModelData& data, const ModelParams& current, Effec
   for (const auto& spec : own.specs) {
     if (spec.effect == effect && is_scale_parameter(spec)) multipliers = {1.0, 0.2, 5.0};
   }
-  FitOptions quick = options.candidate_fit;
-  quick.max_iterations = std::min(quick.max_iterations, 15);
-  FitResult best;
-  bool have = false;
+  // Scale starts (time and length scales) are screened by one simulation
+  // each; only the best is fitted.
+  ModelParams first = own;
+  double first_rss = HUGE_VAL;
   for (double mult : multipliers) {
     ModelParams p = own;
     for (std::size_t k = 0; k < p.specs.size(); ++k) {
       if (p.specs[k].effect == effect && is_scale_parameter(p.specs[k])) p.specs[k].scale *= mult;
     }
-    FitResult r = fit_model(data, p, in_fit, quick);
-    if (!have || r.rss < best.rss) {
-      best = std::move(r);
-      have = true;
+    const double rss = residual_sum_of_squares(data, p, in_fit);
+    if (rss < first_rss) {
+      first_rss = rss;
+      first = p;
     }
   }
+  FitOptions quick = options.candidate_fit;
+  quick.max_iterations = std::min(quick.max_iterations, 10);
+  FitResult best = fit_model(data, first, in_fit, quick);
   ModelParams all = best.params;
   for (std::size_t k = 0; k < all.specs.size(); ++k) all.specs[k].fixed = start.specs[k].fixed;
   FitResult full = fit_model(data, all, in_fit, options.candidate_fit);

@@ -41,7 +41,7 @@ struct DiagnosisOptions {
   std::vector<Effect> candidates{kAllEffects.begin(), kAllEffects.end()};
   SegmentationOptions segmentation;
   LugreFitOptions lugre;
-  FitOptions candidate_fit{25, 1e-6};
+  FitOptions candidate_fit{15, 1e-6};
   double min_signature_strength = 1.0;   // max(signature strength, score t / score_t_threshold)
   double score_t_threshold = 2.0;
   double min_heldout_gain = 0.02;
