@@ -2,8 +2,6 @@
 
 #include <algorithm>
 #include <array>
-#include <chrono>
-#include <cstdlib>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -342,12 +340,7 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
   const std::vector<char> heldout(out.motion.heldout.begin(), out.motion.heldout.end());
   const std::vector<char> everything(series.size(), 1);
 
-  const auto base_start = std::chrono::steady_clock::now();
   out.base = fit_lugre(data, options.base, in_fit, options.lugre);
-  if (std::getenv("TRIBO_FIT_TIMING")) {
-    std::fprintf(stderr, "base fit: %.2f s, %d iterations\n",
-                 std::chrono::duration<double>(std::chrono::steady_clock::now() - base_start).count(), out.base.result.iterations);
-  }
   Current current = evaluate(data, out.base.result);
   out.model_before = current.model;
   out.before = {error_stats(series.force_n, current.model, in_fit), error_stats(series.force_n, current.model, heldout),
@@ -401,12 +394,7 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
       trial.effect = e;
       trial.round = round;
       trial.signature = sig;
-      const auto trial_start = std::chrono::steady_clock::now();
       FitResult fit = fit_extension(data, current.fit.params, e, sig, in_fit, options);
-      if (std::getenv("TRIBO_FIT_TIMING")) {
-        std::fprintf(stderr, "trial %s: %.2f s, %d iterations\n", std::string(effect_name(e)).c_str(),
-                     std::chrono::duration<double>(std::chrono::steady_clock::now() - trial_start).count(), fit.iterations);
-      }
       const std::vector<double> model = simulate(data, fit.params);
       trial.fitted = true;
       trial.delta_aicc = aicc(fit.rss, fit.n, n, fit.k) - aicc_current;

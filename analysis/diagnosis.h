@@ -3,11 +3,14 @@
 // the error before and after.
 //
 // Each round: every candidate effect not yet accepted gets its residual
-// signature (analysis/residual_signatures.h) on the fit samples; those with a
-// signature are fitted as extensions of the present model (first the new
-// parameters alone from the signature's initial values, with a few starts for
-// scale parameters, then everything together). A candidate is accepted only
-// if it clearly helps on the held-out passes:
+// signature (analysis/residual_signatures.h) on the fit samples and a score
+// test (the residual regressed on the extension's sensitivities, the one
+// statistic comparable across effects, used to rank); those showing the
+// effect are fitted as extensions of the present model (first the new
+// parameters with the base parameters they re-partition with, from the
+// signature's initial values, the best of a few starts for time and length
+// scales, then everything together). A candidate is accepted only if it
+// clearly helps on the held-out passes:
 //   - held-out RMS error at least min_heldout_gain lower,
 //   - on at least min_block_agreement of the held-out samples' blocks
 //     (passes), sample-weighted,
@@ -16,8 +19,8 @@
 //     the AICc change with the effective sample count (from the residual's
 //     lag-1 autocorrelation) is reported beside it. The decision rests on the
 //     held-out error.
-// The best passing candidate (largest held-out gain) is accepted and the loop
-// repeats; it stops when nothing passes. Structure left in the residual that
+// The best passing candidate (largest held-out gain) is accepted, the model
+// polished to convergence, and the loop repeats; it stops when nothing passes. Structure left in the residual that
 // no candidate explains is described (the regressor it follows), never
 // labelled with an effect that did not pass.
 #pragma once

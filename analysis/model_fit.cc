@@ -190,23 +190,16 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
       status = lm.minimizeOneStep(x);
       const double cost = lm.fnorm() * lm.fnorm();
       costs.push_back(cost);
-      if (std::getenv("TRIBO_FIT_TRACE")) {
-        std::fprintf(stderr, "iter %ld cost %.9g theta", static_cast<long>(lm.njev()), cost);
-        for (Eigen::Index j = 0; j < x.size(); ++j) std::fprintf(stderr, " %.3f", x[j] - ModelFunctor::kShift);
-        std::fprintf(stderr, "\n");
-      }
       if (costs.size() > kStallWindow) {
         const double before = costs[costs.size() - 1 - kStallWindow];
         const std::vector<double> r(lm.fvec().data(), lm.fvec().data() + lm.fvec().size());
         const double gain = 0.5 * effective_sample_count(r) * (before - cost) / cost;
         stalled = gain < kStallLogLikelihood;
       }
-      if (std::getenv("TRIBO_FIT_TRACE")) std::fprintf(stderr, "  status %d nfev %ld\n", static_cast<int>(status), static_cast<long>(lm.nfev()));
       if (static_cast<int>(lm.njev()) >= options.max_iterations) break;
     } while (status == Eigen::LevenbergMarquardtSpace::Running && !stalled);
   }
   result.iterations = static_cast<int>(lm.njev());
-  if (std::getenv("TRIBO_FIT_TIMING")) std::fprintf(stderr, "  fit: %ld jacobians, %ld evaluations, %zu free, %zu rows\n", static_cast<long>(lm.njev()), static_cast<long>(lm.nfev()), free.size(), rows.size());
   result.converged = status == Eigen::LevenbergMarquardtSpace::RelativeReductionTooSmall ||
                      status == Eigen::LevenbergMarquardtSpace::RelativeErrorTooSmall ||
                      status == Eigen::LevenbergMarquardtSpace::RelativeErrorAndReductionTooSmall ||
