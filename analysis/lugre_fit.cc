@@ -15,6 +15,8 @@ struct LinearStart {
   double viscous = 0;
   double offset = 0;
   double mass = 0;
+  double rss = 0;      // over the fit samples in passes
+  std::size_t rows = 0;
 };
 
 bool sliding_sample(const ModelData& d, std::size_t i) {
@@ -53,6 +55,8 @@ LinearStart linear_start(const ModelData& d, const ModelStructure& st, const std
   out.viscous = x[1];
   out.offset = offset ? x[2] : 0.0;
   if (st.fit_mass) out.mass = x[cols - 1];
+  out.rss = (A * x - b).squaredNorm();
+  out.rows = rows.size();
   return out;
 }
 
@@ -200,6 +204,20 @@ LugreFit fit_lugre(const ModelData& d, const ModelStructure& st, const std::vect
     if (!have || r.rss < out.result.rss) {
       out.result = std::move(r);
       have = true;
+    }
+  }
+  // A dynamic model that does worse in sliding than the static Coulomb +
+  // viscous line points at the input (column mapping, units, force sign).
+  if (have && lin.rows > 0) {
+    const std::vector<double> model = simulate(d, out.result.params);
+    double rss = 0;
+    for (std::size_t i = 0; i < model.size(); ++i) {
+      if (!in_fit[i] || d.motion.pass_of[i] < 0) continue;
+      rss += (d.series.force_n[i] - model[i]) * (d.series.force_n[i] - model[i]);
+    }
+    if (rss > 1.1 * lin.rss) {
+      out.result.warnings.push_back("the LuGre fit is worse in sliding than a static Coulomb + viscous line: check the "
+                                    "column mapping, the units and the sign of the force");
     }
   }
   return out;
