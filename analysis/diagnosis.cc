@@ -1,0 +1,449 @@
+#include "analysis/diagnosis.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <map>
+
+#include "analysis/autodiff.h"
+#include "analysis/regression.h"
+
+namespace tribo::analysis {
+
+namespace {
+
+std::string fmt(const char* format, double a, double b = 0, double c = 0, double d = 0) {
+  char buf[320];
+  std::snprintf(buf, sizeof buf, format, a, b, c, d);
+  return buf;
+}
+
+std::vector<char> invert(const std::vector<char>& mask) {
+  std::vector<char> out(mask.size());
+  for (std::size_t i = 0; i < mask.size(); ++i) out[i] = !mask[i];
+  return out;
+}
+
+double rms_over(const std::vector<double>& measured, const std::vector<double>& model, const std::vector<char>& mask) {
+  return error_stats(measured, model, mask).rms;
+}
+
+struct Current {
+  FitResult fit;
+  std::vector<double> model, friction;
+};
+
+Current evaluate(const ModelData& data, FitResult fit) {
+  Current c;
+  c.model = simulate(data, fit.params, &c.friction);
+  c.fit = std::move(fit);
+  return c;
+}
+
+bool is_scale_parameter(const ParamSpec& s) {
+  return s.transform == Transform::kLog && (s.name == "lag_time" || s.name == "dwell_time" || s.name == "backlash_gap");
+}
+
+// The extension switched on at the signature's initial values, with its
+// fixed parameters held.
+ModelParams extended_start(const ModelData& data, const ModelParams& current, Effect effect, const Signature& sig) {
+  ModelParams start = current;
+  if (effect == Effect::kPositionPeriodic) start.structure.periodic_additive = sig.periodic_additive;
+  start = with_effect(start, effect, data, sig.initial_values);
+  for (const std::string& name : sig.fixed_parameters) {
+    const int k = start.index(name);
+    if (k >= 0) start.specs[static_cast<std::size_t>(k)].fixed = true;
+  }
+  return start;
+}
+
+// Score (Lagrange-multiplier) test of an extension: regresses the present
+// residual on the extension's sensitivities at its initial values, with
+// autocorrelation-inflated errors.
+// Returns the largest |t|; comparable across effects, used to screen and rank.
+double score_test(const ModelData& data, const ModelParams& current, const std::vector<double>& current_model,
+                  Effect effect, const Signature& sig, const std::vector<char>& in_fit) {
+  const ModelParams start = extended_start(data, current, effect, sig);
+  std::vector<int> columns;
+  for (std::size_t k = 0; k < start.specs.size(); ++k) {
+    if (start.specs[k].effect == effect && !start.specs[k].fixed) columns.push_back(static_cast<int>(k));
+  }
+  std::vector<std::size_t> rows;
+  for (std::size_t i = 0; i < in_fit.size(); ++i) {
+    if (in_fit[i]) rows.push_back(i);
+  }
+  if (columns.empty()) return 0.0;
+  const Eigen::MatrixXd X = model_jacobian(data, start, start.theta, columns, rows);
+  Eigen::VectorXd y(static_cast<Eigen::Index>(rows.size()));
+  for (std::size_t r = 0; r < rows.size(); ++r) y[static_cast<Eigen::Index>(r)] = data.series.force_n[rows[r]] - current_model[rows[r]];
+  // Drop columns without variation (a parameter these samples do not feel).
+  std::vector<Eigen::Index> keep;
+  for (Eigen::Index j = 0; j < X.cols(); ++j) {
+    if (X.col(j).cwiseAbs().maxCoeff() > 0) keep.push_back(j);
+  }
+  if (keep.empty()) return 0.0;
+  Eigen::MatrixXd Xk(X.rows(), static_cast<Eigen::Index>(keep.size()));
+  for (std::size_t j = 0; j < keep.size(); ++j) Xk.col(static_cast<Eigen::Index>(j)) = X.col(keep[j]);
+  const Regression reg = regress(Xk, y);
+  if (!reg.ok) return 0.0;
+  double best = 0;
+  for (Eigen::Index j = 0; j < reg.coef.size(); ++j) best = std::max(best, std::fabs(reg.t(static_cast<int>(j))));
+  return best;
+}
+
+// The base parameters an extension re-partitions with (fitted with it in
+// the first stage): dwell stiction shares Fs, a log-velocity term shares Fc
+// and Fv, presliding hysteresis and backlash share the bristle, and every
+// additive term shares the offset.
+std::vector<std::string> coupled_base_parameters(Effect effect) {
+  switch (effect) {
+    case Effect::kDwellStiction: return {"Fs", "mu_s", "offset"};
+    case Effect::kFrictionalLag: return {"vs", "offset"};
+    case Effect::kVelocityStrengthening: return {"Fc", "mu_c", "Fs", "mu_s", "vs", "Fv", "offset"};
+    case Effect::kLoadDependence: return {"mu_c", "mu_s", "offset"};
+    case Effect::kPreslidingHysteresis: return {"sigma0", "sigma1", "offset"};
+    case Effect::kBacklash: return {"sigma0", "offset"};
+    default: return {"offset"};
+  }
+}
+
+// Fits the extension: its own parameters first (base fixed; a few starts for
+// time/length scales), then everything together from the best start.
+FitResult fit_extension(const ModelData& data, const ModelParams& current, Effect effect, const Signature& sig,
+                        const std::vector<char>& in_fit, const DiagnosisOptions& options) {
+  const ModelParams start = extended_start(data, current, effect, sig);
+  ModelParams own = start;
+  const std::vector<std::string> coupled = coupled_base_parameters(effect);
+  for (auto& spec : own.specs) {
+    const bool is_coupled = std::find(coupled.begin(), coupled.end(), spec.name) != coupled.end();
+    if (!spec.effect && !is_coupled) spec.fixed = true;
+  }
+  std::vector<double> multipliers = {1.0};
+  for (const auto& spec : own.specs) {
+    if (spec.effect == effect && is_scale_parameter(spec)) multipliers = {1.0, 0.2, 5.0};
+  }
+  // Scale starts (time and length scales) are screened by one simulation
+  // each; only the best is fitted.
+  ModelParams first = own;
+  double first_rss = HUGE_VAL;
+  for (double mult : multipliers) {
+    ModelParams p = own;
+    for (std::size_t k = 0; k < p.specs.size(); ++k) {
+      if (p.specs[k].effect == effect && is_scale_parameter(p.specs[k])) p.specs[k].scale *= mult;
+    }
+    const double rss = residual_sum_of_squares(data, p, in_fit);
+    if (rss < first_rss) {
+      first_rss = rss;
+      first = p;
+    }
+  }
+  FitOptions quick = options.candidate_fit;
+  quick.max_iterations = std::min(quick.max_iterations, 10);
+  FitResult best = fit_model(data, first, in_fit, quick);
+  ModelParams all = best.params;
+  for (std::size_t k = 0; k < all.specs.size(); ++k) all.specs[k].fixed = start.specs[k].fixed;
+  FitResult full = fit_model(data, all, in_fit, options.candidate_fit);
+  return full.rss <= best.rss ? full : best;
+}
+
+std::vector<ParamEstimate> parameters_of(const FitResult& fit, Effect effect) {
+  std::vector<ParamEstimate> out;
+  for (const auto& e : fit.estimates) {
+    if (e.effect == effect) out.push_back(e);
+  }
+  return out;
+}
+
+// Per held-out block: did the candidate lower the block's squared error?
+double block_agreement(const MotionSegmentation& m, const std::vector<double>& measured, const std::vector<double>& before,
+                       const std::vector<double>& after) {
+  std::map<int, std::pair<double, double>> sse;
+  std::map<int, std::size_t> count;
+  for (std::size_t i = 0; i < measured.size(); ++i) {
+    if (!m.heldout[i]) continue;
+    const double eb = measured[i] - before[i], ea = measured[i] - after[i];
+    auto& s = sse[m.block_of[i]];
+    s.first += eb * eb;
+    s.second += ea * ea;
+    ++count[m.block_of[i]];
+  }
+  double improved = 0, total = 0;
+  for (const auto& [block, s] : sse) {
+    const double n = static_cast<double>(count[block]);
+    total += n;
+    if (s.second < s.first) improved += n;
+  }
+  return total > 0 ? improved / total : 0.0;
+}
+
+// Distance slid since the speed last changed by more than 50 % within a pass.
+std::vector<double> distance_since_speed_change(const MeasuredSeries& s, const MotionSegmentation& m) {
+  std::vector<double> out(s.size(), 0.0);
+  for (const Pass& p : m.passes) {
+    double ref = -1, anchor = s.position_m[p.first];
+    for (std::size_t i = p.first; i <= p.last; ++i) {
+      const double speed = std::fabs(s.velocity_m_per_s[i]);
+      if (ref < 0 && m.distance_since_start_m[i] > 0) ref = speed;
+      if (ref > 0 && (speed > 1.5 * ref || speed < ref / 1.5)) {
+        ref = speed;
+        anchor = s.position_m[i];
+      }
+      out[i] = std::fabs(s.position_m[i] - anchor);
+    }
+  }
+  return out;
+}
+
+// Correlation ratio: share of the variance of y explained by equal-count bins of x.
+double correlation_ratio(const std::vector<double>& x, const std::vector<double>& y, int bins, double& where_x, double& peak) {
+  std::vector<std::size_t> order(x.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](auto a, auto b) { return x[a] < x[b]; });
+  double total_mean = 0;
+  for (double v : y) total_mean += v;
+  total_mean /= static_cast<double>(y.size());
+  double tss = 0;
+  for (double v : y) tss += (v - total_mean) * (v - total_mean);
+  const std::size_t per = std::max<std::size_t>(1, order.size() / static_cast<std::size_t>(bins));
+  double between = 0;
+  peak = 0;
+  where_x = 0;
+  for (std::size_t start = 0; start < order.size(); start += per) {
+    const std::size_t end = std::min(order.size(), start + per);
+    double sy = 0, sx = 0;
+    for (std::size_t k = start; k < end; ++k) {
+      sy += y[order[k]];
+      sx += x[order[k]];
+    }
+    const double c = static_cast<double>(end - start), mean = sy / c;
+    between += c * (mean - total_mean) * (mean - total_mean);
+    if (std::fabs(mean) > std::fabs(peak)) {
+      peak = mean;
+      where_x = sx / c;
+    }
+  }
+  return tss > 0 ? between / tss : 0.0;
+}
+
+std::optional<std::string> describe_unexplained(const ModelData& data, const std::vector<double>& residual,
+                                                double noise, const std::vector<RejectedEffect>& rejected) {
+  const MeasuredSeries& s = data.series;
+  const MotionSegmentation& m = data.motion;
+  double sum = 0;
+  for (double r : residual) sum += r * r;
+  const double rms = std::sqrt(sum / static_cast<double>(residual.size()));
+  if (rms < 1.5 * noise) return std::nullopt;
+
+  struct Candidate {
+    std::string name;
+    std::vector<double> x;
+    bool signed_by_direction;
+  };
+  std::vector<double> speed(s.size()), accel = s.acceleration_m_per_s2, time = s.time_s;
+  for (std::size_t i = 0; i < s.size(); ++i) speed[i] = std::fabs(s.velocity_m_per_s[i]);
+  std::vector<Candidate> regressors = {
+      {"distance since the pass began (reversal or onset), m", m.distance_since_start_m, true},
+      {"distance since the last speed change, m", distance_since_speed_change(s, m), true},
+      {"time, s", time, false},
+      {"position, m", s.position_m, false},
+      {"speed, m/s", speed, true},
+      {"acceleration, m/s^2", accel, false},
+  };
+  if (s.has_normal()) regressors.push_back({"normal load", s.normal_force_n, false});
+  double best_eta = 0, best_where = 0, best_peak = 0;
+  std::string best;
+  for (const auto& c : regressors) {
+    std::vector<double> y(s.size());
+    for (std::size_t i = 0; i < s.size(); ++i) y[i] = c.signed_by_direction && m.direction[i] != 0 ? m.direction[i] * residual[i] : residual[i];
+    double where = 0, peak = 0;
+    const double eta = correlation_ratio(c.x, y, 40, where, peak);
+    if (eta > best_eta) {
+      best_eta = eta;
+      best = c.name;
+      best_where = where;
+      best_peak = peak;
+    }
+  }
+  std::string text = fmt("residual RMS %.4g is %.1f x the white-noise floor (%.3g); ", rms, rms / std::max(noise, 1e-300), noise);
+  text += "its structure follows the " + best + fmt(" most closely (binned means explain %.0f %% of its variance; largest mean %.3g near %.4g)",
+                                                    100 * best_eta, best_peak, best_where);
+  const RejectedEffect* nearest = nullptr;
+  for (const auto& r : rejected) {
+    if (r.signature_strength >= 1.0 && (!nearest || r.signature_strength > nearest->signature_strength)) nearest = &r;
+  }
+  if (nearest) {
+    text += "; the nearest candidate, " + std::string(effect_name(nearest->effect)) + ", was tested and rejected (" + nearest->reason + ")";
+  } else {
+    text += "; no candidate of the vocabulary shows this signature";
+  }
+  return text;
+}
+
+std::vector<ConditionError> by_condition(const MeasuredSeries& s, const MotionSegmentation& m,
+                                         const std::vector<double>& before, const std::vector<double>& after) {
+  std::map<std::string, std::array<double, 3>> acc;  // n, sse before, sse after
+  auto add = [&](const std::string& key, std::size_t i) {
+    auto& a = acc[key];
+    const double eb = s.force_n[i] - before[i], ea = s.force_n[i] - after[i];
+    a[0] += 1;
+    a[1] += eb * eb;
+    a[2] += ea * ea;
+  };
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (!m.heldout[i]) continue;
+    const int p = m.pass_of[i];
+    if (p < 0) {
+      add("at rest (holds)", i);
+      continue;
+    }
+    const Pass& pass = m.passes[static_cast<std::size_t>(p)];
+    add(pass.direction > 0 ? "direction +" : "direction -", i);
+    add(fmt("speed level %.3g m/s", m.speed_levels_m_per_s[static_cast<std::size_t>(pass.speed_level)]), i);
+    if (!m.load_levels_n.empty()) add(fmt("load level %.4g", m.load_levels_n[static_cast<std::size_t>(pass.load_level)]), i);
+  }
+  std::vector<ConditionError> out;
+  for (const auto& [key, a] : acc) {
+    out.push_back({key, static_cast<std::size_t>(a[0]), std::sqrt(a[1] / a[0]), std::sqrt(a[2] / a[0])});
+  }
+  return out;
+}
+
+}  // namespace
+
+ErrorStats error_stats(const std::vector<double>& measured, const std::vector<double>& model, const std::vector<char>& mask) {
+  ErrorStats e;
+  double sse = 0, ss = 0, sum = 0;
+  for (std::size_t i = 0; i < measured.size(); ++i) {
+    if (!mask[i]) continue;
+    const double err = measured[i] - model[i];
+    sse += err * err;
+    ss += measured[i] * measured[i];
+    sum += measured[i];
+    e.max_abs = std::max(e.max_abs, std::fabs(err));
+    ++e.n;
+  }
+  if (e.n == 0) return e;
+  const double n = static_cast<double>(e.n);
+  e.rms = std::sqrt(sse / n);
+  const double var = ss / n - (sum / n) * (sum / n);
+  e.nrmse = var > 0 ? e.rms / std::sqrt(var) : 0.0;
+  e.relative = ss > 0 ? std::sqrt(sse / ss) : 0.0;
+  return e;
+}
+
+Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options) {
+  Diagnosis out;
+  out.motion = segment_motion(series, options.segmentation);
+  const ModelData data(series, out.motion);
+  const std::vector<char> in_fit = invert(out.motion.heldout);
+  const std::vector<char> heldout(out.motion.heldout.begin(), out.motion.heldout.end());
+  const std::vector<char> everything(series.size(), 1);
+
+  out.base = fit_lugre(data, options.base, in_fit, options.lugre);
+  Current current = evaluate(data, out.base.result);
+  out.model_before = current.model;
+  out.before = {error_stats(series.force_n, current.model, in_fit), error_stats(series.force_n, current.model, heldout),
+                error_stats(series.force_n, current.model, everything)};
+
+  std::map<Effect, RejectedEffect> status;
+  for (Effect e : options.candidates) status[e] = {e, "not examined", std::nullopt, 0.0};
+
+  for (int round = 0; round < options.max_rounds; ++round) {
+    const SignatureInput input{data, current.fit.params, current.model, current.friction, in_fit};
+    std::vector<std::pair<Signature, Effect>> screened;
+    for (Effect e : options.candidates) {
+      if (current.fit.params.structure.has(e)) continue;
+      Signature sig = compute_signature(e, input);
+      RejectedEffect& st = status[e];
+      if (sig.applicable) {
+        sig.score_t = score_test(data, current.fit.params, current.model, e, sig, in_fit);
+        sig.summary += fmt("; score test t = %.1f", sig.score_t);
+      }
+      st.signature_strength = sig.applicable ? std::max(sig.strength, sig.score_t / options.score_t_threshold) : 0.0;
+      if (!sig.applicable) {
+        st.reason = "not applicable to these data: " + sig.summary;
+      } else if (st.signature_strength < options.min_signature_strength) {
+        st.reason = "no residual signature: " + sig.summary;
+      } else {
+        screened.push_back({sig, e});
+      }
+    }
+    // Rank by the score test, the one statistic comparable across effects.
+    std::sort(screened.begin(), screened.end(), [](const auto& a, const auto& b) { return a.first.score_t > b.first.score_t; });
+    if (static_cast<int>(screened.size()) > options.max_candidates_per_round) {
+      for (std::size_t k = static_cast<std::size_t>(options.max_candidates_per_round); k < screened.size(); ++k) {
+        status[screened[k].second].reason = "signature present but weaker than the candidates fitted this round: " + screened[k].first.summary;
+      }
+      screened.resize(static_cast<std::size_t>(options.max_candidates_per_round));
+    }
+
+    // AICc with the sample count (the gate), and with the effective sample
+    // count of the present residual, common to both models (reported: with
+    // autocorrelated residuals the plain AICc overstates the evidence).
+    const double n = static_cast<double>(current.fit.n);
+    const double n_eff = current.fit.n_effective;
+    const double aicc_current = aicc(current.fit.rss, current.fit.n, n, current.fit.k);
+    const double aicc_current_eff = aicc(current.fit.rss, current.fit.n, n_eff, current.fit.k);
+    const double heldout_before = rms_over(series.force_n, current.model, heldout);
+    std::optional<std::size_t> best;
+    std::vector<FitResult> fits;
+    const std::size_t first_trial = out.trials.size();
+    for (const auto& [sig, e] : screened) {
+      CandidateTrial trial;
+      trial.effect = e;
+      trial.round = round;
+      trial.signature = sig;
+      FitResult fit = fit_extension(data, current.fit.params, e, sig, in_fit, options);
+      const std::vector<double> model = simulate(data, fit.params);
+      trial.fitted = true;
+      trial.delta_aicc = aicc(fit.rss, fit.n, n, fit.k) - aicc_current;
+      trial.delta_aicc_effective = aicc(fit.rss, fit.n, n_eff, fit.k) - aicc_current_eff;
+      trial.heldout_rms_before = heldout_before;
+      trial.heldout_rms_after = rms_over(series.force_n, model, heldout);
+      trial.heldout_gain = heldout_before > 0 ? 1.0 - trial.heldout_rms_after / heldout_before : 0.0;
+      trial.block_agreement = block_agreement(out.motion, series.force_n, current.model, model);
+      trial.parameters = parameters_of(fit, e);
+      trial.warnings = fit.warnings;
+      trial.passed = trial.heldout_gain >= options.min_heldout_gain && trial.block_agreement >= options.min_block_agreement &&
+                     trial.delta_aicc <= options.max_delta_aicc;
+      trial.verdict = fmt("held-out RMS %+.2f %%, %.0f %% of held-out samples in improved passes, dAICc = %.1f (%.1f with n_eff)",
+                          -100 * trial.heldout_gain, 100 * trial.block_agreement, trial.delta_aicc, trial.delta_aicc_effective);
+      if (trial.passed && (!best || trial.heldout_gain > out.trials[*best].heldout_gain)) best = out.trials.size();
+      out.trials.push_back(trial);
+      fits.push_back(std::move(fit));
+    }
+    for (std::size_t k = first_trial; k < out.trials.size(); ++k) {
+      const CandidateTrial& t = out.trials[k];
+      RejectedEffect& st = status[t.effect];
+      st.last_trial = t;
+      if (!t.passed) st.reason = "fitted but did not clearly help on held-out data: " + t.verdict;
+      else if (best && k != *best) st.reason = "helped, but less than " + std::string(effect_name(out.trials[*best].effect)) + " this round: " + t.verdict;
+    }
+    if (!best) break;
+    const CandidateTrial& winner = out.trials[*best];
+    // Polish the accepted model to convergence, so that the next round's
+    // candidates are not credited with what more iterations alone would give.
+    FitResult polished = fit_model(data, fits[*best - first_trial].params, in_fit, options.lugre.fit);
+    current = evaluate(data, polished.rss <= fits[*best - first_trial].rss ? std::move(polished) : std::move(fits[*best - first_trial]));
+    out.accepted.push_back({winner.effect, {}, winner});
+    status.erase(winner.effect);
+  }
+
+  out.final_fit = current.fit;
+  for (auto& a : out.accepted) a.parameters = parameters_of(out.final_fit, a.effect);
+  out.model_after = current.model;
+  out.after = {error_stats(series.force_n, current.model, in_fit), error_stats(series.force_n, current.model, heldout),
+               error_stats(series.force_n, current.model, everything)};
+  out.heldout_by_condition = by_condition(series, out.motion, out.model_before, out.model_after);
+  for (auto& [e, st] : status) out.rejected.push_back(st);
+
+  std::vector<double> residual(series.size());
+  for (std::size_t i = 0; i < series.size(); ++i) residual[i] = series.force_n[i] - current.model[i];
+  out.noise_floor = white_noise_rms(residual);
+  out.unexplained = describe_unexplained(data, residual, out.noise_floor, out.rejected);
+  out.warnings = out.final_fit.warnings;
+  return out;
+}
+
+}  // namespace tribo::analysis

@@ -1,0 +1,125 @@
+// Residual diagnosis: fit the base LuGre model, look at what it gets wrong,
+// trace the residual to the effect the model lacks, add it, refit, and report
+// the error before and after.
+//
+// Each round: every candidate effect not yet accepted gets its residual
+// signature (analysis/residual_signatures.h) on the fit samples and a score
+// test (the residual regressed on the extension's sensitivities, the one
+// statistic comparable across effects, used to rank); those showing the
+// effect are fitted as extensions of the present model (first the new
+// parameters with the base parameters they re-partition with, from the
+// signature's initial values, the best of a few starts for time and length
+// scales, then everything together). A candidate is accepted only if it
+// clearly helps on the held-out passes:
+//   - held-out RMS error at least min_heldout_gain lower,
+//   - on at least min_block_agreement of the held-out samples' blocks
+//     (passes), sample-weighted,
+//   - and AICc lower by at least -max_delta_aicc. AICc counts every fit
+//     sample; with autocorrelated residuals that overstates the evidence, so
+//     the AICc change with the effective sample count (from the residual's
+//     lag-1 autocorrelation) is reported beside it. The decision rests on the
+//     held-out error.
+// The best passing candidate (largest held-out gain) is accepted, the model
+// polished to convergence, and the loop repeats; it stops when nothing passes. Structure left in the residual that
+// no candidate explains is described (the regressor it follows), never
+// labelled with an effect that did not pass.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analysis/effect.h"
+#include "analysis/friction_model.h"
+#include "analysis/lugre_fit.h"
+#include "analysis/measured_series.h"
+#include "analysis/model_fit.h"
+#include "analysis/motion_segmentation.h"
+#include "analysis/residual_signatures.h"
+
+namespace tribo::analysis {
+
+struct DiagnosisOptions {
+  ModelStructure base;                                   // load scaling, mass, Stribeck exponent
+  std::vector<Effect> candidates{kAllEffects.begin(), kAllEffects.end()};
+  SegmentationOptions segmentation;
+  LugreFitOptions lugre;
+  FitOptions candidate_fit{15, 1e-6};
+  double min_signature_strength = 1.0;   // max(signature strength, score t / score_t_threshold)
+  double score_t_threshold = 2.0;
+  double min_heldout_gain = 0.02;
+  double min_block_agreement = 0.75;
+  double max_delta_aicc = -10.0;
+  int max_candidates_per_round = 10;
+  int max_rounds = 6;
+};
+
+struct ErrorStats {
+  std::size_t n = 0;
+  double rms = 0;
+  double nrmse = 0;     // rms / standard deviation of the measured force
+  double max_abs = 0;
+  double relative = 0;  // ||measured - model|| / ||measured|| (the EMPS benchmark's figure)
+};
+
+struct ModelErrors {
+  ErrorStats fit, heldout, all;
+};
+
+struct ConditionError {
+  std::string condition;  // e.g. "direction +", "speed 5e-07 m/s", "load 0.001 N"
+  std::size_t n = 0;
+  double rms_before = 0, rms_after = 0;
+};
+
+struct CandidateTrial {
+  Effect effect = Effect::kDrift;
+  int round = 0;
+  Signature signature;
+  bool fitted = false;
+  double delta_aicc = 0;             // with the fit sample count
+  double delta_aicc_effective = 0;   // with the effective sample count
+  double heldout_rms_before = 0, heldout_rms_after = 0;
+  double heldout_gain = 0;       // 1 - after / before
+  double block_agreement = 0;    // share of held-out samples in blocks that improved
+  bool passed = false;
+  std::string verdict;
+  std::vector<ParamEstimate> parameters;  // the effect's, from the trial fit
+  std::vector<std::string> warnings;
+};
+
+struct AcceptedEffect {
+  Effect effect = Effect::kDrift;
+  std::vector<ParamEstimate> parameters;  // from the final fit
+  CandidateTrial trial;                   // the round it was accepted in
+};
+
+struct RejectedEffect {
+  Effect effect = Effect::kDrift;
+  std::string reason;
+  std::optional<CandidateTrial> last_trial;  // when it was fitted
+  double signature_strength = 0;
+};
+
+struct Diagnosis {
+  MotionSegmentation motion;
+  LugreFit base;
+  FitResult final_fit;
+  std::vector<AcceptedEffect> accepted;
+  std::vector<RejectedEffect> rejected;
+  std::vector<CandidateTrial> trials;     // every fitted candidate, in order
+  ModelErrors before, after;
+  std::vector<ConditionError> heldout_by_condition;
+  std::optional<std::string> unexplained;
+  std::vector<std::string> warnings;
+  std::vector<double> model_before, model_after;  // model force per sample
+  double noise_floor = 0;                         // white-noise RMS of the final residual
+};
+
+// series must have velocity and acceleration (derive_motion()).
+Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options = {});
+
+ErrorStats error_stats(const std::vector<double>& measured, const std::vector<double>& model,
+                       const std::vector<char>& mask);
+
+}  // namespace tribo::analysis

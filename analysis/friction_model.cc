@@ -1,0 +1,555 @@
+#include "analysis/friction_model.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+#include "analysis/autodiff.h"
+
+namespace tribo::analysis {
+
+namespace {
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+double sign_of(double v) { return v >= 0 ? 1.0 : -1.0; }
+
+// The parameter value for theta; a log-parameter's theta is capped at +-40 so
+// that a wild trial step cannot overflow (the derivative is kept).
+template <class T>
+T transform(const ParamSpec& spec, const T& theta) {
+  using std::exp;
+  switch (spec.transform) {
+    case Transform::kLog: {
+      T t = theta;
+      const double v = value_of(t);
+      if (v > 40) t = t - (v - 40);
+      if (v < -40) t = t - (v + 40);
+      return spec.scale * exp(t);
+    }
+    case Transform::kLinear: return spec.scale * theta;
+    case Transform::kLogit: return 1.0 / (1.0 + exp(-theta));
+  }
+  return theta;
+}
+
+std::string force_unit_of(const ModelData& d) { return d.series.force_unit; }
+
+// Unit of a friction level: force units, or none for coefficients of N.
+std::string level_unit(const ModelData& d, const ModelStructure& st) {
+  return st.load_scaled ? "1" : force_unit_of(d);
+}
+
+double level_scale(const ModelData& d, const ModelStructure& st) {
+  return st.load_scaled ? d.mu_scale : d.force_scale;
+}
+
+struct Index {
+  int fc = -1, fs = -1, vs = -1, sigma0 = -1, sigma1 = -1, fv = -1, offset = -1, mass = -1;
+  int dwell_dfs = -1, dwell_time = -1, lag = -1, logv = -1, load_exponent = -1;
+  int per_cos = -1, per_sin = -1, per_length = -1, asym_levels = -1, asym_viscous = -1;
+  int tilt = -1, breakaway = -1, gap = -1;
+  std::vector<int> drift;
+};
+
+Index index_of(const ModelParams& p) {
+  Index k;
+  const bool mu = p.structure.load_scaled;
+  k.fc = p.index(mu ? "mu_c" : "Fc");
+  k.fs = p.index(mu ? "mu_s" : "Fs");
+  k.vs = p.index("vs");
+  k.sigma0 = p.index("sigma0");
+  k.sigma1 = p.index("sigma1");
+  k.fv = p.index("Fv");
+  k.offset = p.index("offset");
+  k.mass = p.index("mass");
+  k.dwell_dfs = p.index("dwell_dFs");
+  k.dwell_time = p.index("dwell_time");
+  k.lag = p.index("lag_time");
+  k.logv = p.index("log_velocity_coeff");
+  k.load_exponent = p.index("load_exponent");
+  k.per_cos = p.index("periodic_cos");
+  k.per_sin = p.index("periodic_sin");
+  k.per_length = p.index("periodic_length");
+  k.asym_levels = p.index("asym_levels");
+  k.asym_viscous = p.index("asym_viscous");
+  k.tilt = p.index("tilt_tan");
+  for (int j = 1; p.index("drift_" + std::to_string(j)) >= 0; ++j) k.drift.push_back(p.index("drift_" + std::to_string(j)));
+  k.breakaway = p.index("breakaway_ratio");
+  k.gap = p.index("backlash_gap");
+  if (k.fc < 0 || k.fs < 0 || k.vs < 0 || k.sigma0 < 0 || k.sigma1 < 0 || k.fv < 0 || k.offset < 0) {
+    throw std::logic_error("friction model: base parameters missing");
+  }
+  return k;
+}
+
+// Elasto-plastic alpha(z, v) (Dupont et al. 2002; as in sim/lugre_friction.h).
+template <class T>
+T plasticity(const T& r, double v, const T& z, const T& g) {
+  using std::sin;
+  const double zv = value_of(z);
+  if ((zv > 0) != (v > 0) || zv == 0) return T(0.0);
+  const T zabs = zv > 0 ? z : T(-z);
+  if (value_of(zabs) <= value_of(r * g)) return T(0.0);
+  if (value_of(zabs) >= value_of(g)) return T(1.0);
+  return 0.5 + 0.5 * sin(std::numbers::pi * (zabs - 0.5 * (1.0 + r) * g) / ((1.0 - r) * g));
+}
+
+// z after h at constant v: dz/dt = v - a z with a = alpha |v| / g, exactly.
+template <class T>
+T bristle_step(const T& z, double v, const T& h, const T& alpha_over_g) {
+  using std::exp;
+  const T a = std::fabs(v) * alpha_over_g;
+  const T u = a * h;
+  if (value_of(u) < 1e-9) return z + v * h;
+  const T e = exp(-u);
+  return z * e + v * (1.0 - e) / a;
+}
+
+}  // namespace
+
+double param_value(const ParamSpec& spec, double theta) { return transform(spec, theta); }
+
+std::vector<double> cubic_bspline_basis(double u, int intervals) {
+  std::vector<double> b(static_cast<std::size_t>(intervals + 3), 0.0);
+  const double x = std::clamp(u, 0.0, 1.0) * intervals;
+  const int k = std::min(static_cast<int>(x), intervals - 1);
+  const double t = x - k;
+  // The four non-zero uniform cubic B-splines on interval k.
+  b[static_cast<std::size_t>(k)] = (1 - t) * (1 - t) * (1 - t) / 6;
+  b[static_cast<std::size_t>(k + 1)] = (3 * t * t * t - 6 * t * t + 4) / 6;
+  b[static_cast<std::size_t>(k + 2)] = (-3 * t * t * t + 3 * t * t + 3 * t + 1) / 6;
+  b[static_cast<std::size_t>(k + 3)] = t * t * t / 6;
+  return b;
+}
+
+double param_theta(const ParamSpec& spec, double value) {
+  switch (spec.transform) {
+    case Transform::kLog: return std::log(value / spec.scale);
+    case Transform::kLinear: return value / spec.scale;
+    case Transform::kLogit: return std::log(value / (1.0 - value));
+  }
+  return value;
+}
+
+bool ModelStructure::has(Effect e) const { return std::find(effects.begin(), effects.end(), e) != effects.end(); }
+
+int ModelParams::index(std::string_view name) const {
+  for (std::size_t i = 0; i < specs.size(); ++i) {
+    if (specs[i].name == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+double ModelParams::value(std::string_view name) const {
+  const int k = index(name);
+  if (k < 0) throw std::logic_error("no model parameter " + std::string(name));
+  return param_value(specs[static_cast<std::size_t>(k)], theta[static_cast<std::size_t>(k)]);
+}
+
+void ModelParams::set_value(std::string_view name, double value) {
+  const int k = index(name);
+  if (k < 0) throw std::logic_error("no model parameter " + std::string(name));
+  ParamSpec& spec = specs[static_cast<std::size_t>(k)];
+  // Keep theta of order one: a log parameter's scale becomes the value (theta
+  // 0), a signed one's scale grows to the value's magnitude.
+  if (spec.transform == Transform::kLog) spec.scale = value;
+  if (spec.transform == Transform::kLinear && std::fabs(value) > spec.scale) spec.scale = std::fabs(value);
+  theta[static_cast<std::size_t>(k)] = param_theta(spec, value);
+}
+
+std::size_t ModelParams::free_count() const {
+  return static_cast<std::size_t>(std::count_if(specs.begin(), specs.end(), [](const ParamSpec& s) { return !s.fixed; }));
+}
+
+ModelData::ModelData(const MeasuredSeries& s, const MotionSegmentation& m) : series(s), motion(m) {
+  const std::size_t n = s.size();
+  std::vector<double> force, speed, accel, normal;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (m.pass_of[i] < 0) continue;
+    force.push_back(std::fabs(s.force_n[i]));
+    speed.push_back(std::fabs(s.velocity_m_per_s[i]));
+    accel.push_back(std::fabs(s.acceleration_m_per_s2.empty() ? 0.0 : s.acceleration_m_per_s2[i]));
+  }
+  if (force.empty()) {
+    for (std::size_t i = 0; i < n; ++i) force.push_back(std::fabs(s.force_n[i]));
+  }
+  force_scale = std::max(median(force), 1e-30);
+  speed_ref = std::max(median(speed), 1e-30);
+  speed_floor = 0.01 * speed_ref;
+  mass_scale = force_scale / std::max(median(accel), 1e-30);
+  if (s.has_normal()) {
+    const double nmax = *std::max_element(s.normal_force_n.begin(), s.normal_force_n.end());
+    std::vector<double> mu;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (s.normal_force_n[i] > 0.05 * nmax) {
+        normal.push_back(s.normal_force_n[i]);
+        if (m.pass_of[i] >= 0) mu.push_back(std::fabs(s.force_n[i]) / s.normal_force_n[i]);
+      }
+    }
+    normal_ref = std::max(median(normal), 1e-30);
+    mu_scale = std::max(median(mu), 1e-12);
+  }
+  // At rest the measured velocity is sensor noise; fed to LuGre, its |v|
+  // term would drain the bristle (the dither effect of README "The simulated
+  // instrument") although the contact does not move. The model is therefore
+  // driven at zero velocity while the tip rests: inside each hold, from the
+  // first to the last sample within four position-noise widths of the resting
+  // position (the hold's edges, found on smoothed speed, can hold the end and
+  // the start of motion).
+  drive_velocity = s.velocity_m_per_s;
+  const double band = 4 * std::max(m.position_noise_m, 1e-300);
+  for (const Hold& h : m.holds) {
+    std::vector<double> xs(s.position_m.begin() + static_cast<std::ptrdiff_t>(h.first),
+                           s.position_m.begin() + static_cast<std::ptrdiff_t>(h.last) + 1);
+    const double rest = median(xs);
+    std::size_t first = h.first, last = h.last;
+    while (first < last && std::fabs(s.position_m[first] - rest) > band) ++first;
+    while (last > first && std::fabs(s.position_m[last] - rest) > band) --last;
+    for (std::size_t i = first; i <= last; ++i) drive_velocity[i] = 0.0;
+  }
+  // The mean velocity over each sample interval: the position increment when
+  // the velocity was derived from the position (central differences smear a
+  // motion onset half a sample early), else the mean of the measured ends.
+  step_velocity.assign(n, 0.0);
+  for (std::size_t i = 1; i < n; ++i) {
+    if (drive_velocity[i - 1] == 0.0 && drive_velocity[i] == 0.0) continue;
+    step_velocity[i] = s.velocity_measured ? 0.5 * (drive_velocity[i - 1] + drive_velocity[i])
+                                           : (s.position_m[i] - s.position_m[i - 1]) / (s.time_s[i] - s.time_s[i - 1]);
+  }
+  const double t0 = s.time_s.front(), span = std::max(s.time_s.back() - t0, 1e-30);
+  drift_functions = std::clamp(static_cast<int>(m.passes.size()) / 2, 3, 12) + 3;
+  drift_basis.resize(n);
+  normalised_time.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double u = (s.time_s[i] - t0) / span;
+    normalised_time[i] = 2 * u - 1;
+    drift_basis[i] = cubic_bspline_basis(u, drift_functions - 3);
+  }
+}
+
+ModelParams base_params(const ModelData& d, const ModelStructure& st) {
+  ModelParams p;
+  p.structure = st;
+  const std::string lu = level_unit(d, st), fu = force_unit_of(d);
+  const double level = level_scale(d, st);
+  const double range = [&] {
+    const auto [lo, hi] = std::minmax_element(d.series.position_m.begin(), d.series.position_m.end());
+    return std::max(*hi - *lo, 1e-12);
+  }();
+  const double force_per_speed = d.force_scale / d.speed_ref;
+  p.specs = {
+      {st.load_scaled ? "mu_c" : "Fc", lu, Transform::kLog, level, false, {}},
+      {st.load_scaled ? "mu_s" : "Fs", lu, Transform::kLog, 1.2 * level, false, {}},
+      {"vs", "m/s", Transform::kLog, 0.2 * d.speed_ref, false, {}},
+      {"sigma0", fu + "/m", Transform::kLog, d.force_scale / (1e-3 * range), false, {}},
+      {"sigma1", fu + " s/m", Transform::kLog, force_per_speed, false, {}},
+      {"Fv", fu + " s/m", Transform::kLinear, 0.1 * force_per_speed, false, {}},
+      {"offset", fu, Transform::kLinear, 0.1 * d.force_scale, false, {}},
+  };
+  p.theta = {0, 0, 0, 0, std::log(0.01), 0, 0};
+  if (st.fit_mass) {
+    p.specs.push_back({"mass", fu == "N" ? "kg" : fu + " s^2/m", Transform::kLinear, d.mass_scale, false, {}});
+    p.theta.push_back(0.0);
+  }
+  return p;
+}
+
+std::vector<ParamSpec> effect_parameters(Effect e, const ModelData& d, const ModelStructure& st) {
+  const std::string lu = level_unit(d, st), fu = force_unit_of(d);
+  const double level = level_scale(d, st);
+  switch (e) {
+    case Effect::kDwellStiction:
+      return {{"dwell_dFs", lu, Transform::kLinear, 0.2 * level, false, e},
+              {"dwell_time", "s", Transform::kLog, 1.0, false, e}};
+    case Effect::kFrictionalLag:
+      return {{"lag_time", "s", Transform::kLog, 5e-3, false, e}};
+    case Effect::kVelocityStrengthening:
+      return {{"log_velocity_coeff", lu, Transform::kLinear, 0.02 * level, false, e}};
+    case Effect::kLoadDependence:
+      return {{"load_exponent", "1", Transform::kLinear, 0.1, false, e}};
+    case Effect::kPositionPeriodic: {
+      const std::string amp_unit = st.periodic_additive ? fu : "1";
+      const double amp_scale = st.periodic_additive ? 0.05 * d.force_scale : 0.05;
+      return {{"periodic_cos", amp_unit, Transform::kLinear, amp_scale, false, e},
+              {"periodic_sin", amp_unit, Transform::kLinear, amp_scale, false, e},
+              {"periodic_length", "m", Transform::kLog, 1e-6, false, e}};
+    }
+    case Effect::kDirectionAsymmetry:
+      return {{"asym_levels", "1", Transform::kLinear, 0.1, false, e},
+              {"asym_viscous", "1", Transform::kLinear, 0.1, false, e}};
+    case Effect::kTiltOffset:
+      return {{"tilt_tan", "1", Transform::kLinear, 0.01, false, e}};
+    case Effect::kDrift:
+    {
+      std::vector<ParamSpec> specs;
+      for (int j = 0; j < d.drift_functions; ++j) {
+        specs.push_back({"drift_" + std::to_string(j + 1), fu, Transform::kLinear, 0.05 * d.force_scale, false, e});
+      }
+      return specs;
+    }
+    case Effect::kPreslidingHysteresis:
+      return {{"breakaway_ratio", "1", Transform::kLogit, 1.0, false, e}};
+    case Effect::kBacklash:
+      return {{"backlash_gap", "m", Transform::kLog, 1e-6, false, e}};
+  }
+  return {};
+}
+
+ModelParams with_effect(const ModelParams& params, Effect e, const ModelData& d,
+                        const std::vector<double>& initial_values) {
+  ModelParams p = params;
+  if (p.structure.has(e)) return p;
+  p.structure.effects.push_back(e);
+  if (e == Effect::kDrift) {
+    // The spline carries the constant: the offset would be collinear with it.
+    p.specs[static_cast<std::size_t>(p.index("offset"))].fixed = true;
+  }
+  auto specs = effect_parameters(e, d, p.structure);
+  for (std::size_t k = 0; k < specs.size(); ++k) {
+    ParamSpec spec = specs[k];
+    double theta = 0.0;
+    if (k < initial_values.size()) {
+      if (spec.transform == Transform::kLog) spec.scale = initial_values[k];
+      else theta = param_theta(spec, initial_values[k]);
+    }
+    p.specs.push_back(spec);
+    p.theta.push_back(theta);
+  }
+  return p;
+}
+
+template <class T>
+void simulate_generic(const ModelData& d, const ModelParams& p, const std::vector<T>& theta, std::vector<T>& force,
+                      std::vector<T>* friction_out) {
+  using std::cos;
+  using std::exp;
+  using std::log;
+  using std::pow;
+  using std::sin;
+  const MeasuredSeries& s = d.series;
+  const std::size_t n = s.size();
+  const ModelStructure& st = p.structure;
+  const Index k = index_of(p);
+  auto val = [&](int i) { return transform(p.specs[static_cast<std::size_t>(i)], theta[static_cast<std::size_t>(i)]); };
+
+  const T fc = val(k.fc), fs = val(k.fs), vs = val(k.vs), sigma0 = val(k.sigma0), sigma1 = val(k.sigma1);
+  const T fv = val(k.fv), offset = val(k.offset);
+  const bool mass = k.mass >= 0, dwell = k.dwell_dfs >= 0, lag = k.lag >= 0, logv = k.logv >= 0;
+  const bool load_dep = k.load_exponent >= 0 && s.has_normal(), periodic = k.per_length >= 0;
+  const bool asym = k.asym_levels >= 0, tilt = k.tilt >= 0 && s.has_normal(), drift = !k.drift.empty();
+  const bool ep = k.breakaway >= 0, backlash = k.gap >= 0;
+  const bool load_scaled = st.load_scaled && s.has_normal();
+  const T m = mass ? val(k.mass) : T(0.0);
+  const T dwell_dfs = dwell ? val(k.dwell_dfs) : T(0.0), dwell_time = dwell ? val(k.dwell_time) : T(1.0);
+  const T lag_time = lag ? val(k.lag) : T(0.0);
+  const T log_coeff = logv ? val(k.logv) : T(0.0);
+  const T load_exponent = load_dep ? val(k.load_exponent) : T(0.0);
+  const T per_cos = periodic ? val(k.per_cos) : T(0.0), per_sin = periodic ? val(k.per_sin) : T(0.0);
+  const T per_wavenumber = periodic ? T(2.0 * std::numbers::pi / val(k.per_length)) : T(0.0);
+  const T asym_levels = asym ? val(k.asym_levels) : T(0.0), asym_viscous = asym ? val(k.asym_viscous) : T(0.0);
+  const T tilt_tan = tilt ? val(k.tilt) : T(0.0);
+  const T breakaway = ep ? val(k.breakaway) : T(0.0);
+  const T gap = backlash ? val(k.gap) : T(0.0);
+  std::vector<T> drift_c;
+  if (drift) {
+    for (int index : k.drift) drift_c.push_back(val(index));
+  }
+  const double delta = st.stribeck_exponent;
+  const double tiny = 1e-9 * d.force_scale;
+
+  // S(speed) at sample i for a motion of the given sign.
+  auto stribeck = [&](std::size_t i, const T& speed, double sign) -> T {
+    T static_level = fs;
+    if (dwell && d.motion.dwell_before_s[i] > 0) {  // a pass after a hold, or the hold itself
+      const double t2 = d.motion.dwell_before_s[i];
+      static_level = static_level + dwell_dfs * (t2 / (t2 + dwell_time));
+    }
+    const T ratio = speed / vs;
+    const T shape = delta == 1.0 ? ratio : (delta == 2.0 ? T(ratio * ratio) : T(pow(ratio, delta)));
+    T level = fc + (static_level - fc) * exp(-shape);
+    if (logv) level = level + log_coeff * log((speed + d.speed_floor) / d.speed_ref);
+    if (load_scaled) {
+      const double normal = std::max(s.normal_force_n[i], 0.0);
+      if (normal <= 0) return T(0.0);
+      level = level * normal;
+      if (load_dep) level = level * exp(load_exponent * std::log(normal / d.normal_ref));
+    }
+    if (asym) level = level * (1.0 + asym_levels * sign);
+    if (periodic && !st.periodic_additive) {
+      const T phase = per_wavenumber * s.position_m[i];
+      level = level * (1.0 + per_cos * cos(phase) + per_sin * sin(phase));
+    }
+    return level;
+  };
+
+  // Lagged velocity v(t_i - lag) by linear interpolation in the measured velocity.
+  std::size_t lag_k = 0;
+  auto lagged_velocity = [&](std::size_t i) -> T {
+    const T target = s.time_s[i] - lag_time;
+    const double tv = value_of(target);
+    if (tv <= s.time_s.front()) return T(d.drive_velocity.front() + 0.0 * lag_time);
+    while (lag_k + 1 < n && s.time_s[lag_k + 1] <= tv) ++lag_k;
+    if (lag_k + 1 >= n) return T(d.drive_velocity.back() + 0.0 * lag_time);
+    const double t0 = s.time_s[lag_k], t1 = s.time_s[lag_k + 1];
+    const double v0 = d.drive_velocity[lag_k], v1 = d.drive_velocity[lag_k + 1];
+    return v0 + (target - t0) * ((v1 - v0) / (t1 - t0));
+  };
+
+  auto additive = [&](std::size_t i) -> T {
+    T f = offset;
+    if (mass) f = f + m * s.acceleration_m_per_s2[i];
+    if (tilt) f = f + tilt_tan * s.normal_force_n[i];
+    if (drift) {
+      for (std::size_t j = 0; j < drift_c.size(); ++j) f = f + drift_c[j] * d.drift_basis[i][j];
+    }
+    if (periodic && st.periodic_additive) {
+      const T phase = per_wavenumber * s.position_m[i];
+      f = f + per_cos * cos(phase) + per_sin * sin(phase);
+    }
+    return f;
+  };
+
+  force.resize(n);
+  if (friction_out) friction_out->assign(n, T(0.0));
+  const auto& v = d.drive_velocity;
+  const auto& x = s.position_m;
+
+  auto absolute = [](const T& a) { return value_of(a) >= 0 ? a : T(-a); };
+
+  // Bristle over the interval [t(i-1), t(i)], the velocity linear in between.
+  // One exact exponential step at the mean velocity and mean level, unless the
+  // velocity changes much while the bristle relaxes within a fraction of the
+  // interval (onsets, reversals): then sub-steps, each with its own velocity
+  // and level.
+  auto advance = [&](T z, std::size_t i, const T& level_prev, const T& level_now, const T& vlag_prev, const T& vlag_now) {
+    const double h = s.time_s[i] - s.time_s[i - 1];
+    const double va = v[i - 1], vb = v[i], mean = d.step_velocity[i];
+    const double g_min = std::min(value_of(level_prev), value_of(level_now)) / value_of(sigma0);
+    const double rate = std::max(std::fabs(va), std::fabs(vb)) / std::max(g_min, 1e-300);
+    // A relaxed bristle follows a steady velocity exactly in one step; it is
+    // a velocity that changes sign or by a quarter within the interval that
+    // needs sub-steps.
+    const bool steady = va * vb > 0 && std::fabs(vb - va) <= 0.25 * std::max(std::fabs(va), std::fabs(vb));
+    const int m = steady ? 1 : std::clamp(static_cast<int>(std::ceil(rate * h / 0.5)), 1, 16);
+    if (m == 1) {
+      const double vm = mean;
+      const T g = 0.5 * (level_prev + level_now) / sigma0;
+      const T alpha = ep ? plasticity(breakaway, vm, z, g) : T(1.0);
+      return bristle_step(z, vm, T(h), T(alpha / g));
+    }
+    for (int k = 0; k < m; ++k) {
+      const double u = (k + 0.5) / m;
+      const double vk = mean + (vb - va) * (u - 0.5);
+      const T speed = lag ? absolute(vlag_prev + (vlag_now - vlag_prev) * u) : T(std::fabs(vk));
+      const T level_k = stribeck(i, speed, sign_of(vk));
+      if (value_of(level_k) <= tiny) return T(0.0 * sigma0);
+      const T g = level_k / sigma0;
+      const T alpha = ep ? plasticity(breakaway, vk, z, g) : T(1.0);
+      z = bristle_step(z, vk, T(h / m), T(alpha / g));
+    }
+    return z;
+  };
+
+  // Initial state: steady sliding if moving, else relaxed.
+  T vlag = lag ? lagged_velocity(0) : T(v[0]);
+  T level = stribeck(0, absolute(vlag), sign_of(v[0]));
+  T z = (v[0] != 0 && value_of(level) > tiny) ? T(sign_of(v[0]) * level / sigma0) : T(0.0 * sigma0);
+  int contact = v[0] >= 0 ? +1 : -1;  // backlash: side in contact
+  bool in_gap = false;
+  T x_open = T(x[0] + 0.0 * gap);
+
+  for (std::size_t i = 0; i < n; ++i) {
+    T friction = T(0.0 * sigma0);
+    const T level_prev = level, vlag_prev = vlag;
+    if (i > 0) {
+      if (lag) vlag = lagged_velocity(i);
+      level = stribeck(i, lag ? absolute(vlag) : T(std::fabs(v[i])), sign_of(v[i]));
+    }
+    if (value_of(level) <= tiny) {
+      z = T(0.0 * sigma0);
+      force[i] = additive(i);
+      if (friction_out) (*friction_out)[i] = T(0.0 * sigma0);
+      continue;
+    }
+    const T g = level / sigma0;
+    if (i > 0) {
+      const double h = s.time_s[i] - s.time_s[i - 1];
+      const double v_step = d.step_velocity[i];
+      const T from = value_of(level_prev) > tiny ? level_prev : level;
+      if (!backlash) {
+        z = advance(z, i, from, level, vlag_prev, vlag);
+      } else {
+        if (!in_gap) {
+          const T z_new = advance(z, i, from, level, vlag_prev, vlag);
+          if (contact * value_of(z_new) < 0 && contact * value_of(z) >= 0 && sign_of(v_step) != contact) {
+            // The force would change sign: contact opens where z crosses zero.
+            const T f = z / (z - z_new);
+            x_open = x[i - 1] + f * (x[i] - x[i - 1]);
+            z = T(0.0 * sigma0);
+            in_gap = true;
+          } else {
+            z = z_new;
+          }
+        }
+        if (in_gap) {
+          const double dx = std::fabs(x[i] - x[i - 1]);
+          const T same_side = contact * (x[i] - x_open);
+          const T other_side = contact * (x_open - x[i]) - gap;
+          if (value_of(same_side) > 0 || value_of(other_side) > 0) {
+            const T engaged = value_of(same_side) > 0 ? same_side : other_side;
+            if (value_of(other_side) > 0) contact = -contact;
+            in_gap = false;
+            const T h_eff = dx > 0 ? T(h * engaged / dx) : T(0.0 * gap);
+            z = bristle_step(T(0.0 * sigma0), v_step, h_eff, T(1.0 / g));
+          }
+        }
+      }
+    }
+    if (!(backlash && in_gap)) {
+      const double vi = v[i];
+      const T alpha = ep ? plasticity(breakaway, vi, z, g) : T(1.0);
+      const T dz_dt = vi - std::fabs(vi) * alpha * z / g;
+      const T viscous = asym ? T(fv * (1.0 + asym_viscous * sign_of(vi))) : fv;
+      friction = sigma0 * z + sigma1 * dz_dt + viscous * vi;
+    }
+    force[i] = friction + additive(i);
+    if (friction_out) (*friction_out)[i] = friction;
+  }
+}
+
+template void simulate_generic<double>(const ModelData&, const ModelParams&, const std::vector<double>&,
+                                       std::vector<double>&, std::vector<double>*);
+template void simulate_generic<Dual>(const ModelData&, const ModelParams&, const std::vector<Dual>&,
+                                     std::vector<Dual>&, std::vector<Dual>*);
+template void simulate_generic<FixedDual<8>>(const ModelData&, const ModelParams&, const std::vector<FixedDual<8>>&,
+                                             std::vector<FixedDual<8>>&, std::vector<FixedDual<8>>*);
+template void simulate_generic<FixedDual<16>>(const ModelData&, const ModelParams&, const std::vector<FixedDual<16>>&,
+                                              std::vector<FixedDual<16>>&, std::vector<FixedDual<16>>*);
+template void simulate_generic<FixedDual<32>>(const ModelData&, const ModelParams&, const std::vector<FixedDual<32>>&,
+                                              std::vector<FixedDual<32>>&, std::vector<FixedDual<32>>*);
+
+std::vector<double> simulate(const ModelData& data, const ModelParams& params, std::vector<double>* friction) {
+  std::vector<double> force;
+  simulate_generic<double>(data, params, params.theta, force, friction);
+  return force;
+}
+
+double steady_state_friction(const ModelParams& p, double velocity, double normal) {
+  const bool mu = p.structure.load_scaled;
+  const double fc = p.value(mu ? "mu_c" : "Fc"), fs = p.value(mu ? "mu_s" : "Fs"), vs = p.value("vs");
+  const double ratio = std::fabs(velocity) / vs;
+  const double shape = p.structure.stribeck_exponent == 1.0 ? ratio : std::pow(ratio, p.structure.stribeck_exponent);
+  double level = fc + (fs - fc) * std::exp(-shape);
+  if (mu) level *= normal;
+  return (velocity > 0 ? level : (velocity < 0 ? -level : 0.0)) + p.value("Fv") * velocity;
+}
+
+}  // namespace tribo::analysis

@@ -1,0 +1,117 @@
+// The friction model the identification fits, driven by the measured motion:
+// given x(t), v(t), a(t) (and the normal load N(t)), it predicts the force.
+//
+// Base model: LuGre (physics.md §4) with the dissertation's Stribeck shape,
+//   S(v)  = L (Fc + (Fs - Fc) exp(-(|v|/vs)^delta))    L = N if load-scaled, else 1
+//   dz/dt = v - |v| z / g(v),   g(v) = S(v) / sigma0
+//   F     = sigma0 z + sigma1 dz/dt + Fv v + offset [+ M a]
+// integrated exactly over each sample interval at the interval's mean
+// velocity (z relaxes exponentially towards sgn(v) g(v)), so the stiff bristle
+// mode needs no sub-steps. Load-scaled models fit mu_c = Fc/N and mu_s = Fs/N.
+//
+// Each effect of the vocabulary (analysis/effect.h) is an optional extension
+// with its own parameters (see effect_parameters() and simulate_generic()).
+// Parameters are fitted in normalised form theta: value = scale exp(theta)
+// (positive scales), scale theta (signed), or 1/(1 + exp(-theta)) (fractions),
+// so every theta is of order one whatever the units.
+#pragma once
+
+#include <array>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "analysis/effect.h"
+#include "analysis/measured_series.h"
+#include "analysis/motion_segmentation.h"
+
+namespace tribo::analysis {
+
+enum class Transform { kLog, kLinear, kLogit };
+
+struct ParamSpec {
+  std::string name;
+  std::string unit;
+  Transform transform = Transform::kLinear;
+  double scale = 1;
+  bool fixed = false;             // held at its value, not fitted
+  std::optional<Effect> effect;   // the extension it belongs to; nullopt: base model
+};
+
+double param_value(const ParamSpec& spec, double theta);
+double param_theta(const ParamSpec& spec, double value);
+
+struct ModelStructure {
+  bool load_scaled = false;        // friction levels proportional to the normal load
+  bool fit_mass = false;           // the force also accelerates a mass M (drive data)
+  double stribeck_exponent = 1.0;  // delta: 1 the dissertation's exponential, 2 Gaussian
+  bool periodic_additive = false;  // position_periodic as a ripple that does not flip with direction
+  std::vector<Effect> effects;     // extensions, in the order they were accepted
+
+  bool has(Effect e) const;
+};
+
+struct ModelParams {
+  ModelStructure structure;
+  std::vector<ParamSpec> specs;
+  std::vector<double> theta;
+
+  int index(std::string_view name) const;  // -1 when absent
+  double value(std::string_view name) const;
+  void set_value(std::string_view name, double value);
+  std::size_t free_count() const;
+};
+
+// Reference scales and per-sample regressors derived once from the data.
+// Cubic B-spline basis values at u in [0, 1] with n uniform intervals (n + 3 functions).
+std::vector<double> cubic_bspline_basis(double u, int intervals);
+
+struct ModelData {
+  ModelData(const MeasuredSeries& series, const MotionSegmentation& motion);
+
+  const MeasuredSeries& series;
+  const MotionSegmentation& motion;
+  double force_scale = 1;      // typical |friction| in sliding (force units)
+  double mu_scale = 1;         // typical |friction| / N (load-scaled models)
+  double speed_ref = 1;        // median sliding speed: log-velocity reference
+  double speed_floor = 1e-3;   // log-velocity regularisation (1 % of speed_ref)
+  double normal_ref = 1;       // median normal load in contact
+  double mass_scale = 1;       // force_scale / typical |a|
+  // Drift: a cubic B-spline in time over the record, one knot interval per
+  // two passes (3 to 12 intervals); the basis functions sum to one, so the
+  // offset is held fixed while drift is in the model. Also the normalised
+  // time u in [-1, 1].
+  int drift_functions = 6;
+  std::vector<std::vector<double>> drift_basis;
+  std::vector<double> normalised_time;
+  std::vector<double> drive_velocity;  // the measured velocity, zero inside holds
+  std::vector<double> step_velocity;   // mean velocity over (t[i-1], t[i]); [0] unused
+};
+
+// The base LuGre model (no effects) with rough initial values.
+ModelParams base_params(const ModelData& data, const ModelStructure& structure);
+
+// The parameters an effect adds, with neutral initial values (the effect
+// switched on but not yet doing much), and its unit-aware names.
+std::vector<ParamSpec> effect_parameters(Effect effect, const ModelData& data, const ModelStructure& structure);
+
+// params extended by effect (its parameters appended, initial theta given or neutral).
+ModelParams with_effect(const ModelParams& params, Effect effect, const ModelData& data,
+                        const std::vector<double>& initial_values = {});
+
+// Model force per sample, T = double or an autodiff scalar (analysis/autodiff.h).
+// theta has one entry per spec of params. friction (optional) receives the
+// friction part alone: the force without offset, inertia, tilt, drift and ripple.
+template <class T>
+void simulate_generic(const ModelData& data, const ModelParams& params, const std::vector<T>& theta,
+                      std::vector<T>& force, std::vector<T>* friction = nullptr);
+
+std::vector<double> simulate(const ModelData& data, const ModelParams& params,
+                             std::vector<double>* friction = nullptr);
+
+// The LuGre steady-state friction of the base model at velocity v and load N
+// (N ignored unless load-scaled), without offset and effects.
+double steady_state_friction(const ModelParams& params, double velocity, double normal);
+
+}  // namespace tribo::analysis

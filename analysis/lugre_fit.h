@@ -1,0 +1,42 @@
+// The dynamic LuGre fit with global initialisation, not hand-picked guesses:
+//   1. a linear least-squares pass (F ~ Fc sgn(v) + Fv v + offset [+ M a]) for
+//      the offset and the inertia,
+//   2. the steady-state Stribeck curve (analysis/stribeck_fit.h) on sliding
+//      samples binned by velocity, for Fc, Fs, vs, Fv,
+//   3. a grid of presliding lengths Fc/sigma0 and damping levels sigma1
+//      (multi-start), each simulated once; the best few are refined by the
+//      simulation-error fit (analysis/model_fit.h) and the best one is kept.
+#pragma once
+
+#include <vector>
+
+#include "analysis/friction_model.h"
+#include "analysis/model_fit.h"
+#include "analysis/stribeck_fit.h"
+
+namespace tribo::analysis {
+
+struct LugreFitOptions {
+  FitOptions fit;
+  int refined_starts = 2;  // how many of the grid's starts get a full fit
+};
+
+struct LugreFit {
+  FitResult result;
+  std::vector<CurvePoint> steady_points;  // the binned steady sliding points
+  CurveFit steady;                        // their Stribeck curve (when it could be fitted)
+  bool steady_fitted = false;
+  int starts_evaluated = 0;
+  int starts_refined = 0;
+};
+
+LugreFit fit_lugre(const ModelData& data, const ModelStructure& structure, const std::vector<char>& in_fit,
+                   const LugreFitOptions& options = {});
+
+// Steady sliding samples (past the first fifth of each pass) binned by signed
+// velocity: mean of (F - mass a - offset) [/ N when load-scaled], weight
+// = samples / variance.
+std::vector<CurvePoint> steady_sliding_points(const ModelData& data, const std::vector<char>& in_fit, double mass,
+                                              double offset, bool load_scaled);
+
+}  // namespace tribo::analysis

@@ -1,0 +1,46 @@
+// A measured friction run as the identification sees it: one row per sample,
+// SI units (the force channel may be a stress, Pa, for shear-stress data; the
+// unit is carried along and used in the report). The force is the one the
+// friction model must explain: the measured lateral (friction) force, or a
+// drive force that also accelerates a mass (EMPS), see fit_mass in
+// analysis/friction_model.h.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace tribo::analysis {
+
+struct MeasuredSeries {
+  std::string source;        // file or run directory, for the report
+  std::string force_unit = "N";
+  std::vector<double> time_s;
+  std::vector<double> position_m;
+  std::vector<double> velocity_m_per_s;       // measured, or derived by derive_motion()
+  std::vector<double> acceleration_m_per_s2;  // measured, or derived by derive_motion()
+  std::vector<double> force_n;
+  std::vector<double> normal_force_n;         // empty: no normal-load channel
+  std::vector<double> reference_m;            // commanded position; empty: none
+  std::vector<std::uint32_t> segment;         // protocol segment (tribo runs); empty otherwise
+  bool velocity_measured = false;
+  bool acceleration_measured = false;
+
+  std::size_t size() const { return time_s.size(); }
+  bool has_normal() const { return !normal_force_n.empty(); }
+};
+
+// Fills velocity and acceleration where they were not measured: central
+// differences of the position (and then of the velocity), after a centred
+// moving average over smoothing_s (0: none). Non-uniform sampling is fine.
+void derive_motion(MeasuredSeries& series, double smoothing_s);
+
+// The samples [first, last) as a new series (for slicing long recordings).
+MeasuredSeries slice(const MeasuredSeries& series, std::size_t first, std::size_t last);
+
+// Empty when the series is usable: equal channel lengths, at least 16 samples,
+// strictly increasing time, finite values.
+std::string check_series(const MeasuredSeries& series);
+
+}  // namespace tribo::analysis

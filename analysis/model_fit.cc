@@ -1,0 +1,270 @@
+#include "analysis/model_fit.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <cstdio>
+#include <cstdlib>
+
+#include <Eigen/Dense>
+#include <unsupported/Eigen/LevenbergMarquardt>
+
+#include "analysis/autodiff.h"
+
+namespace tribo::analysis {
+
+namespace {
+
+std::vector<std::size_t> fit_indices(const std::vector<char>& in_fit) {
+  std::vector<std::size_t> idx;
+  for (std::size_t i = 0; i < in_fit.size(); ++i) {
+    if (in_fit[i]) idx.push_back(i);
+  }
+  return idx;
+}
+
+// Eigen's LM functor over the free parameters; residual = measured - model.
+struct ModelFunctor : Eigen::DenseFunctor<double> {
+  ModelFunctor(const ModelData& d, const ModelParams& p, std::vector<std::size_t> rows, std::vector<int> free)
+      : Eigen::DenseFunctor<double>(static_cast<int>(free.size()), static_cast<int>(rows.size())),
+        data(d), params(p), rows(std::move(rows)), free(std::move(free)) {}
+
+  // The solver's variables are theta + kShift: MINPACK sizes its first trust
+  // region as factor * |x|, which is zero when every parameter starts at its
+  // own scale (theta = 0); shifted, the first step is of order one.
+  static constexpr double kShift = 1.0;
+
+  std::vector<double> full_theta(const Eigen::VectorXd& x) const {
+    std::vector<double> theta = params.theta;
+    for (std::size_t j = 0; j < free.size(); ++j) theta[static_cast<std::size_t>(free[j])] = x[static_cast<Eigen::Index>(j)] - kShift;
+    return theta;
+  }
+
+  int operator()(const Eigen::VectorXd& x, Eigen::VectorXd& fvec) const {
+    std::vector<double> model;
+    simulate_generic<double>(data, params, full_theta(x), model);
+    for (std::size_t r = 0; r < rows.size(); ++r) {
+      const double e = data.series.force_n[rows[r]] - model[rows[r]];
+      fvec[static_cast<Eigen::Index>(r)] = std::isfinite(e) ? e : 1e30;
+    }
+    return 0;
+  }
+
+  int df(const Eigen::VectorXd& x, Eigen::MatrixXd& fjac) const {
+    fjac = -model_jacobian(data, params, full_theta(x), free, rows);
+    return 0;
+  }
+
+  const ModelData& data;
+  const ModelParams& params;
+  std::vector<std::size_t> rows;
+  std::vector<int> free;
+};
+
+std::string explain_undetermined(const std::string& name) {
+  if (name == "sigma1") {
+    return "sigma1 is not determined by these data: bristle damping acts only while the deflection "
+           "changes (motion onsets and reversals), and sliding data alone do not constrain it";
+  }
+  if (name == "sigma0") {
+    return "sigma0 is not determined by these data: the presliding displacement Fc/sigma0 is not "
+           "resolved by the sampled motion (stiff contact, or too few samples near reversals)";
+  }
+  if (name == "vs" || name == "Fs" || name == "mu_s") {
+    return name + " is not determined by these data: the Stribeck region (low speed) is not "
+                  "sampled well enough to separate static friction from its velocity scale";
+  }
+  return name + " is not determined by these data (standard error larger than its scale)";
+}
+
+template <int N>
+Eigen::MatrixXd jacobian_with(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
+                              const std::vector<int>& columns, const std::vector<std::size_t>& rows,
+                              std::vector<double>* model) {
+  using T = FixedDual<N>;
+  std::vector<T> dual(theta.size());
+  for (std::size_t i = 0; i < theta.size(); ++i) dual[i] = T(theta[i]);
+  for (std::size_t j = 0; j < columns.size(); ++j) dual[static_cast<std::size_t>(columns[j])].derivatives()[static_cast<Eigen::Index>(j)] = 1.0;
+  std::vector<T> out;
+  simulate_generic<T>(data, params, dual, out);
+  Eigen::MatrixXd jac(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(columns.size()));
+  for (std::size_t r = 0; r < rows.size(); ++r) {
+    const auto& d = out[rows[r]].derivatives();
+    for (std::size_t j = 0; j < columns.size(); ++j) {
+      const double v = d[static_cast<Eigen::Index>(j)];
+      jac(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(j)) = std::isfinite(v) ? v : 0.0;
+    }
+  }
+  if (model) {
+    model->resize(out.size());
+    for (std::size_t i = 0; i < out.size(); ++i) (*model)[i] = out[i].value();
+  }
+  return jac;
+}
+
+}  // namespace
+
+Eigen::MatrixXd model_jacobian(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
+                               const std::vector<int>& columns, const std::vector<std::size_t>& rows,
+                               std::vector<double>* model) {
+  if (columns.size() <= 8) return jacobian_with<8>(data, params, theta, columns, rows, model);
+  if (columns.size() <= 16) return jacobian_with<16>(data, params, theta, columns, rows, model);
+  if (columns.size() <= 32) return jacobian_with<32>(data, params, theta, columns, rows, model);
+  throw std::invalid_argument("model_jacobian: more than 32 free parameters");
+}
+
+double effective_sample_count(const std::vector<double>& r) {
+  if (r.size() < 3) return static_cast<double>(r.size());
+  double num = 0, den = 0;
+  for (std::size_t i = 1; i < r.size(); ++i) num += r[i] * r[i - 1];
+  for (double e : r) den += e * e;
+  const double rho = den > 0 ? std::clamp(num / den, 0.0, 0.9999) : 0.0;
+  return std::clamp(static_cast<double>(r.size()) * (1 - rho) / (1 + rho), 1.0, static_cast<double>(r.size()));
+}
+
+double aicc(double rss, std::size_t n, double n_eff, std::size_t k) {
+  const double kk = static_cast<double>(k);
+  if (n == 0 || rss <= 0 || n_eff <= kk + 1) return std::numeric_limits<double>::infinity();
+  return n_eff * std::log(rss / static_cast<double>(n)) + 2 * kk + 2 * kk * (kk + 1) / (n_eff - kk - 1);
+}
+
+double residual_sum_of_squares(const ModelData& data, const ModelParams& params, const std::vector<char>& in_fit) {
+  const std::vector<double> model = simulate(data, params);
+  double rss = 0;
+  for (std::size_t i = 0; i < model.size(); ++i) {
+    if (!in_fit[i]) continue;
+    const double e = data.series.force_n[i] - model[i];
+    rss += std::isfinite(e) ? e * e : 1e60;
+  }
+  return rss;
+}
+
+FitResult fit_model(const ModelData& data, const ModelParams& initial, const std::vector<char>& in_fit,
+                    const FitOptions& options) {
+  FitResult result;
+  result.params = initial;
+  std::vector<int> free;
+  for (std::size_t k = 0; k < initial.specs.size(); ++k) {
+    if (!initial.specs[k].fixed) free.push_back(static_cast<int>(k));
+  }
+  const auto rows = fit_indices(in_fit);
+  result.n = rows.size();
+  result.k = free.size();
+  if (free.empty() || rows.size() <= free.size()) {
+    result.rss = residual_sum_of_squares(data, initial, in_fit);
+    result.warnings.push_back("too few fit samples for the model's parameters");
+    return result;
+  }
+
+  ModelFunctor functor(data, initial, rows, free);
+  Eigen::VectorXd x(static_cast<Eigen::Index>(free.size()));
+  for (std::size_t j = 0; j < free.size(); ++j) {
+    x[static_cast<Eigen::Index>(j)] = initial.theta[static_cast<std::size_t>(free[j])] + ModelFunctor::kShift;
+  }
+  Eigen::LevenbergMarquardt<ModelFunctor> lm(functor);
+  lm.setMaxfev(options.max_iterations * 10);
+  lm.setFtol(options.tolerance);
+  lm.setXtol(options.tolerance);
+  // The first trust region: a step of about one in the normalised parameters
+  // (a factor e for log parameters); MINPACK's default of 100 lets the
+  // first step throw an ill-determined scale e^100 away.
+  lm.setFactor(1.0);
+  // The trust region lives in the normalised parameters themselves (unit
+  // scaling): Marquardt's scaling by the Jacobian's column norms would let a
+  // parameter the data hardly feel take an enormous step.
+  lm.setExternalScaling(true);
+  lm.diag() = Eigen::VectorXd::Ones(static_cast<Eigen::Index>(free.size()));
+  // Eigen's own tests stop on tiny relative changes; in the long shallow
+  // valleys of undetermined parameters that takes hundreds of iterations for
+  // cost changes no data could tell apart. Stop as well once the cost has
+  // fallen by less than kStallLogLikelihood in log-likelihood units
+  // (n_eff/2 * relative RSS change) over the last kStallWindow iterations.
+  constexpr int kStallWindow = 4;
+  constexpr double kStallLogLikelihood = 0.05;
+  auto status = lm.minimizeInit(x);
+  std::vector<double> costs;
+  bool stalled = false;
+  if (status != Eigen::LevenbergMarquardtSpace::ImproperInputParameters) {
+    do {
+      status = lm.minimizeOneStep(x);
+      const double cost = lm.fnorm() * lm.fnorm();
+      costs.push_back(cost);
+      if (costs.size() > kStallWindow) {
+        const double before = costs[costs.size() - 1 - kStallWindow];
+        const std::vector<double> r(lm.fvec().data(), lm.fvec().data() + lm.fvec().size());
+        const double gain = 0.5 * effective_sample_count(r) * (before - cost) / cost;
+        stalled = gain < kStallLogLikelihood;
+      }
+      if (static_cast<int>(lm.njev()) >= options.max_iterations) break;
+    } while (status == Eigen::LevenbergMarquardtSpace::Running && !stalled);
+  }
+  result.iterations = static_cast<int>(lm.njev());
+  result.converged = status == Eigen::LevenbergMarquardtSpace::RelativeReductionTooSmall ||
+                     status == Eigen::LevenbergMarquardtSpace::RelativeErrorTooSmall ||
+                     status == Eigen::LevenbergMarquardtSpace::RelativeErrorAndReductionTooSmall ||
+                     status == Eigen::LevenbergMarquardtSpace::FtolTooSmall ||
+                     status == Eigen::LevenbergMarquardtSpace::XtolTooSmall || stalled;
+  if (!result.converged) result.warnings.push_back("the fit stopped before converging (Levenberg-Marquardt status " + std::to_string(static_cast<int>(status)) + ")");
+  result.params.theta = functor.full_theta(x);
+
+  // Residual, effective sample count, AICc.
+  Eigen::VectorXd fvec(static_cast<Eigen::Index>(rows.size()));
+  functor(x, fvec);
+  std::vector<double> residual(fvec.data(), fvec.data() + fvec.size());
+  result.rss = fvec.squaredNorm();
+  result.n_effective = effective_sample_count(residual);
+  result.aicc = aicc(result.rss, result.n, result.n_effective, result.k);
+
+  // Covariance of theta from the Jacobian at the solution.
+  Eigen::MatrixXd jac(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(free.size()));
+  functor.df(x, jac);
+  const Eigen::MatrixXd jtj = jac.transpose() * jac;
+  const double dof = static_cast<double>(rows.size() - free.size());
+  const double s2 = result.rss / dof * (static_cast<double>(result.n) / result.n_effective);
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(jtj);
+  const Eigen::VectorXd ev = eig.eigenvalues();
+  const double ev_max = ev.maxCoeff();
+  Eigen::MatrixXd inverse = Eigen::MatrixXd::Zero(jtj.rows(), jtj.cols());
+  for (Eigen::Index j = 0; j < ev.size(); ++j) {
+    if (ev[j] > 1e-13 * ev_max) inverse += eig.eigenvectors().col(j) * eig.eigenvectors().col(j).transpose() / ev[j];
+  }
+  const Eigen::MatrixXd cov = s2 * inverse;
+  // Near-collinear parameter pairs (a null direction of J^T J).
+  if (ev.size() > 0 && ev.minCoeff() <= 1e-13 * ev_max) {
+    const Eigen::VectorXd null = eig.eigenvectors().col(0).cwiseAbs();
+    std::string names;
+    for (Eigen::Index j = 0; j < null.size(); ++j) {
+      if (null[j] > 0.3) names += (names.empty() ? "" : ", ") + initial.specs[static_cast<std::size_t>(free[static_cast<std::size_t>(j)])].name;
+    }
+    result.warnings.push_back("parameters not separately determined (collinear in these data): " + names);
+  }
+
+  std::size_t j = 0;
+  for (std::size_t k = 0; k < initial.specs.size(); ++k) {
+    const ParamSpec& spec = initial.specs[k];
+    ParamEstimate e{spec.name, spec.unit, param_value(spec, result.params.theta[k]), 0.0, spec.fixed, true, spec.effect};
+    if (!spec.fixed) {
+      const auto jj = static_cast<Eigen::Index>(j++);
+      const double se_theta = std::sqrt(std::max(cov(jj, jj), 0.0));
+      const bool singular = ev.minCoeff() <= 1e-13 * ev_max && cov(jj, jj) == 0.0;
+      double derivative = 0;  // d value / d theta
+      switch (spec.transform) {
+        case Transform::kLog: derivative = e.value; break;
+        case Transform::kLinear: derivative = spec.scale; break;
+        case Transform::kLogit: derivative = e.value * (1 - e.value); break;
+      }
+      e.std_error = singular ? std::numeric_limits<double>::quiet_NaN() : std::fabs(derivative) * se_theta;
+      // Normalised-scale rule; logit fractions near 0 or 1 use the value's own scale.
+      double normalised = se_theta;
+      if (spec.transform == Transform::kLinear) normalised = spec.scale > 0 ? e.std_error / spec.scale : se_theta;
+      if (spec.transform == Transform::kLinear && std::fabs(e.value) > spec.scale) normalised = e.std_error / std::fabs(e.value);
+      e.determined = !singular && normalised <= 1.0;
+      if (!e.determined) result.warnings.push_back(explain_undetermined(spec.name));
+    }
+    result.estimates.push_back(e);
+  }
+  return result;
+}
+
+}  // namespace tribo::analysis

@@ -1,0 +1,139 @@
+#!/usr/bin/python3
+"""Plots of a tribo-fit diagnosis (tribo-fit diagnose ... --out DIR).
+
+    /usr/bin/python3 analysis/plot_diagnosis.py DIR [--title TEXT] [--zoom T0 T1]
+
+Writes into DIR:
+  before_after.png   measured force with the model before and after the accepted
+                     effects, over the whole record and a zoomed window, and the
+                     residuals; held-out passes shaded
+  hysteresis.png     force against position (measured, before, after)
+  signature_<effect>.png  for each accepted effect (and each fitted but
+                     rejected one): the residual against the regressor that
+                     revealed it, as the diagnosis measured it on the fit data
+Needs numpy and matplotlib (Debian python3-numpy, python3-matplotlib).
+"""
+import argparse
+import csv
+import json
+import os
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+
+def read_traces(path):
+    data = np.genfromtxt(path, delimiter=",", names=True)
+    return data
+
+
+def read_signatures(path):
+    groups = {}
+    if not os.path.exists(path):
+        return groups
+    with open(path) as f:
+        for row in csv.DictReader(f):
+            key = (row["effect"], row["stage"])
+            g = groups.setdefault(key, {"x_label": row["x_label"], "y_label": row["y_label"], "x": [], "y": [], "e": []})
+            g["x"].append(float(row["x"]) if row["x"] else np.nan)
+            g["y"].append(float(row["y"]) if row["y"] else np.nan)
+            g["e"].append(float(row["y_error"]) if row["y_error"] else np.nan)
+    return groups
+
+
+def shade_heldout(ax, t, heldout):
+    edges = np.flatnonzero(np.diff(np.r_[0, heldout.astype(int), 0]))
+    for start, stop in zip(edges[::2], edges[1::2]):
+        ax.axvspan(t[start], t[min(stop, len(t) - 1)], color="0.9", lw=0)
+
+
+def plot_before_after(d, report, out, title, zoom):
+    t, f = d["t_s"], d["force"]
+    unit = report["input"]["force_unit"]
+    effects = ", ".join(e["name"] for e in report["accepted_effects"]) or "none"
+    eb, ea = report["error_before"]["heldout"], report["error_after"]["heldout"]
+    fig, axes = plt.subplots(3, 1, figsize=(11, 9), constrained_layout=True)
+    for ax in axes[:2]:
+        shade_heldout(ax, t, d["heldout"])
+    axes[0].plot(t, f, color="k", lw=0.6, label="measured")
+    axes[0].plot(t, d["model_before"], color="tab:blue", lw=0.8, label="LuGre (before)")
+    axes[0].plot(t, d["model_after"], color="tab:red", lw=0.8, ls="--", label=f"with {effects} (after)")
+    axes[0].set_ylabel(f"force ({unit})")
+    axes[0].legend(loc="upper right", fontsize=8)
+    axes[0].set_title(f"{title}\nheld-out RMS {eb['rms']:.4g} -> {ea['rms']:.4g} {unit} "
+                      f"(relative {100 * eb['relative']:.2f} % -> {100 * ea['relative']:.2f} %); held-out passes shaded",
+                      fontsize=10)
+    axes[1].plot(t, f - d["model_before"], color="tab:blue", lw=0.5, label="residual before")
+    axes[1].plot(t, f - d["model_after"], color="tab:red", lw=0.5, alpha=0.8, label="residual after")
+    axes[1].set_ylabel(f"residual ({unit})")
+    axes[1].legend(loc="upper right", fontsize=8)
+    if zoom is None:
+        n = len(t)
+        zoom = (t[int(0.45 * n)], t[min(n - 1, int(0.55 * n))])
+    sel = (t >= zoom[0]) & (t <= zoom[1])
+    axes[2].plot(t[sel], f[sel], color="k", lw=0.8, label="measured")
+    axes[2].plot(t[sel], d["model_before"][sel], color="tab:blue", lw=1, label="before")
+    axes[2].plot(t[sel], d["model_after"][sel], color="tab:red", lw=1, ls="--", label="after")
+    axes[2].set_xlabel("time (s)")
+    axes[2].set_ylabel(f"force ({unit}), zoom")
+    axes[2].legend(loc="upper right", fontsize=8)
+    fig.savefig(os.path.join(out, "before_after.png"), dpi=110)
+    plt.close(fig)
+
+
+def plot_hysteresis(d, report, out, title):
+    unit = report["input"]["force_unit"]
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5), constrained_layout=True, sharey=True)
+    for ax, model, label in ((axes[0], "model_before", "before"), (axes[1], "model_after", "after")):
+        ax.plot(d["position_m"], d["force"], color="k", lw=0.4, label="measured")
+        ax.plot(d["position_m"], d[model], color="tab:red" if label == "after" else "tab:blue", lw=0.6, label=f"model {label}")
+        ax.set_xlabel("position (m)")
+        ax.legend(fontsize=8)
+    axes[0].set_ylabel(f"force ({unit})")
+    fig.suptitle(title, fontsize=10)
+    fig.savefig(os.path.join(out, "hysteresis.png"), dpi=110)
+    plt.close(fig)
+
+
+def plot_signatures(groups, report, out):
+    verdicts = {e["name"]: ("accepted", e.get("signature", "")) for e in report["accepted_effects"]}
+    for e in report["rejected_effects"]:
+        verdicts.setdefault(e["name"], ("rejected", e.get("reason", "")))
+    for (effect, stage), g in groups.items():
+        fig, ax = plt.subplots(figsize=(7, 4.2), constrained_layout=True)
+        x, y, e = np.array(g["x"]), np.array(g["y"]), np.array(g["e"])
+        if np.all(np.isnan(e)):
+            ax.plot(x, y, "o-", ms=3, lw=0.8)
+        else:
+            ax.errorbar(x, y, yerr=e, fmt="o-", ms=3, lw=0.8, capsize=2)
+        if "wavelength" in g["x_label"] or "speed" in g["x_label"]:
+            ax.set_xscale("log")
+        ax.axhline(0, color="0.5", lw=0.6)
+        ax.set_xlabel(g["x_label"])
+        ax.set_ylabel(g["y_label"])
+        text = verdicts.get(effect, (stage, ""))[1]
+        ax.set_title(f"{effect} ({stage})\n{text[:110]}", fontsize=8)
+        fig.savefig(os.path.join(out, f"signature_{effect}.png"), dpi=110)
+        plt.close(fig)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("dir")
+    parser.add_argument("--title", default=None)
+    parser.add_argument("--zoom", nargs=2, type=float, default=None)
+    args = parser.parse_args()
+    with open(os.path.join(args.dir, "diagnosis.json")) as f:
+        report = json.load(f)
+    d = read_traces(os.path.join(args.dir, "traces.csv"))
+    title = args.title or os.path.basename(report["input"]["source"])
+    plot_before_after(d, report, args.dir, title, args.zoom)
+    plot_hysteresis(d, report, args.dir, title)
+    plot_signatures(read_signatures(os.path.join(args.dir, "signatures.csv")), report, args.dir)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,44 @@
+// Reading a MeasuredSeries: from any CSV with a header line and a column
+// mapping (columns named by their header), or from a tribo run directory
+// (proto/run_files.h). Values are taken as SI units; nothing is rescaled
+// except by force_scale (e.g. -1 when the force column has the opposite sign
+// convention: the analysis wants the force that drives the motion, positive
+// in the direction of positive velocity).
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analysis/measured_series.h"
+
+namespace tribo::analysis {
+
+struct ColumnMapping {
+  std::string time;          // required
+  std::string position;      // required
+  std::string force;         // required
+  std::string normal;        // optional
+  std::string velocity;      // optional (else derived from the position)
+  std::string acceleration;  // optional (else derived from the velocity)
+  std::string reference;     // optional (commanded position)
+  double force_scale = 1.0;
+  std::string force_unit = "N";
+};
+
+// The named columns of a CSV file with a header line (an empty name gives an
+// empty column). Errors name the file, the row and the column.
+std::optional<std::vector<std::vector<double>>> read_csv_columns(const std::filesystem::path& path,
+                                                                 const std::vector<std::string>& names,
+                                                                 std::string& error);
+
+std::optional<MeasuredSeries> read_csv_series(const std::filesystem::path& path,
+                                              const ColumnMapping& columns, std::string& error);
+
+// A recorded tribo run: time, lateral position, lateral force, normal force,
+// lateral setpoint as reference, segment index. Samples taken while unloading
+// after a stop or trip (SAFE_UNLOAD) are dropped.
+std::optional<MeasuredSeries> read_run_series(const std::filesystem::path& run_dir, std::string& error);
+
+}  // namespace tribo::analysis

@@ -1,0 +1,112 @@
+// Diagnosis on synthetic runs with one effect switched on and not declared.
+//
+// SYNTHETIC, TO BE REPLACED BY SIM-GENERATED RUNS (issue 7, phase 2): the
+// forward model is tests/analysis/synthetic_run.h, written apart from the
+// analysis's own candidate models (its own integrator and effect forms).
+// Once the simulated instrument carries the effects (issue 3), the same
+// checks run on recorded runs of tribo's closed loop.
+#include <cmath>
+#include <optional>
+
+#include <gtest/gtest.h>
+
+#include "tests/analysis/analysis_test_support.h"
+#include "tests/analysis/synthetic_run.h"
+
+namespace tribo::analysis {
+namespace {
+
+using testing::accepted;
+using testing::accepted_names;
+
+Diagnosis diagnose_synthetic(const testing::SyntheticEffects& effects, std::uint64_t seed = 1,
+                             std::vector<Effect> candidates = {kAllEffects.begin(), kAllEffects.end()}) {
+  MeasuredSeries s = testing::synthetic_run(effects, seed);
+  derive_motion(s, 0);
+  DiagnosisOptions options;
+  options.base.load_scaled = true;
+  options.candidates = std::move(candidates);
+  return diagnose(s, options);
+}
+
+struct Case {
+  const char* name;
+  Effect effect;
+  testing::SyntheticEffects truth;
+  std::optional<Effect> mimic;  // the effect it could be mistaken for
+};
+
+void PrintTo(const Case& c, std::ostream* os) { *os << c.name; }
+
+std::vector<Case> cases() {
+  auto with = [](auto set) {
+    testing::SyntheticEffects e;
+    set(e);
+    return e;
+  };
+  return {
+      {"dwell_stiction", Effect::kDwellStiction, with([](auto& e) { e.dwell_gain = 0.3; }), Effect::kDrift},
+      {"frictional_lag", Effect::kFrictionalLag, with([](auto& e) { e.lag_time_s = 0.05; }), Effect::kPreslidingHysteresis},
+      {"velocity_strengthening", Effect::kVelocityStrengthening, with([](auto& e) { e.log_velocity = 0.05; }), std::nullopt},
+      {"load_dependence", Effect::kLoadDependence, with([](auto& e) { e.load_exponent = -1.0 / 3; }), Effect::kTiltOffset},
+      {"position_periodic", Effect::kPositionPeriodic, with([](auto& e) { e.periodic_amplitude = 0.1; }), std::nullopt},
+      {"direction_asymmetry", Effect::kDirectionAsymmetry, with([](auto& e) { e.asymmetry = 0.1; }), Effect::kTiltOffset},
+      {"tilt_offset", Effect::kTiltOffset, with([](auto& e) { e.tilt_tan = 0.026; }), Effect::kDirectionAsymmetry},
+      {"drift", Effect::kDrift, with([](auto& e) { e.drift_n_per_s = 0.2e-6; }), Effect::kDwellStiction},
+      {"presliding_hysteresis", Effect::kPreslidingHysteresis, with([](auto& e) { e.breakaway_ratio = 0.5; }), Effect::kFrictionalLag},
+      {"backlash", Effect::kBacklash, with([](auto& e) { e.backlash_gap_m = 0.3e-6; }), Effect::kPreslidingHysteresis},
+  };
+}
+
+class UndeclaredEffect : public ::testing::TestWithParam<Case> {};
+
+TEST_P(UndeclaredEffect, IsNamedFirstAndLowersTheHeldOutError) {
+  const Case& c = GetParam();
+  const Diagnosis d = diagnose_synthetic(c.truth);
+  ASSERT_FALSE(d.accepted.empty()) << c.name << ": nothing accepted";
+  EXPECT_EQ(d.accepted.front().effect, c.effect) << "accepted: " << accepted_names(d);
+  if (c.mimic) {
+    EXPECT_FALSE(accepted(d, *c.mimic)) << "mimic accepted: " << accepted_names(d);
+  }
+  EXPECT_LT(d.after.heldout.rms, 0.97 * d.before.heldout.rms);
+  EXPECT_LT(d.after.fit.rms, d.before.fit.rms);
+  // The accepted effect's parameters come with uncertainties.
+  for (const auto& p : d.accepted.front().parameters) {
+    if (p.fixed) continue;
+    EXPECT_TRUE(std::isfinite(p.std_error)) << p.name;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Synthetic, UndeclaredEffect, ::testing::ValuesIn(cases()),
+                         [](const auto& info) { return std::string(info.param.name); });
+
+TEST(DiagnosisSynthetic, ACleanRunAcceptsNothingAndLeavesNoStructure) {
+  const Diagnosis d = diagnose_synthetic({});
+  EXPECT_TRUE(d.accepted.empty()) << accepted_names(d);
+  EXPECT_FALSE(d.unexplained) << *d.unexplained;
+  EXPECT_EQ(d.rejected.size(), kAllEffects.size());
+  for (const auto& r : d.rejected) EXPECT_FALSE(r.reason.empty()) << effect_name(r.effect);
+}
+
+TEST(DiagnosisSynthetic, StrongViscousFrictionIsNotMistakenForLogVelocity) {
+  // The base model is viscous: a large Fv v must stay in the base, while a
+  // log-velocity law over the same speeds is named (UndeclaredEffect above).
+  testing::SyntheticEffects e;
+  e.extra_viscous_n_s_per_m = 2.0;  // 64 µN more at 32 µm/s
+  const Diagnosis d = diagnose_synthetic(e);
+  EXPECT_FALSE(accepted(d, Effect::kVelocityStrengthening)) << accepted_names(d);
+  EXPECT_NEAR(d.final_fit.params.value("Fv"), 2.5, 0.25);
+}
+
+TEST(DiagnosisSynthetic, IsDeterministic) {
+  testing::SyntheticEffects e;
+  e.tilt_tan = 0.026;
+  const std::vector<Effect> two = {Effect::kTiltOffset, Effect::kDirectionAsymmetry};
+  const Diagnosis a = diagnose_synthetic(e, 4, two), b = diagnose_synthetic(e, 4, two);
+  ASSERT_EQ(a.accepted.size(), 1u);
+  ASSERT_EQ(a.model_after.size(), b.model_after.size());
+  for (std::size_t i = 0; i < a.model_after.size(); ++i) ASSERT_EQ(a.model_after[i], b.model_after[i]);
+}
+
+}  // namespace
+}  // namespace tribo::analysis

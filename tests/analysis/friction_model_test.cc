@@ -1,0 +1,121 @@
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "analysis/autodiff.h"
+#include "analysis/friction_model.h"
+#include "tests/analysis/synthetic_run.h"
+
+namespace tribo::analysis {
+namespace {
+
+struct Fixture {
+  Fixture() : series(make()), motion(segment_motion(series)), data(series, motion) {}
+  static MeasuredSeries make() {
+    testing::SyntheticOptions o;
+    o.three_loads = false;
+    MeasuredSeries s = testing::synthetic_run({}, 5, o);
+    derive_motion(s, 0);
+    return s;
+  }
+  ModelParams base() const {
+    ModelStructure st;
+    st.load_scaled = true;
+    ModelParams p = base_params(data, st);
+    p.set_value("mu_c", 0.10);
+    p.set_value("mu_s", 0.143);
+    p.set_value("vs", 1.2e-6);
+    p.set_value("sigma0", 3414.6);
+    p.set_value("sigma1", 5.5);
+    p.set_value("Fv", 0.5);
+    p.set_value("offset", 1e-6);
+    return p;
+  }
+  MeasuredSeries series;
+  MotionSegmentation motion;
+  ModelData data;
+};
+
+TEST(FrictionModel, SlidingSettlesOnTheLugreSteadyState) {
+  Fixture f;
+  const ModelParams p = f.base();
+  const auto force = simulate(f.data, p);
+  int checked = 0;
+  for (const Pass& pass : f.motion.passes) {
+    const std::size_t i = (pass.first + pass.last) / 2;  // mid-pass, at plateau speed
+    const double v = f.series.velocity_m_per_s[i];
+    if (std::fabs(v - pass.direction * pass.median_speed_m_per_s) > 0.01 * pass.median_speed_m_per_s) continue;
+    const double expected = steady_state_friction(p, v, f.series.normal_force_n[i]) + 1e-6;
+    EXPECT_NEAR(force[i], expected, 0.01 * std::fabs(expected)) << "t = " << f.series.time_s[i];
+    ++checked;
+  }
+  EXPECT_GE(checked, 4);
+}
+
+TEST(FrictionModel, ExtensionsAtTheirNeutralValuesLeaveTheModelUnchanged) {
+  Fixture f;
+  const ModelParams base = f.base();
+  ModelParams p = base;
+  for (Effect e : {Effect::kTiltOffset, Effect::kDirectionAsymmetry, Effect::kDrift, Effect::kVelocityStrengthening,
+                   Effect::kLoadDependence, Effect::kPositionPeriodic}) {
+    p = with_effect(p, e, f.data);  // neutral: amplitudes zero
+  }
+  const auto a = simulate(f.data, base), b = simulate(f.data, p);
+  for (std::size_t i = 0; i < a.size(); ++i) ASSERT_NEAR(a[i], b[i], 1e-15 + 1e-12 * std::fabs(a[i])) << i;
+}
+
+TEST(FrictionModel, AutodiffJacobianMatchesFiniteDifferencesForEveryEffect) {
+  Fixture f;
+  ModelParams p = f.base();
+  p.structure.periodic_additive = false;
+  const std::vector<std::pair<Effect, std::vector<double>>> effects = {
+      {Effect::kDwellStiction, {0.03, 2.0}},     {Effect::kFrictionalLag, {0.0213}},  // not a whole number of samples: a kink of the interpolation
+      {Effect::kVelocityStrengthening, {0.005}}, {Effect::kLoadDependence, {-0.1}},
+      {Effect::kPositionPeriodic, {0.05, 0.02, 0.9e-6}}, {Effect::kDirectionAsymmetry, {0.05, -0.1}},
+      {Effect::kTiltOffset, {0.01}},             {Effect::kDrift, {}},
+      {Effect::kPreslidingHysteresis, {0.4}},    {Effect::kBacklash, {0.05e-6}}};
+  for (const auto& [e, values] : effects) p = with_effect(p, e, f.data, values);
+  for (std::size_t k = 0; k < p.theta.size(); ++k) {
+    if (p.specs[k].name.rfind("drift_", 0) == 0) p.theta[k] = 0.3;
+  }
+  const auto n = static_cast<int>(p.theta.size());
+  ASSERT_LE(n, kMaxFreeParams);
+  std::vector<Dual> theta(p.theta.size());
+  for (int k = 0; k < n; ++k) {
+    theta[static_cast<std::size_t>(k)] = Dual(p.theta[static_cast<std::size_t>(k)], DerivativeVector::Zero(n));
+    theta[static_cast<std::size_t>(k)].derivatives()[k] = 1.0;
+  }
+  std::vector<Dual> ad;
+  simulate_generic<Dual>(f.data, p, theta, ad);
+  for (int k = 0; k < n; ++k) {
+    ModelParams up = p, down = p;
+    const double h = 1e-6;
+    up.theta[static_cast<std::size_t>(k)] += h;
+    down.theta[static_cast<std::size_t>(k)] -= h;
+    const auto fu = simulate(f.data, up), fd = simulate(f.data, down);
+    // Switching points (the sub-step count, backlash contact, elasto-plastic
+    // zones, the lag's interpolation interval) make a few samples
+    // non-differentiable for finite differences: 99 % of them must agree.
+    double scale = 0;
+    for (std::size_t i = 0; i < fu.size(); ++i) scale = std::max(scale, std::fabs(fu[i] - fd[i]) / (2 * h));
+    std::size_t agree = 0;
+    for (std::size_t i = 0; i < fu.size(); ++i) {
+      const double numeric = (fu[i] - fd[i]) / (2 * h);
+      const double exact = ad[i].derivatives().size() > k ? ad[i].derivatives()[k] : 0.0;
+      if (std::fabs(numeric - exact) <= 1e-4 * scale + 1e-6 * std::fabs(exact) + 1e-15) ++agree;
+    }
+    EXPECT_GE(static_cast<double>(agree), 0.99 * static_cast<double>(fu.size())) << p.specs[static_cast<std::size_t>(k)].name;
+  }
+}
+
+TEST(FrictionModel, ParameterTransformsKeepThetaOfOrderOne) {
+  ParamSpec log_spec{"sigma0", "N/m", Transform::kLog, 3000.0, false, {}};
+  EXPECT_DOUBLE_EQ(param_value(log_spec, 0.0), 3000.0);
+  EXPECT_NEAR(param_theta(log_spec, 3000.0 * std::exp(1.5)), 1.5, 1e-12);
+  ParamSpec logit{"breakaway_ratio", "1", Transform::kLogit, 1.0, false, {}};
+  EXPECT_DOUBLE_EQ(param_value(logit, 0.0), 0.5);
+  EXPECT_NEAR(param_value(logit, param_theta(logit, 0.8)), 0.8, 1e-12);
+}
+
+}  // namespace
+}  // namespace tribo::analysis

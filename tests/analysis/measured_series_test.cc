@@ -1,0 +1,103 @@
+#include <filesystem>
+#include <fstream>
+
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include "analysis/measured_series.h"
+#include "analysis/series_input.h"
+#include "proto/run_files.h"
+#include "proto/sample_record.h"
+
+namespace tribo::analysis {
+namespace {
+
+std::filesystem::path temp_file(const std::string& name, const std::string& content) {
+  const auto path = std::filesystem::temp_directory_path() / ("tribo_analysis_" + std::to_string(::getpid()) + "_" + name);
+  std::ofstream(path) << content;
+  return path;
+}
+
+TEST(SeriesInput, MapsNamedColumnsInAnyOrderAndScalesTheForce) {
+  const auto path = temp_file("map.csv", "force,t,x,extra\n1.5,0,0.1,9\n-2.5,0.5,0.2,9\n");
+  ColumnMapping c;
+  c.time = "t";
+  c.position = "x";
+  c.force = "force";
+  c.force_scale = -1;
+  std::string error;
+  const auto s = read_csv_series(path, c, error);
+  ASSERT_TRUE(s) << error;
+  ASSERT_EQ(s->size(), 2u);
+  EXPECT_EQ(s->time_s[1], 0.5);
+  EXPECT_EQ(s->position_m[0], 0.1);
+  EXPECT_EQ(s->force_n[0], -1.5);
+  EXPECT_EQ(s->force_n[1], 2.5);
+  EXPECT_FALSE(s->has_normal());
+  EXPECT_TRUE(s->velocity_m_per_s.empty());
+}
+
+TEST(SeriesInput, NamesTheMissingColumnAndTheBadRow) {
+  const auto path = temp_file("bad.csv", "t,x,f\n0,0,1\n0.1,oops,2\n");
+  ColumnMapping c;
+  c.time = "t";
+  c.position = "x";
+  c.force = "f";
+  std::string error;
+  EXPECT_FALSE(read_csv_series(path, c, error));
+  EXPECT_NE(error.find(":3:"), std::string::npos) << error;
+  EXPECT_NE(error.find("'x'"), std::string::npos) << error;
+  c.normal = "N";
+  EXPECT_FALSE(read_csv_series(path, c, error));
+  EXPECT_NE(error.find("'N' not in the header"), std::string::npos) << error;
+}
+
+TEST(SeriesInput, ReadsATriboRunDirectory) {
+  v1::RunMetadata metadata;
+  metadata.mutable_start()->set_run_id("test-run");
+  v1::SampleBlock block;
+  for (int i = 0; i < 20; ++i) {
+    Sample s;
+    s.time_s = 0.001 * i;
+    s.segment_index = i < 10 ? 0 : 1;
+    s.normal_setpoint_n = 1e-3;
+    s.normal_force_n = 0.99e-3;
+    s.lateral_setpoint_m = 1e-6 * i;
+    s.lateral_position_m = 0.9e-6 * i;
+    s.lateral_force_n = 1e-4;
+    s.status_flags = i == 19 ? v1::SAFE_UNLOAD : 0;
+    append_sample(s, block);
+  }
+  const auto dir = std::filesystem::temp_directory_path() / ("tribo_analysis_run_" + std::to_string(::getpid()));
+  std::string error;
+  ASSERT_TRUE(wire::write_run_directory(dir, metadata, block, error)) << error;
+  const auto s = read_run_series(dir, error);
+  ASSERT_TRUE(s) << error;
+  EXPECT_EQ(s->size(), 19u);  // the SAFE_UNLOAD sample is dropped
+  EXPECT_EQ(s->position_m[5], 0.9e-6 * 5);
+  EXPECT_EQ(s->reference_m[5], 1e-6 * 5);
+  EXPECT_EQ(s->normal_force_n[3], 0.99e-3);
+  EXPECT_EQ(s->segment[12], 1u);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(MeasuredSeries, DerivesVelocityAndAccelerationByCentralDifferences) {
+  MeasuredSeries s;
+  for (int i = 0; i < 50; ++i) {
+    const double t = 0.01 * i;
+    s.time_s.push_back(t);
+    s.position_m.push_back(3 * t * t);  // v = 6 t, a = 6
+    s.force_n.push_back(0);
+  }
+  derive_motion(s, 0);
+  EXPECT_NEAR(s.velocity_m_per_s[20], 6 * 0.2, 1e-12);
+  EXPECT_NEAR(s.acceleration_m_per_s2[20], 6, 1e-9);
+  EXPECT_FALSE(s.velocity_measured);
+  EXPECT_EQ(check_series(s), "");
+  s.time_s[30] = s.time_s[29];
+  EXPECT_NE(check_series(s).find("time does not increase at row 31"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace tribo::analysis

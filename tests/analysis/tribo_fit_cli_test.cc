@@ -1,0 +1,65 @@
+// The tribo-fit command: usage, exit codes and the JSON contract.
+#include <array>
+#include <cstdio>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "tests/analysis/analysis_test_support.h"
+
+namespace tribo::analysis {
+namespace {
+
+struct Output {
+  int exit_code = -1;
+  std::string text;
+};
+
+Output run(const std::string& args) {
+  Output out;
+  const std::string command = std::string(TRIBO_FIT_PATH) + " " + args + " 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) return out;
+  std::array<char, 4096> buf;
+  std::size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), pipe)) > 0) out.text.append(buf.data(), n);
+  const int status = pclose(pipe);
+  out.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return out;
+}
+
+TEST(TriboFitCli, HelpSaysColumnsAreSi) {
+  const Output o = run("--help");
+  EXPECT_EQ(o.exit_code, 0);
+  EXPECT_NE(o.text.find("SI units"), std::string::npos);
+  EXPECT_NE(o.text.find("tribo-fit diagnose INPUT"), std::string::npos);
+}
+
+TEST(TriboFitCli, BadUsageExitsWithTwo) {
+  EXPECT_EQ(run("diagnose").exit_code, 2);
+  EXPECT_EQ(run("frobnicate").exit_code, 2);
+  EXPECT_EQ(run("diagnose " + testing::measured_data("emps_train_DATA_EMPS.csv") + " --time t_s").exit_code, 2);
+  EXPECT_EQ(run("diagnose x.csv --time t --position x --force f --effects not_an_effect").exit_code, 2);
+}
+
+TEST(TriboFitCli, UnreadableInputExitsWithOne) {
+  EXPECT_EQ(run("diagnose /nonexistent.csv --time t --position x --force f").exit_code, 1);
+}
+
+TEST(TriboFitCli, DiagnoseJsonCarriesTheContractFields) {
+  const Output o = run("diagnose " + testing::measured_data("emps_train_DATA_EMPS.csv") +
+                       " --time t_s --position x_m --motor-force force_motor_N --velocity v_derived_m_s"
+                       " --acceleration a_derived_m_s2 --effects direction_asymmetry,backlash --json");
+  ASSERT_EQ(o.exit_code, 0) << o.text;
+  for (const char* key : {"\"accepted_effects\"", "\"rejected_effects\"", "\"error_before\"", "\"error_after\"",
+                          "\"unexplained\"", "\"fit\"", "\"heldout\"", "\"rms\"", "\"nrmse\"", "\"max\"", "\"relative\"",
+                          "\"std_error\"", "\"reason\"", "\"heldout_by_condition\""}) {
+    EXPECT_NE(o.text.find(key), std::string::npos) << key;
+  }
+  EXPECT_NE(o.text.find("\"name\": \"direction_asymmetry\""), std::string::npos);
+  EXPECT_NE(o.text.find("\"name\": \"backlash\""), std::string::npos);  // rejected, with its reason
+  EXPECT_EQ(o.text.front(), '{');
+}
+
+}  // namespace
+}  // namespace tribo::analysis
