@@ -10,6 +10,14 @@
 
 namespace tribo::daemon {
 
+std::uint32_t sample_flags_of_sensor_status(std::uint32_t status_bits) {
+  std::uint32_t flags = 0;
+  if (status_bits & hal::kSubstepCapHit) flags |= v1::SUBSTEP_CAP_HIT;
+  if (status_bits & hal::kLateralSnapDown) flags |= v1::LATERAL_SNAP_DOWN;
+  if (status_bits & hal::kDriveHandover) flags |= v1::DRIVE_HANDOVER;
+  return flags;
+}
+
 RunLoopConfig run_loop_config_from(const v1::DaemonConfig& config) {
   RunLoopConfig c;
   c.controller = controller_params_from_config(config);
@@ -145,7 +153,7 @@ bool RunLoop::tick() {
   const std::uint64_t t4 = monotonic_ns();
 
   std::uint32_t flags = out.flags;
-  if (frame_.status_bits & hal::kSubstepCapHit) flags |= v1::SUBSTEP_CAP_HIT;
+  flags |= sample_flags_of_sensor_status(frame_.status_bits);
   if (read != hal::IoResult::kOk) flags |= v1::SENSOR_INVALID;
   if (stopping_) flags |= v1::SAFE_UNLOAD;
   if (supervisor_.tripped()) flags |= v1::SAFETY_TRIPPED;

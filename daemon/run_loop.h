@@ -77,6 +77,10 @@ struct RunOutcome {
 // reason text + ": " + detail, e.g. "lateral force beyond the limit: filtered ..."
 std::string trip_description(const Trip& trip);
 
+// The sample status flags (v1::StatusFlag) a backend's sensor status bits
+// (hal::SensorStatus) raise.
+std::uint32_t sample_flags_of_sensor_status(std::uint32_t status_bits);
+
 class RunLoop {
  public:
   RunLoop(hal::Transducer& transducer, const LoadFunction& load_function,

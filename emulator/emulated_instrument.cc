@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "hal/modbus_blocks.h"
+#include "hal/sim_transducer.h"
 
 namespace tribo::bench {
 
@@ -64,7 +65,7 @@ void EmulatedInstrument::step_from_drive_block() {
       sim::DriveInput{drive.command.normal_force_n, drive.command.lateral_force_n}, step_period_s_);
   ++sequence_;
   ++steps_;
-  publish_sensors(report.substep_cap_hit ? hal::kSubstepCapHit : hal::kSensorOk);
+  publish_sensors(static_cast<std::uint16_t>(hal::sensor_status_of(report)));
 }
 
 void EmulatedInstrument::publish_sensors(std::uint16_t status) {

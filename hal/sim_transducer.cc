@@ -4,6 +4,11 @@
 
 namespace tribo::hal {
 
+std::uint32_t sensor_status_of(const sim::StepReport& report) {
+  return (report.substep_cap_hit ? kSubstepCapHit : kSensorOk) | (report.snapped ? kLateralSnapDown : kSensorOk) |
+         (report.handover ? kDriveHandover : kSensorOk);
+}
+
 SimTransducer::SimTransducer(const sim::InstrumentParams& params, std::uint64_t seed,
                              double loop_rate_hz, bool pace_to_wall_clock,
                              std::vector<sim::FaultSpec> faults)
@@ -39,9 +44,7 @@ void SimTransducer::wait_next_tick() {
   ++ticks_;
   // Tick times as the controller counts them (k periods), not a running sum.
   if (!faults_.empty()) faults_.advance(static_cast<double>(ticks_) * period_s_, commanded);
-  status_bits_ = (report.substep_cap_hit ? kSubstepCapHit : kSensorOk) |
-                 (report.snapped ? kLateralSnapDown : kSensorOk) |
-                 (report.handover ? kDriveHandover : kSensorOk);
+  status_bits_ = sensor_status_of(report);
   if (pacer_) pacer_->wait();
 }
 

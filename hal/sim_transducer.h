@@ -14,6 +14,10 @@
 
 namespace tribo::hal {
 
+// The status bits (SensorStatus) a simulated instrument's step reports; the
+// bench emulator serves the same bits in its status register.
+std::uint32_t sensor_status_of(const sim::StepReport& report);
+
 class SimTransducer : public Transducer {
  public:
   SimTransducer(const sim::InstrumentParams& params, std::uint64_t seed, double loop_rate_hz,

@@ -110,7 +110,12 @@ TEST(InstrumentService, RearmAfterAnEmergencyStopResyncsTheSetpointsToTheMeasure
   v1::RearmReply rearmed;
   ASSERT_FALSE(f.service->rearm(rearmed));
   EXPECT_EQ(f.service->status().state(), v1::ARMED);
-  EXPECT_NEAR(rearmed.lateral_position_m(), 0, 1e-9);
+  // What the instrument reads at rest (a fresh session of the simulated
+  // backend): the neutral point within the position sensor's noise.
+  const hal::SensorFrame at_rest = tribo::testing::reading_at_rest(f.config, f.config.sim().seed());
+  EXPECT_EQ(rearmed.lateral_position_m(), at_rest.lateral_position_m);
+  EXPECT_EQ(rearmed.normal_force_n(), at_rest.normal_force_n);
+  EXPECT_NEAR(rearmed.lateral_position_m(), 0, 4 * tribo::testing::lateral_position_noise_m(f.config));
   EXPECT_NEAR(rearmed.normal_force_n(), 0, 1e-6);
 
   f.sink.clear();
@@ -150,8 +155,9 @@ TEST(InstrumentService, ARunStartsFromWhereTheInstrumentIs) {
   )"));
   ASSERT_EQ(f.sink.stops.size(), 1u);
   EXPECT_EQ(f.sink.stops[0].exit_status(), v1::SUCCESS) << f.sink.stops[0].reason();
+  // Sample 0 is tick 0: the reading at rest plus the offset.
   const auto& b = f.sink.samples;
-  EXPECT_NEAR(b.lateral_position_m(0), 4e-6, 1e-9);
+  EXPECT_EQ(b.lateral_position_m(0), tribo::testing::reading_at_rest(f.config, f.config.sim().seed()).lateral_position_m + 4e-6);
   EXPECT_EQ(b.lateral_setpoint_m(0), b.lateral_position_m(0));
 }
 

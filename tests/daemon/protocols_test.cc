@@ -3,6 +3,8 @@
 // simulated instrument and show what they are for.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include <filesystem>
 #include <set>
 
@@ -73,16 +75,24 @@ TEST(ShippedProtocols, StopStartRestsGrowAndSlidesRepeat) {
 }
 
 // Forward and backward strokes under the same load: friction changes sign
-// and keeps its magnitude (no wear or debris in the simulated pair).
+// and keeps its magnitude (no wear or debris in the simulated pair). The
+// tilted tip (1.5 deg by default) adds -N tan(theta) to both strokes, so the
+// half-difference is the friction and the half-sum the tilt.
 TEST(ShippedProtocols, VelocityReversalFlipsTheFriction) {
-  const auto run = run_in_loop(tribo::testing::default_config(), load_protocol_file("velocity_reversal.textproto"));
+  const v1::DaemonConfig config = tribo::testing::default_config();
+  ASSERT_TRUE(config.sim().tip().tilt_offset().enabled());
+  const double tan_tilt = std::tan(config.sim().tip().tilt_offset().angle_deg() * M_PI / 180);
+  const auto run = run_in_loop(config, load_protocol_file("velocity_reversal.textproto"));
   ASSERT_EQ(run.outcome.end, RunEnd::kCompleted) << trip_description(run.outcome.trip);
   // Strokes of 2 s from t = 5 s; the second half of each is steady sliding.
   const double forward = mean_between(run.samples, 10, 11, &Sample::lateral_force_n);
   const double backward = mean_between(run.samples, 12, 13, &Sample::lateral_force_n);
+  const double load = mean_between(run.samples, 10, 13, &Sample::normal_force_n);
   EXPECT_GT(forward, 150e-6);
   EXPECT_LT(backward, -150e-6);
-  EXPECT_NEAR(forward, -backward, 0.02 * forward);
+  const double friction = (forward - backward) / 2;
+  EXPECT_NEAR(friction, 0.0996 * load, 0.03 * friction);
+  EXPECT_NEAR((forward + backward) / 2, -load * tan_tilt, 0.02 * friction);
 }
 
 // Small amplitudes stay in presliding: the friction force follows the

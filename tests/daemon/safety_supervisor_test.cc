@@ -205,22 +205,49 @@ void without_tracking_check(ServiceFixture& f) {
   f.config.mutable_supervisor()->set_tracking_error_m(0);
 }
 
+// The lateral actuator sticks at 4 mN for 2 ms: the force reading (drive
+// minus spring) is beyond the 2 mN limit at once; the plate, 1 g on 116 N/m,
+// has moved about 8 um when the drive comes back, and the safe sequence
+// brings it home.
 TEST(SafetySupervisor, LateralForceBeyondTheLimitTrips) {
+  ServiceFixture f;
+  without_snap_down_check(f);
+  v1::InjectedFault& stuck = f.add_fault(v1::ACTUATOR_STUCK, v1::CHANNEL_LATERAL_ACTUATOR, kFaultAt, 0.002, 4e-3);
+  stuck.set_use_value(true);
+  expect_trip(f, testing::parse_protocol(kScratch), TripReason::kLateralForce, kFaultAt, kFaultAt + 3e-3);
+  EXPECT_LT(testing::first_sample_with(f.sink.samples, v1::LATERAL_SNAP_DOWN), 0) << "the plate snapped down";
+}
+
+// Stuck at 4 mN for 20 ms with the snap-down check off, the plate swings
+// past the pull-in point and snaps onto the stop, where the 100 V bias holds
+// it (about 1 N at a 2 um gap against 14 mN of spring): no controller can
+// bring it back, and the samples say why.
+TEST(SafetySupervisor, APlateDrivenOntoItsStopIsFlaggedAndStaysThere) {
   ServiceFixture f;
   without_snap_down_check(f);
   v1::InjectedFault& stuck = f.add_fault(v1::ACTUATOR_STUCK, v1::CHANNEL_LATERAL_ACTUATOR, kFaultAt, 0.02, 4e-3);
   stuck.set_use_value(true);
-  expect_trip(f, testing::parse_protocol(kScratch), TripReason::kLateralForce, kFaultAt, kFaultAt + 3e-3);
+  f.start();
+  f.run(testing::parse_protocol(kScratch));
+  ASSERT_EQ(f.sink.stops.size(), 1u);
+  EXPECT_EQ(f.sink.stops[0].exit_status(), v1::FAULT);
+  const int snapped = testing::first_sample_with(f.sink.samples, v1::LATERAL_SNAP_DOWN);
+  ASSERT_GE(snapped, 0) << "no sample flags the snap-down";
+  EXPECT_GT(f.sink.samples.time_s(snapped), kFaultAt);
+  const int last = sample_count(f.sink.samples) - 1;
+  EXPECT_TRUE(f.sink.samples.status_flags(last) & v1::LATERAL_SNAP_DOWN);
+  EXPECT_GT(std::fabs(f.sink.samples.lateral_position_m(last)), 10e-6);
 }
 
 // The lateral force channel carries 10 µN RMS per tick. A limit 22 µN above
-// the steady friction of the standard scratch (about 2.2 sigma of the raw
+// the steady lateral force of the standard scratch (about 102 µN: friction
+// 127.6 µN less N tan 1.5° for the tilted tip; about 2.2 sigma of the raw
 // channel) is exceeded by raw samples hundreds of times, but not by the
 // 200 Hz low-pass the supervisor checks (2.5 µN RMS).
 TEST(SafetySupervisor, LateralForceNoiseDoesNotTripTheFilteredLimit) {
   const v1::Protocol standard = testing::load_protocol_file("standard_scratch.textproto");
   ServiceFixture filtered;
-  filtered.config.mutable_limits()->set_max_lateral_force_n(150e-6);
+  filtered.config.mutable_limits()->set_max_lateral_force_n(124e-6);
   filtered.start();
   filtered.run(standard);
   ASSERT_EQ(filtered.sink.stops.size(), 1u);
@@ -229,7 +256,7 @@ TEST(SafetySupervisor, LateralForceNoiseDoesNotTripTheFilteredLimit) {
   // The same run, seed and limit with the filter opened to the Nyquist
   // frequency trips on noise: the filter is what keeps it running.
   ServiceFixture unfiltered;
-  unfiltered.config.mutable_limits()->set_max_lateral_force_n(150e-6);
+  unfiltered.config.mutable_limits()->set_max_lateral_force_n(124e-6);
   unfiltered.config.mutable_supervisor()->set_force_filter_hz(5000);
   unfiltered.start();
   unfiltered.run(standard);

@@ -1,18 +1,21 @@
 // End to end over Modbus: the tribo client drives the real tribod with the
 // Modbus backend against the real tribo-bench on loopback TCP. The scratch
 // gives the simulated backend's friction within quantisation; each injected
-// fault ends the run in the safe state (FAULT, normal force unloaded, lateral
-// position held) with the backend's reason recorded.
+// fault trips the safety supervisor and ends the run in its safe sequence
+// (unload with the lateral position held, then retract) with the trip and
+// the backend's cause recorded.
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 #include "client/run_summary.h"
 #include "client/tribo_client.h"
+#include "hal/modbus_register_map.h"
 #include "proto/run_files.h"
 #include "proto/sample_record.h"
 #include "proto/text_format_file.h"
 #include "tests/modbus/modbus_support.h"
+#include "tests/support/safe_sequence.h"
 #include "tests/support/daemon_process.h"
 
 namespace tribo {
@@ -92,30 +95,35 @@ void compare_with_simulated_backend(const v1::Protocol& protocol, std::uint64_t 
 
   // Sample by sample, within quantisation: while loaded (load and scratch),
   // the lateral channels differ in RMS by less than one step of the
-  // instrument's own converters. (A noise sample at a rounding edge rounds
-  // the other way; the loop then carries that step on for a while, so single
-  // samples may differ by a few steps.) The normal force differs by what the
-  // electrostatic drive makes of the normal displacement noise in its gap,
-  // 2 dz / gap, at most five sigma. The register map itself adds < 0.01 pm.
+  // instrument's own converters (the lateral position's varies with x:
+  // tests/modbus/modbus_support.h). The register map itself adds < 0.01 pm
+  // and a few pN, but a value at a rounding edge of the instrument's
+  // converters rounds the other way; the loop then carries that step on for
+  // a while, so single samples may differ by a step or two. The drive block
+  // carries force setpoints, so the normal force differs by at most one
+  // step of its converter and one count of the map.
   const v1::DaemonConfig sim_config = testing::sim_daemon_config();
   const auto& s = sim_config.sim().sensors();
-  const double dn_max = 2 * 5 * s.normal_displacement_noise_m() / 85e-6 * 1000e-6 + s.normal_force_resolution_n();
-  double sum_dx2 = 0, sum_df2 = 0, worst_dx = 0, worst_dn = 0;
+  const hal::RegisterMap map = hal::register_map_from_config(config.modbus().register_map());
+  const double dn_max = s.normal_force_resolution_n() + hal::sensor_resolution(map.sensors.normal_force, 0);
+  double sum_dx2 = 0, sum_df2 = 0, worst_dx = 0, worst_dn = 0, farthest_x = 0;
   int loaded = 0;
   for (int i = 0; i < sample_count(a.samples); ++i) {
     const std::uint32_t segment = a.samples.segment_index(i);
     ASSERT_EQ(b.samples.segment_index(i), segment);
     if (segment != 1 && segment != 2) continue;
+    farthest_x = std::max(farthest_x, std::fabs(a.samples.lateral_setpoint_m(i)));
     const double dx = a.samples.lateral_position_m(i) - b.samples.lateral_position_m(i);
     const double df = a.samples.lateral_force_n(i) - b.samples.lateral_force_n(i);
-    sum_dx2 += dx * dx;
+    const double steps = dx / testing::lateral_position_step_m(sim_config, a.samples.lateral_position_m(i));
+    sum_dx2 += steps * steps;
     sum_df2 += df * df;
     worst_dx = std::max(worst_dx, std::fabs(dx));
     worst_dn = std::max(worst_dn, std::fabs(a.samples.normal_force_n(i) - b.samples.normal_force_n(i)));
     ++loaded;
   }
-  const double rms_dx = std::sqrt(sum_dx2 / loaded), rms_df = std::sqrt(sum_df2 / loaded);
-  EXPECT_LE(rms_dx, s.lateral_position_resolution_m());
+  const double rms_dx_steps = std::sqrt(sum_dx2 / loaded), rms_df = std::sqrt(sum_df2 / loaded);
+  EXPECT_LE(rms_dx_steps, 1.0);
   EXPECT_LE(rms_df, s.lateral_force_resolution_n());
   EXPECT_LE(worst_dn, dn_max);
   EXPECT_GT(worst_dx, 0.0) << "the two runs are bit-identical: was the Modbus backend used?";
@@ -131,12 +139,16 @@ void compare_with_simulated_backend(const v1::Protocol& protocol, std::uint64_t 
   EXPECT_NEAR(sb.normal_force_un(), sa.normal_force_un(), dn_max * 1e6);
   EXPECT_NEAR(sb.mu(), sa.mu(), tolerance_un / sa.normal_force_un());
   EXPECT_NEAR(sb.stiction_peak_un(), sa.stiction_peak_un(), lsb_un);
-  EXPECT_NEAR(sb.steady_lag_um(), sa.steady_lag_um(), s.lateral_position_resolution_m() * 1e6);
+  // The lag is commanded minus measured position: one converter step where
+  // the scratch reaches farthest (the step grows with |x|).
+  EXPECT_NEAR(sb.steady_lag_um(), sa.steady_lag_um(),
+              testing::lateral_position_step_m(sim_config, farthest_x) * 1e6);
   std::printf("mean friction: sim %.6f µN, modbus %.6f µN (tolerance %.4f µN); stiction peak %.4f / %.4f µN; "
-              "lag %.7f / %.7f µm; loaded samples differ by %.3g m RMS (max %.3g), %.3g N RMS lateral force, "
+              "lag %.7f / %.7f µm; loaded samples differ by %.3g converter steps RMS (max %.3g m), %.3g N RMS lateral "
+              "force, "
               "max %.3g N normal force\n",
               sa.mean_friction_un(), sb.mean_friction_un(), tolerance_un, sa.stiction_peak_un(),
-              sb.stiction_peak_un(), sa.steady_lag_um(), sb.steady_lag_um(), rms_dx, worst_dx, rms_df, worst_dn);
+              sb.stiction_peak_un(), sa.steady_lag_um(), sb.steady_lag_um(), rms_dx_steps, worst_dx, rms_df, worst_dn);
 
   // The backend's health is recorded with the run and shown in status.
   const v1::BackendHealth& h = b.stop.backend_health();
@@ -182,7 +194,8 @@ constexpr std::uint64_t kFaultStep = 8000;  // 0.8 s: loaded, in the hold
 struct FaultCase {
   const char* name;
   v1::BenchFault fault;
-  const char* cause;  // the backend's first error, recorded in the stop reason
+  const char* trip;   // the supervisor's trip (daemon/safety_supervisor.h), first in the stop reason
+  const char* cause;  // the backend's first error, recorded after it
 };
 
 v1::BenchFault make_fault(v1::BenchFault::Kind kind, std::uint32_t requests, double delay_s = 0,
@@ -200,7 +213,13 @@ void PrintTo(const FaultCase& c, std::ostream* os) { *os << c.name; }
 
 class ModbusFault : public ::testing::TestWithParam<FaultCase> {};
 
-TEST_P(ModbusFault, EndsInTheSafeStateWithTheReasonRecorded) {
+// Each fault trips the safety supervisor at the failed transaction, and the
+// run ends in the documented safe sequence (README "Control and safety",
+// daemon/stop_sequence.h): the normal drive ramps to zero at the unload rate
+// while the lateral axis holds its setpoint, then the lateral axis retracts
+// to the neutral point; FAULT with the trip and the backend's cause as the
+// reason, the daemon FAULTED until re-armed.
+TEST_P(ModbusFault, EndsInTheSafeSequenceWithTheReasonRecorded) {
   const FaultCase& c = GetParam();
   v1::DaemonConfig config = testing::modbus_daemon_config();
   // Long enough that a stall of this busy machine is not taken for the fault.
@@ -209,70 +228,79 @@ TEST_P(ModbusFault, EndsInTheSafeStateWithTheReasonRecorded) {
   ModbusRig rig(config, {c.fault});
   const client::RunResult r = run(rig.daemon, loaded_hold(), 4);
 
-  // The run faulted at the injected step, not before.
+  // The run faulted at the injected step, not before, for the supervisor's
+  // reason with the backend's cause.
   EXPECT_EQ(r.stop.exit_status(), v1::FAULT);
+  EXPECT_EQ(r.stop.reason().rfind(std::string(c.trip) + ": ", 0), 0u) << r.stop.reason();
   const std::string cause = std::string("backend modbus: ") + c.cause;
   EXPECT_NE(r.stop.reason().find(cause), std::string::npos) << r.stop.reason() << "\nexpected: " << cause;
+  // The Fault document, sent at the trip, names it; the stop adds the cause.
+  ASSERT_EQ(r.faults.size(), 1u);
+  EXPECT_EQ(r.faults[0].reason().rfind(c.trip, 0), 0u) << r.faults[0].reason();
+  EXPECT_EQ(r.stop.reason().rfind(r.faults[0].reason(), 0), 0u) << r.stop.reason();
   const auto& b = r.samples;
   const int n = sample_count(b);
   ASSERT_GT(n, 700);
-  EXPECT_EQ(b.status_flags(0) & v1::SAFE_UNLOAD, 0u);
-  int first_unload = -1;
-  for (int i = 0; i < n && first_unload < 0; ++i) {
-    if (b.status_flags(i) & v1::SAFE_UNLOAD) first_unload = i;
-  }
+  const int tripped = testing::first_sample_with(b, v1::SAFETY_TRIPPED);
+  const int first_unload = testing::first_sample_with(b, v1::SAFE_UNLOAD);
   ASSERT_GE(first_unload, 0) << "never unloaded";
+  EXPECT_EQ(tripped, first_unload) << "the trip starts the stop sequence";
   EXPECT_NEAR(b.time_s(first_unload), kFaultStep * 1e-4, 2e-3);
+  EXPECT_EQ(r.faults[0].sequence(), static_cast<std::uint64_t>(first_unload)) << "where the unload began";
 
-  // The safe state (daemon/stop_sequence.h): normal force setpoint ramped to
-  // zero with the lateral setpoint held where it was, then the lateral axis
-  // retracted to the neutral point, the run over.
-  EXPECT_EQ(b.normal_setpoint_n(n - 1), 0.0);
-  EXPECT_TRUE(b.status_flags(n - 1) & v1::SAFE_UNLOAD);
-  for (int i = first_unload; i < n; ++i) {
-    if (b.normal_setpoint_n(i) > 0) {
-      EXPECT_NEAR(b.lateral_setpoint_m(i), 2e-6, 1e-15) << i;
-    }
-    if (i > first_unload) {
-      EXPECT_LE(b.lateral_setpoint_m(i), b.lateral_setpoint_m(i - 1) + 1e-15) << i;
-    }
+  // The safe sequence, sample by sample; the lateral setpoint is held where
+  // the hold had it while the load comes off.
+  testing::expect_safe_sequence(b, config);
+  for (int i = first_unload; i < n && b.normal_setpoint_n(i) > 0; ++i) {
+    EXPECT_NEAR(b.lateral_setpoint_m(i), 2e-6, 1e-15) << i;
   }
-  EXPECT_EQ(b.lateral_setpoint_m(n - 1), 0.0);
   // Unload 0.1 s, hold 0.05 s, retract 0.2 s, settle within 0.1 µm (~0.6 s).
   EXPECT_LT(b.time_s(n - 1), kFaultStep * 1e-4 + 1.5) << "the stop sequence did not end the run";
   // Every fault here is brief, so the link is back for the unload and the
   // emulated plant is really unloaded.
   EXPECT_NEAR(b.normal_force_n(n - 1), 0.0, 1e-6);
 
-  // Recorded on disk and in status.
+  // Recorded on disk and in status; nothing starts again without a re-arm.
   std::string error;
   const auto recorded = wire::read_run_directory(rig.data.path() / r.start.run_id(), error);
   ASSERT_TRUE(recorded) << error;
   EXPECT_EQ(recorded->metadata.stop().exit_status(), v1::FAULT);
   EXPECT_EQ(recorded->metadata.stop().reason(), r.stop.reason());
   EXPECT_EQ(recorded->metadata.stop().backend_health().first_error(), c.cause);
-  client::TriboClient client({"127.0.0.1", rig.daemon.port()}, client::SessionOptions{});
+  client::TriboClient client({"127.0.0.1", rig.daemon.port()}, {"modbus-test", v1::CONTROLLER, ""});
   v1::ClientMessage status;
   status.mutable_get_status();
   const v1::StatusReply s = client.request(status).status();
   EXPECT_EQ(s.state(), v1::FAULTED);
+  EXPECT_TRUE(s.tripped());
+  EXPECT_EQ(s.trip_reason(), r.stop.reason());
   EXPECT_EQ(s.backend_health().first_error(), c.cause);
+  v1::ClientMessage start;
+  start.mutable_start_run();
+  try {
+    client.request(start);
+    ADD_FAILURE() << "a faulted instrument started a run without a re-arm";
+  } catch (const client::ClientError& e) {
+    EXPECT_EQ(e.error().code(), v1::WRONG_STATE) << e.what();
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(
     Faults, ModbusFault,
     ::testing::Values(
-        FaultCase{"StopAnswering", make_fault(v1::BenchFault::STOP_ANSWERING, 3),
+        // A failed read trips at once (config/tribod-modbus.textproto:
+        // stale_sensor_ticks 1); a lost connection is a lost backend.
+        FaultCase{"StopAnswering", make_fault(v1::BenchFault::STOP_ANSWERING, 3), "sensor data stale",
                   "read sensor block: no answer within the response timeout (500 ms)"},
-        FaultCase{"SlowAnswers", make_fault(v1::BenchFault::SLOW_ANSWERS, 1, 0.8),
+        FaultCase{"SlowAnswers", make_fault(v1::BenchFault::SLOW_ANSWERS, 1, 0.8), "sensor data stale",
                   "read sensor block: no answer within the response timeout (500 ms)"},
-        FaultCase{"Exception", make_fault(v1::BenchFault::EXCEPTION, 2, 0, 4),
+        FaultCase{"Exception", make_fault(v1::BenchFault::EXCEPTION, 2, 0, 4), "sensor data stale",
                   "read sensor block: the device answered with exception 4 (Slave device or server failure)"},
-        FaultCase{"DropConnection", make_fault(v1::BenchFault::DROP_CONNECTION, 0),
+        FaultCase{"DropConnection", make_fault(v1::BenchFault::DROP_CONNECTION, 0), "backend communication lost",
                   "read sensor block: connection lost (Connection reset by peer)"},
-        FaultCase{"CorruptValues", make_fault(v1::BenchFault::CORRUPT_VALUES, 1),
+        FaultCase{"CorruptValues", make_fault(v1::BenchFault::CORRUPT_VALUES, 1), "sensor data stale",
                   "read sensor block: corrupt answer (checksum mismatch)"},
-        FaultCase{"FreezePlant", make_fault(v1::BenchFault::FREEZE_PLANT, 3),
+        FaultCase{"FreezePlant", make_fault(v1::BenchFault::FREEZE_PLANT, 3), "sensor data stale",
                   "read sensor block: stale data (sequence 8000 did not advance)"}),
     [](const ::testing::TestParamInfo<FaultCase>& info) { return std::string(info.param.name); });
 

@@ -13,6 +13,8 @@
 
 #include "daemon/daemon_config.h"
 #include "proto/text_format_file.h"
+#include "sim/capacitive_sensor.h"
+#include "sim/instrument_params.h"
 
 namespace tribo::testing {
 
@@ -102,6 +104,16 @@ std::filesystem::path write_bench_config(const std::filesystem::path& dir, const
 v1::DaemonConfig with_port(v1::DaemonConfig config, std::uint16_t port) {
   config.mutable_modbus()->mutable_tcp()->set_port(port);
   return config;
+}
+
+double lateral_position_step_m(const v1::DaemonConfig& sim_config, double x) {
+  const sim::CapacitiveSensingParams s = sim::instrument_params_from_config(sim_config.sim()).lateral_sensing;
+  const sim::Adc adc(s.adc_bits, s.adc_full_scale_v);
+  if (adc.bits == 0) throw std::runtime_error("the simulated lateral position has no converter (adc_bits 0)");
+  const double gain = s.excitation_voltage_v / s.feedback_capacitance_f;
+  const double v = gain * sim::differential_capacitance_f(s.plates, x);
+  return sim::position_from_voltage_m(s.calibrated, gain, v + adc.step_v / 2) -
+         sim::position_from_voltage_m(s.calibrated, gain, v - adc.step_v / 2);
 }
 
 }  // namespace tribo::testing

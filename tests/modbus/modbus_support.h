@@ -52,4 +52,11 @@ std::filesystem::path write_bench_config(const std::filesystem::path& dir, const
 // The daemon config pointed at a bench on this port.
 v1::DaemonConfig with_port(v1::DaemonConfig config, std::uint16_t port);
 
+// One step of the simulated instrument's own lateral position converter at
+// position x (sim/capacitive_sensor.h): the ADC's voltage step through the
+// linearisation, dx = dV / (V0/Cf d(dC)/dx), so it grows with |x| as the
+// differential capacitance steepens (2 pm at x = 0 in config/tribod.textproto).
+// The converter the Modbus runs are compared against: "within quantisation".
+double lateral_position_step_m(const v1::DaemonConfig& sim_config, double position_m);
+
 }  // namespace tribo::testing

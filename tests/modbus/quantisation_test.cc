@@ -48,7 +48,9 @@ class MappedSimTransducer : public hal::Transducer {
   }
 
   hal::IoResult write(const hal::DriveCommand& command) override {
-    // Voltage from the measured gap, force from the true one, as in tribo-bench.
+    // As in tribo-bench: an electrostatic drive channel (not the shipped map,
+    // whose drive block carries force) gets the voltage from the measured gap
+    // and the force from the true one.
     hal::encode_drive_block(map_, ++sequence_, command, measured_, drive_.data());
     const sim::InstrumentTruth& truth = sim_.instrument().truth();
     return sim_.write(

@@ -69,7 +69,7 @@ TEST(ModbusConfig, ValidationNamesTheEntry) {
        "modbus.register_map.sensors.lateral_position: full scale too small: limits.max_lateral_travel_m = 1.5e-05 "
        "needs"},
       {[](auto& m) {
-         m.mutable_register_map()->mutable_drive()->mutable_normal_force()->set_volts_per_count(1e-7);
+         m.mutable_register_map()->mutable_drive()->mutable_normal_force()->set_volts_per_count(1e-9);
        },
        "modbus.register_map.drive.normal_force: full scale too small: limits.max_normal_force_n = 0.01 needs"},
       {[](auto& m) { m.mutable_register_map()->mutable_drive()->mutable_lateral_force()->clear_scale(); },
@@ -163,21 +163,52 @@ TEST(RegisterMapBlocks, OverRangeReadingIsNotAMeasurement) {
   EXPECT_NEAR(v.frame.lateral_position_m, 1e-6, 1e-14);
 }
 
-TEST(RegisterMapBlocks, DriveRoundTripsThroughTheElectrostaticActuator) {
+// The shipped drive block carries force setpoints: the electrostatic law
+// (bias, plate choice, gap) is applied by the instrument's electronics behind
+// it, so the value does not depend on where either side thinks the plate is.
+TEST(RegisterMapBlocks, DriveRoundTripsAsForceSetpoints) {
   const RegisterMap map = hal::register_map_from_config(testing::modbus_daemon_config().modbus().register_map());
+  std::vector<std::uint16_t> block(map.drive.count);
+  const hal::AxisPositions at{6.5e-6, 30e-9}, elsewhere{-3e-6, 0};
+  for (const hal::DriveCommand command : {hal::DriveCommand{1000e-6, 882.4e-6}, hal::DriveCommand{0, -1.3e-3},
+                                          hal::DriveCommand{9.99e-3, 4.99e-3}, hal::DriveCommand{0, 0}}) {
+    ASSERT_TRUE(hal::encode_drive_block(map, 42, command, at, block.data()));
+    const hal::DriveBlockValues back = hal::decode_drive_block(map, block.data(), elsewhere);
+    EXPECT_EQ(back.sequence, 42u);
+    // Within half a DAC count (4.77 nV): 2.4 pN lateral at 1 mN/V, 4.8 pN normal at 2 mN/V.
+    EXPECT_NEAR(back.command.normal_force_n, command.normal_force_n, 4.8e-12);
+    EXPECT_NEAR(back.command.lateral_force_n, command.lateral_force_n, 2.4e-12);
+  }
+  // The documented layout: lateral counts in registers 4-5, 1 mN/V over 10.24 V / 2^31.
+  ASSERT_TRUE(hal::encode_drive_block(map, 1, {0, 1e-3}, at, block.data()));
+  EXPECT_EQ(static_cast<std::int32_t>(static_cast<std::uint32_t>(block[4]) << 16 | block[5]), 209715200);
+}
+
+// The map can also describe an instrument whose drive register is the
+// voltage of the pulling plate of an unbiased drive (physics.md §2): then
+// the backend solves the law at its measured position, the plate feels it at
+// the true one, and a position error dx changes the force by 2 dx / gap.
+TEST(RegisterMapBlocks, AnElectrostaticDriveChannelRoundTripsThroughThePlateLaw) {
+  v1::ModbusRegisterMap config = testing::modbus_daemon_config().modbus().register_map();
+  for (v1::DriveChannel* c : {config.mutable_drive()->mutable_normal_force(),
+                              config.mutable_drive()->mutable_lateral_force()}) {
+    c->set_volts_per_count(1000.0 / 2147483648.0);  // ±1000 V
+    auto* e = c->mutable_electrostatic();
+    e->set_permittivity_f_per_m(8.854e-12);
+    e->set_plate_area_m2(1e-4);
+    e->set_plate_gap_m(85e-6);
+  }
+  const RegisterMap map = hal::register_map_from_config(config);
   std::vector<std::uint16_t> block(map.drive.count);
   const hal::AxisPositions at{6.5e-6, 30e-9};
   for (const hal::DriveCommand command : {hal::DriveCommand{1000e-6, 882.4e-6}, hal::DriveCommand{0, -1.3e-3},
                                           hal::DriveCommand{9.99e-3, 4.99e-3}, hal::DriveCommand{0, 0}}) {
     ASSERT_TRUE(hal::encode_drive_block(map, 42, command, at, block.data()));
     const hal::DriveBlockValues back = hal::decode_drive_block(map, block.data(), at);
-    EXPECT_EQ(back.sequence, 42u);
     // One DAC count (0.47 µV) in hundreds of volts: a few pN.
     EXPECT_NEAR(back.command.normal_force_n, command.normal_force_n, 1e-11);
     EXPECT_NEAR(back.command.lateral_force_n, command.lateral_force_n, 1e-11);
   }
-  // The emulator's plant pulls across the true gap: a position error dx in
-  // the controller's reading changes the force by 2 dx / gap, as on hardware.
   ASSERT_TRUE(hal::encode_drive_block(map, 1, {0, 1e-3}, at, block.data()));
   const hal::AxisPositions moved{at.lateral_position_m + 1e-9, at.normal_displacement_m};
   const double force = hal::decode_drive_block(map, block.data(), moved).command.lateral_force_n;
@@ -187,10 +218,15 @@ TEST(RegisterMapBlocks, DriveRoundTripsThroughTheElectrostaticActuator) {
 TEST(RegisterMapBlocks, QuantisationBudget) {
   const v1::DaemonConfig config = testing::modbus_daemon_config();
   const RegisterMap map = hal::register_map_from_config(config.modbus().register_map());
-  // The shipped map adds < 0.01 pm of position over the whole travel, two
-  // orders below the transducer's own 1.8 pm step (config/tribod.textproto).
+  // The shipped map adds < 0.01 pm of position over the whole travel, more
+  // than two orders below the instrument's own position converter (2 pm at
+  // x = 0, growing with |x|: tests/modbus/modbus_support.h).
+  const v1::DaemonConfig physics = testing::sim_daemon_config();
   for (double x : {-15e-6, 0.0, 2e-6, 10e-6, 15e-6}) {
     EXPECT_LT(hal::sensor_resolution(map.sensors.lateral_position, x), 0.01e-12) << x;
+    EXPECT_LT(hal::sensor_resolution(map.sensors.lateral_position, x),
+              0.01 * testing::lateral_position_step_m(physics, x))
+        << x;
   }
   EXPECT_LT(hal::sensor_resolution(map.sensors.lateral_force, 0), 1e-11);
   EXPECT_LT(hal::sensor_resolution(map.sensors.normal_force, 0), 1e-10);

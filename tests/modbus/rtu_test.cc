@@ -101,14 +101,15 @@ TEST(ModbusRtu, LockStepLoopOverAPseudoTerminalMatchesTheSimulatedBackend) {
                          sim_config.controller().loop_rate_hz(), false);
   daemon::Controller a_controller(daemon::controller_params_from_config(config.controller()));
   daemon::Controller b_controller(daemon::controller_params_from_config(sim_config.controller()));
-  const double resolution = sim_config.sim().sensors().lateral_position_resolution_m();
   for (int k = 0; k < 300; ++k) {
     daemon::Setpoints sp;
     sp.lateral_position_m = k * 1e-9;
     hal::SensorFrame a, b;
     ASSERT_EQ(modbus->read(a), hal::IoResult::kOk) << k << ": " << modbus->health().last_error;
     sim.read(b);
-    ASSERT_NEAR(a.lateral_position_m, b.lateral_position_m, resolution + 1e-14) << k;
+    ASSERT_NEAR(a.lateral_position_m, b.lateral_position_m,
+                testing::lateral_position_step_m(sim_config, b.lateral_position_m) + 1e-14)
+        << k;
     ASSERT_EQ(modbus->write(a_controller.step(sp, a).drive), hal::IoResult::kOk) << k;
     sim.write(b_controller.step(sp, b).drive);
     sim.wait_next_tick();

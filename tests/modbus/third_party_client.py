@@ -14,8 +14,8 @@ from pymodbus.client import ModbusTcpClient
 from pymodbus.utilities import computeCRC
 
 UNIT = 1
-VOLTS_PER_COUNT = 10.24 / 2**31          # sensor ADC: 32-bit counts over +-10.24 V
-DRIVE_VOLTS_PER_COUNT = 1000.0 / 2**31   # drive DAC: 32-bit counts over +-1000 V
+VOLTS_PER_COUNT = 10.24 / 2**31          # sensor ADC and drive DAC: 32-bit counts over +-10.24 V
+LATERAL_DRIVE_N_PER_V = 1e-3             # the drive block carries force setpoints: 1 mN/V lateral
 EPS, AREA, GAP = 8.854e-12, 1e-4, 85e-6  # physics.md §2-3, §5.1.1
 
 
@@ -58,11 +58,9 @@ def read_sensors(client):
     return decode_sensors(rr.registers)
 
 
-def drive_block(sequence, lateral_force_n, lateral_position_m):
-    """Sequence, then the normal and lateral drive as signed 32-bit DAC counts."""
-    gap = GAP - lateral_position_m if lateral_force_n >= 0 else GAP + lateral_position_m
-    volts = np.copysign(gap * np.sqrt(2 * abs(lateral_force_n) / (EPS * AREA)), lateral_force_n)
-    counts = int(round(volts / DRIVE_VOLTS_PER_COUNT))
+def drive_block(sequence, lateral_force_n):
+    """Sequence, then the normal and lateral force setpoints as signed 32-bit DAC counts."""
+    counts = int(round(lateral_force_n / LATERAL_DRIVE_N_PER_V / VOLTS_PER_COUNT))
     words = struct.unpack(">HHHHHH", struct.pack(">Iii", sequence, 0, counts))
     return list(words)
 
@@ -88,16 +86,15 @@ def main():
 
     # Lock-step: a drive block with sequence 1 steps the plant once.
     lateral_force_n = 1e-4
-    rq = client.write_registers(0, drive_block(1, lateral_force_n, out["after_reset"]["lateral_position_m"]),
-                                slave=UNIT)
+    rq = client.write_registers(0, drive_block(1, lateral_force_n), slave=UNIT)
     assert not rq.isError(), rq
     out["after_step"] = read_sensors(client)
     out["lateral_drive_n"] = lateral_force_n
 
     # Repeating sequence 1 is acknowledged without a step; sequence 5 is refused.
-    out["repeat_is_error"] = client.write_registers(0, drive_block(1, 0, 0), slave=UNIT).isError()
+    out["repeat_is_error"] = client.write_registers(0, drive_block(1, 0), slave=UNIT).isError()
     out["after_repeat_sequence"] = read_sensors(client)["sequence"]
-    refused = client.write_registers(0, drive_block(5, 0, 0), slave=UNIT)
+    refused = client.write_registers(0, drive_block(5, 0), slave=UNIT)
     out["out_of_sequence_exception"] = refused.exception_code if refused.isError() else 0
     client.close()
     print(json.dumps(out))

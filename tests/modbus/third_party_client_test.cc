@@ -63,14 +63,10 @@ TEST(ThirdPartyClient, PymodbusReadsAndDrivesTheEmulatorAsDocumented) {
   seven.step({0, field(out, "lateral_drive_n")}, 1e-4);
   EXPECT_EQ(field(child(out, "after_step"), "sequence"), 1);
   const Struct& stepped = child(out, "after_step");
-  // The drive crossed the electrostatic conversion (voltage from the measured
-  // gap, force from the true one): a 1e-7 relative difference, far below one
-  // step of the instrument's converters.
-  EXPECT_NEAR(field(stepped, "lateral_position_m"), seven.measurement().lateral_position_m,
-              physics.sim().sensors().lateral_position_resolution_m());
-  EXPECT_NEAR(field(stepped, "lateral_force_n"), seven.measurement().lateral_force_n,
-              physics.sim().sensors().lateral_force_resolution_n());
-  EXPECT_GT(field(stepped, "lateral_position_m"), 3e-10) << "0.1 mN for 100 µs moves the plate";
+  // The force setpoint crossed the DAC exactly (0.1 mN is a whole number of
+  // 4.8 pN counts): the emulated instrument took the step the simulated one did.
+  expect_measurement(stepped, seven.measurement(), "after one step");
+  EXPECT_GT(seven.truth().lateral.position_m, 3e-10) << "0.1 mN for 100 µs moves the plate";
 
   EXPECT_FALSE(out.fields().at("repeat_is_error").bool_value());
   EXPECT_EQ(field(out, "after_repeat_sequence"), 1) << "a repeated drive write must not step";

@@ -34,6 +34,25 @@ inline void silence_sensors(v1::DaemonConfig& config) {
   sensing->set_adc_bits(0);
 }
 
+// The first reading of a fresh simulated session (no faults): the instrument
+// at rest, its sensor noise drawn from this seed. Rearm reports this; a run
+// starts from it.
+inline hal::SensorFrame reading_at_rest(const v1::DaemonConfig& config, std::uint64_t seed) {
+  hal::SimTransducer transducer(sim::instrument_params_from_config(config.sim()), seed,
+                                config.controller().loop_rate_hz(), false);
+  hal::SensorFrame frame;
+  transducer.read(frame);
+  return frame;
+}
+
+// RMS of the lateral position noise at rest (white per sample and the
+// low-frequency wander of Table 3.2's floor): a still tip reads within a few
+// of these of where it is.
+inline double lateral_position_noise_m(const v1::DaemonConfig& config) {
+  const auto& s = config.sim().lateral().sensing();
+  return std::hypot(s.white_noise_m(), s.low_frequency_noise_m());
+}
+
 struct LoopSetpoints {
   double normal_force_n;
   double lateral_position_m;
