@@ -12,7 +12,8 @@
 //   white:         Gaussian, RMS per loop sample (it dithers the contact in a
 //                  fast loop; keep it small -- see config/tribod.textproto)
 //   low frequency: a 2nd-order Gauss-Markov process (sim/gauss_markov.h),
-//                  Table 3.2's 10 nm noise floor, which the loop follows
+//                  the slow part of Table 3.2's 10 nm noise floor, which
+//                  the loop follows (3 nm by default: config/tribod.textproto)
 //   drift:         the sensor zero moves at drift_m_per_s (thermal drift)
 // The controller sees only the linearised reading, never the true x.
 #pragma once

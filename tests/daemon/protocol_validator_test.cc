@@ -352,23 +352,31 @@ TEST(ProtocolValidator, AChangeOfModeStartsFromTheMeasuredValue) {
 }
 
 TEST(ProtocolValidator, PullInMarginAlongTheLateralPath) {
-  // At +13 µm a lateral force of 2000 µN, with 1 µm of break-away excursion,
+  // A lateral transducer with the normal axis's plates (85 µm, no bias): at
+  // +13 µm a lateral force of 2000 µN, with 1 µm of break-away excursion,
   // needs a drive of 2000 µN + 116 N/m x 14 µm = 3.62 mN at a 71 µm gap:
   // 2F/g = 102 N/m leaves k_eff/k = 0.12.
+  v1::DaemonConfig narrow = testing::default_config();
+  v1::TransducerAxisConstants& lateral = *narrow.mutable_transducer()->mutable_lateral();
+  lateral.set_gap_positive_m(85e-6);
+  lateral.set_gap_negative_m(85e-6);
+  lateral.set_bias_v(0);
   v1::Protocol p = loaded(R"(
     segments { duration_s: 2 normal { shape: HOLD } lateral { end_um: 13 } }
     segments { duration_s: 2 normal { shape: HOLD }
                lateral { mode: LATERAL_FORCE begin_uN: 0 end_uN: 2000 max_excursion_um: 1 } }
     segments { duration_s: 2 normal { shape: HOLD } lateral { end_um: 4 } }
   )");
-  const ProtocolCheck c = check(p);
+  const ProtocolCheck c = validate_protocol(p, narrow);
   const ValidationIssue* e = find(c, "segments[3].lateral");
   ASSERT_NE(e, nullptr) << all(c);
   EXPECT_NE(e->message.find("pull-in margin"), std::string::npos) << e->message;
   EXPECT_NE(e->message.find("x = 14 µm"), std::string::npos) << e->message;
   EXPECT_NE(e->message.find("minimum 0.2"), std::string::npos) << e->message;
-  p.mutable_segments(3)->mutable_lateral()->set_end_un(1000);  // 2.62 mN: k_eff/k = 0.36
+  // The shipped plates (120/126 µm, 100 V bias) leave k_eff/k = 0.35 there.
   EXPECT_TRUE(check(p).ok()) << all(check(p));
+  p.mutable_segments(3)->mutable_lateral()->set_end_un(1000);  // 2.62 mN: k_eff/k = 0.36
+  EXPECT_TRUE(validate_protocol(p, narrow).ok()) << all(validate_protocol(p, narrow));
 }
 
 TEST(ProtocolValidator, NormalDriveVoltageStaysBelowTheAmplifierLimit) {

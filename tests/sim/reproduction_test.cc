@@ -133,7 +133,7 @@ TEST(Reproduction, FrictionIsLinearInLoadWithTheMeasuredMu) {
 
 // Five runs at 3000 µN and 13.5 µm/s spread by 1.3 % in the dissertation.
 // Seeds change only the noise in the simulated instrument, which spreads the
-// means by a few 0.1 % (the 10 nm position wander the tip follows); the
+// means by < 0.1 % (0.066 % with the 3 nm position wander the tip follows); the
 // rest comes from the sample, spot to spot (sample.heterogeneity, 1.3 % RMS,
 // off by default). The standard deviation of five draws lies within
 // [0.35, 1.67] sigma with 95 % probability.
@@ -211,9 +211,9 @@ TEST(Reproduction, StictionRiseIsEarlierAtHigherVelocity) {
 // Fig. 4.22: a longer rest before motion gives a larger spike. Plain LuGre
 // forgets the rest; with dwell_stiction (Armstrong's rising static friction)
 // on at its configured 0.3 gain and 100 s time constant the spike grows.
-// Quiet sensors: with them the held tip follows the 10 nm position wander,
-// which leaves the bristle +-10 nm (+-34 uN) anywhere when motion starts
-// and hides a 60 s dwell's few %.
+// Quiet sensors: with them the held tip follows the 3 nm position wander,
+// which leaves the bristle +-3 nm (+-10 uN) anywhere when motion starts
+// and blurs a 60 s dwell's few %.
 TEST(Reproduction, LongerRestGivesALargerSpikeWithDwellStiction) {
   v1::DaemonConfig config = default_config();
   testing::silence_sensors(config);
@@ -243,8 +243,8 @@ TEST(Reproduction, LongerRestGivesALargerSpikeWithDwellStiction) {
 
 // §5.4.1, eq. 32: in steady sliding the I-PD loop lags by dl = k v0 / ki,
 // where k is everything proportional to position: kp plus the transducer
-// spring (the dissertation's plant has none). Quiet sensors: the 10 nm
-// position wander would blur the 0.1 um lag at 0.5 um/s by ~10 %.
+// spring (the dissertation's plant has none). Quiet sensors: the 3 nm
+// position wander would blur the 0.1 um lag at 0.5 um/s by a few %.
 TEST(Reproduction, SteadyLagIsStiffnessTimesVelocityOverKi) {
   v1::DaemonConfig config = default_config();
   testing::silence_sensors(config);
@@ -328,8 +328,8 @@ TEST(Reproduction, StretchTimeAndDistanceAndTheTable51Formulas) {
 // §5.2: during loading with no motion the tilted tip makes the transducer
 // read -N tan(theta): the lateral force at rest against the load is a line
 // of slope -tan(theta). Quiet sensors: at rest the stuck tip follows the
-// 10 nm position wander, which moves the lateral force by sigma0 * 10 nm
-// ~ 34 uN RMS (README) and would hide the line at 1 mN. On top of the line
+// 3 nm position wander, which moves the lateral force by sigma0 * 3 nm
+// ~ 10 uN RMS (README) and would blur the line at 1 mN. On top of the line
 // sits what the bristle kept from loading: at light load the tilt's push
 // makes the contact creep (LuGre has no true stiction), and the loop's
 // integrator, pulling the tip back, does not undo all of it -- measured
@@ -436,9 +436,9 @@ TEST(Reproduction, SlowFeedbackOscillatesAtLowVelocityAndTheDefaultLoopDoesNot) 
   std::printf("  10 Hz loop: friction wobble %.1f %% of F_ss at 0.05 um/s (largest advance %.1f x commanded per 0.1 s), "
               "%.1f %% at 0.5 um/s (%.1f x); 10 kHz loop: %.1f %% at 0.05 um/s (%.1f x)\n",
               100 * slow_low, slow_low_slip, 100 * slow_high, slow_high_slip, 100 * fast_low, fast_low_slip);
-  // Measured: 41 % and 45x (stick-slip) against 8-9 % and 1.3-2.7x; the
-  // default loop's 8 % at 0.05 um/s is the stuck tip following the 10 nm
-  // position wander (sigma0 * 10 nm), not an oscillation of the loop.
+  // Measured: 27 % and 38x (stick-slip) against 7-8 % and 1.1-2.8x. The
+  // default loop's 7 % at 0.05 um/s is no stick-slip (the tip never runs
+  // ahead by more than 1.1x the commanded advance).
   EXPECT_GT(slow_low, 0.25) << "stick-slip under the slow loop";
   EXPECT_GT(slow_low_slip, 10.0);
   EXPECT_LT(slow_high, 0.15) << "above ~0.1 um/s the slow loop scratches";
