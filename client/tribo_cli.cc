@@ -119,7 +119,8 @@ std::variant<Options, std::string> parse_options(int argc, char** argv) {
   o.command = argv[1];
   for (int i = 2; i < argc; ++i) {
     const std::string arg = argv[i];
-    const bool has_value = i + 1 < argc;
+    // An option's value never starts with "--" (negative numbers have one dash).
+    const bool has_value = i + 1 < argc && !std::string(argv[i + 1]).starts_with("--");
     if (arg == "--json") {
       o.json = true;
     } else if (arg == "--apply") {
