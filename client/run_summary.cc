@@ -1,10 +1,12 @@
 #include "client/run_summary.h"
 
+#include <cmath>
 #include <cstdio>
 
 #include <google/protobuf/util/json_util.h>
 
 #include "analysis/run_metrics.h"
+#include "analysis/tip_tilt.h"
 #include "proto/sample_record.h"
 
 namespace tribo::client {
@@ -34,6 +36,11 @@ v1::RunSummary summarize_run(const RunResult& run) {
   // blocks expanded); older daemons sent only the protocol.
   const auto& unrolled = run.start.segments();
   const auto& segments = run.start.protocol().segments();
+  const auto tilt = analysis::estimate_tip_tilt(run.samples);
+  if (tilt) {
+    s.set_tilt_tan(tilt->tan_tilt);
+    s.set_tilt_segment(tilt->first_segment);
+  }
   for (const auto& m : analysis::sliding_segment_metrics(run.samples)) {
     v1::SlidingSummary* out = s.add_scratches();
     out->set_segment(m.segment);
@@ -54,6 +61,12 @@ v1::RunSummary summarize_run(const RunResult& run) {
     out->set_steady_window_begin_s(m.steady_begin_s);
     out->set_steady_window_end_s(m.end_s);
     out->set_steady_samples(static_cast<std::uint32_t>(m.steady_samples));
+    if (tilt) {
+      const double corrected_n =
+          analysis::tilt_corrected_friction_n(m.mean_friction_n, m.velocity_m_per_s, m.normal_force_n, tilt->tan_tilt);
+      out->set_mean_friction_tilt_corrected_un(corrected_n * kMicro);
+      out->set_mu_tilt_corrected(m.normal_force_n > 0 ? corrected_n / m.normal_force_n : 0.0);
+    }
   }
   return s;
 }
@@ -64,6 +77,12 @@ std::string summary_text(const v1::RunSummary& s) {
   text += format("\n  protocol   %s, %.3f s, %llu samples, seed %llu\n", s.protocol().c_str(),
                  s.duration_s(), static_cast<unsigned long long>(s.sample_count()),
                  static_cast<unsigned long long>(s.seed()));
+  if (s.has_tilt_tan()) {
+    text += format("  tip tilt   tan(theta) = %.5f (%.3f°), measured at rest under load in segment %u\n",
+                   s.tilt_tan(), std::atan(s.tilt_tan()) * 180 / M_PI, s.tilt_segment());
+  } else {
+    text += "  tip tilt   not measured: no loaded rest before sliding; friction not tilt-corrected\n";
+  }
   if (s.scratches_size() == 0) text += "  no loaded sliding segment: no friction to report\n";
   for (const auto& c : s.scratches()) {
     text += format("  segment %u \"%s\": %+.3f µm/s at %.1f µN normal force\n", c.segment(),
@@ -73,6 +92,10 @@ std::string summary_text(const v1::RunSummary& s) {
                    static_cast<unsigned long long>(c.steady_samples()), c.steady_window_begin_s(),
                    c.steady_window_end_s());
     text += format("    mu = F/N       %9.4f\n", c.mu());
+    if (c.has_mean_friction_tilt_corrected_un()) {
+      text += format("    friction (tilt-corrected)  %9.2f µN, mu %.4f\n", c.mean_friction_tilt_corrected_un(),
+                     c.mu_tilt_corrected());
+    }
     text += format("    stiction peak  %9.2f µN  at %.3f s after motion onset\n", c.stiction_peak_un(),
                    c.stiction_time_s());
     text += format("    steady lag     %9.4f µm  (commanded minus measured position)\n",

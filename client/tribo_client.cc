@@ -265,4 +265,24 @@ std::uint64_t export_csv(TriboClient& client, const std::string& run_id, std::os
   }
 }
 
+v1::GetGainsReply get_gains(TriboClient& client) {
+  v1::ClientMessage request;
+  request.mutable_get_gains();
+  return client.request(request).get_gains();
+}
+
+std::optional<v1::PidGains> loop_gains(const v1::GetGainsReply& reply, v1::ControlLoop loop) {
+  for (const auto& l : reply.loops()) {
+    if (l.loop() == loop) return l.gains();
+  }
+  return std::nullopt;
+}
+
+v1::SetGainsReply set_gains(TriboClient& client, v1::ControlLoop loop, const v1::PidGains& gains) {
+  v1::ClientMessage request;
+  request.mutable_set_gains()->set_loop(loop);
+  *request.mutable_set_gains()->mutable_gains() = gains;
+  return client.request(request).set_gains();
+}
+
 }  // namespace tribo::client

@@ -108,4 +108,10 @@ wire::RecordedRun fetch_run(TriboClient& client, const std::string& run_id);
 // number of rows.
 std::uint64_t export_csv(TriboClient& client, const std::string& run_id, std::ostream& out);
 
+// The control API (the client must hold control for set_gains).
+v1::GetGainsReply get_gains(TriboClient& client);
+// One loop's gains from a GetGains reply, or nullopt if it lacks the loop.
+std::optional<v1::PidGains> loop_gains(const v1::GetGainsReply& reply, v1::ControlLoop loop);
+v1::SetGainsReply set_gains(TriboClient& client, v1::ControlLoop loop, const v1::PidGains& gains);
+
 }  // namespace tribo::client

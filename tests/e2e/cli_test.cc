@@ -147,5 +147,114 @@ TEST(TriboCli, AbortStopsARunningProtocol) {
   }
 }
 
+v1::GetGainsReply gains_json(const Cli& tribo) {
+  const auto r = tribo({"gains", "--json"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  return parse_json<v1::GetGainsReply>(r.out);
+}
+
+TEST(TriboCli, SetGainsChangesOnlyTheGivenGain) {
+  TempDir data;
+  DaemonProcess daemon(data.path());
+  const Cli tribo{"127.0.0.1:" + std::to_string(daemon.port())};
+  const v1::GetGainsReply before = gains_json(tribo);
+  ASSERT_EQ(before.loops_size(), 4);
+  ASSERT_EQ(before.loops(0).loop(), v1::LOOP_LATERAL_DISPLACEMENT);
+  ASSERT_NE(before.loops(0).gains().kd(), 7.5);
+
+  const auto set = tribo({"set-gains", "--loop", "lateral-displacement", "--kd", "7.5", "--json"});
+  ASSERT_EQ(set.exit_code, 0) << set.err;
+  const auto applied = parse_json<v1::SetGainsReply>(set.out);
+  EXPECT_EQ(applied.loop(), v1::LOOP_LATERAL_DISPLACEMENT);
+  EXPECT_EQ(applied.gains().kd(), 7.5);
+
+  v1::GetGainsReply expected = before;
+  expected.mutable_loops(0)->mutable_gains()->set_kd(7.5);
+  const v1::GetGainsReply after = gains_json(tribo);
+  EXPECT_EQ(after.SerializeAsString(), expected.SerializeAsString()) << after.DebugString();
+
+  // Text: units stated, and --loop picks one loop.
+  const auto text = tribo({"gains", "--loop", "lateral-force"});
+  ASSERT_EQ(text.exit_code, 0) << text.err;
+  EXPECT_NE(text.out.find("lateral-force"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("1/s"), std::string::npos) << text.out;
+  EXPECT_EQ(text.out.find("lateral-displacement"), std::string::npos) << text.out;
+  const auto set_text = tribo({"set-gains", "--loop", "LOOP_NORMAL_FORCE", "--ki", "900"});
+  ASSERT_EQ(set_text.exit_code, 0) << set_text.err;
+  EXPECT_NE(set_text.out.find("ki                    900 1/s"), std::string::npos) << set_text.out;
+}
+
+TEST(TriboCli, SetGainsRejectsBadValuesNamingTheField) {
+  TempDir data;
+  DaemonProcess daemon(data.path());
+  const Cli tribo{"127.0.0.1:" + std::to_string(daemon.port())};
+  const v1::GetGainsReply before = gains_json(tribo);
+  struct Case {
+    std::vector<std::string> args;
+    std::string named;
+  };
+  const std::vector<Case> cases{
+      {{"--loop", "lateral-displacement", "--kp", "-1"}, "set_gains.gains.kp"},  // the daemon's limit
+      {{"--loop", "lateral-displacement", "--ki", "nan"}, "--ki nan"},
+      {{"--loop", "lateral-displacement", "--kd", "abc"}, "--kd abc is not a number"},
+      {{"--loop", "lateral-displacement", "--output-max", "1e"}, "--output-max"},
+      {{"--loop", "sideways", "--kp", "1"}, "--loop sideways is not a control loop"},
+      {{"--kp", "1"}, "--loop is required"},
+      {{"--loop", "lateral-displacement", "--kq", "1"}, "unknown option --kq"},
+      {{"--loop", "lateral-displacement", "--kp"}, "--kp needs a value"},
+  };
+  for (const Case& c : cases) {
+    std::vector<std::string> args{"set-gains"};
+    args.insert(args.end(), c.args.begin(), c.args.end());
+    const auto r = tribo(args);
+    EXPECT_EQ(r.exit_code, 2) << c.named << ": " << r.err;
+    EXPECT_NE(r.err.find(c.named), std::string::npos) << r.err;
+  }
+  EXPECT_EQ(gains_json(tribo).SerializeAsString(), before.SerializeAsString());
+}
+
+TEST(TriboCli, RearmAfterAnEmergencyStopLetsARunStartAgain) {
+  TempDir data, cfg;
+  v1::DaemonConfig config = default_config();
+  config.mutable_server()->set_control_token("tok");
+  DaemonProcess daemon(data.path(), write_config(cfg, config));
+  const Cli tribo{"127.0.0.1:" + std::to_string(daemon.port())};
+  const auto protocol_file = cfg.path() / "short.textproto";
+  std::ofstream(protocol_file) << wire::to_text_proto(short_protocol());
+
+  const auto stop = tribo({"estop", "--reason", "drill", "--json"});  // any client may stop
+  ASSERT_EQ(stop.exit_code, 0) << stop.err;
+  EXPECT_FALSE(parse_json<v1::EmergencyStopReply>(stop.out).run_was_active());
+  EXPECT_EQ(parse_json<v1::StatusReply>(tribo({"status", "--json"}).out).state(), v1::FAULTED);
+
+  const auto refused = tribo({"run", protocol_file.string(), "--token", "tok"});
+  EXPECT_EQ(refused.exit_code, 5) << refused.err;
+  EXPECT_NE(refused.err.find("re-arm"), std::string::npos) << refused.err;
+  EXPECT_EQ(tribo({"rearm"}).exit_code, 4);  // control needs the token
+  EXPECT_EQ(tribo({"set-gains", "--loop", "lateral-force", "--ki", "1"}).exit_code, 4);
+
+  const auto rearmed = tribo({"rearm", "--token", "tok"});
+  ASSERT_EQ(rearmed.exit_code, 0) << rearmed.err;
+  EXPECT_NE(rearmed.out.find("re-armed"), std::string::npos) << rearmed.out;
+  const auto ran = tribo({"run", protocol_file.string(), "--token", "tok", "--json"});
+  ASSERT_EQ(ran.exit_code, 0) << ran.err;
+  EXPECT_EQ(parse_json<v1::RunSummary>(ran.out).exit_status(), "SUCCESS");
+}
+
+TEST(TriboCli, AutotuneAppliesTheProposedGainsOnRequest) {
+  TempDir data;
+  DaemonProcess daemon(data.path());
+  const Cli tribo{"127.0.0.1:" + std::to_string(daemon.port())};
+  const auto bad = tribo({"autotune", "--relay-amplitude-n", "big"});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--relay-amplitude-n big"), std::string::npos) << bad.err;
+  const auto tuned = tribo({"autotune", "--apply", "--json"});
+  ASSERT_EQ(tuned.exit_code, 0) << tuned.err;
+  const auto reply = parse_json<v1::AutotuneReply>(tuned.out);
+  EXPECT_TRUE(reply.applied());
+  EXPECT_GT(reply.ultimate_gain_n_per_m(), 0);
+  EXPECT_EQ(gains_json(tribo).loops(0).gains().kp(), reply.proposed().kp());
+}
+
 }  // namespace
 }  // namespace tribo::testing

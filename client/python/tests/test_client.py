@@ -77,6 +77,27 @@ class PythonClientTest(unittest.TestCase):
             np.testing.assert_array_equal(fetched.samples["normal_force_n"], run.samples["normal_force_n"])
             self.assertIn(run.run_id, [r.run_id for r in observer.list_runs()])
 
+    def test_set_gains_changes_only_the_given_gain(self):
+        with Client(self.daemon.address, role="controller") as c:
+            before = c.get_gains()
+            self.assertEqual(len(before), 4)
+            original_ki = before["lateral-force"].ki
+            reply = c.set_gains("lateral-force", ki=original_ki + 100)
+            self.assertEqual(reply.gains.ki, original_ki + 100)
+            after = c.get_gains()
+            expected = before["lateral-force"]
+            expected.ki = original_ki + 100
+            self.assertEqual(after["lateral-force"], expected)
+            for name in ("lateral-displacement", "normal-force", "normal-displacement"):
+                self.assertEqual(after[name], before[name])
+            with self.assertRaises(TriboError) as caught:
+                c.set_gains("lateral-force", kp=-1)
+            self.assertEqual(caught.exception.code, "INVALID_ARGUMENT")
+            self.assertIn("kp", caught.exception.field)
+            with self.assertRaises(ValueError):
+                c.set_gains("sideways", kp=1)
+            c.set_gains("lateral-force", ki=original_ki)
+
     def test_observers_cannot_control(self):
         with Client(self.daemon.address) as observer:
             with self.assertRaises(TriboError) as caught:

@@ -26,6 +26,23 @@ SAMPLE_FIELDS = ("time_s", "segment_index", "normal_setpoint_n", "normal_force_n
                  "lateral_force_n", "status_flags")
 _INTEGER_FIELDS = {"segment_index", "status_flags"}
 _ROLES = {"observer": api_pb2.OBSERVER, "controller": api_pb2.CONTROLLER}
+# The controller's loops by the tribo CLI's names (tribo.v1.ControlLoop).
+LOOPS = {"lateral-displacement": api_pb2.LOOP_LATERAL_DISPLACEMENT,
+         "lateral-force": api_pb2.LOOP_LATERAL_FORCE,
+         "normal-force": api_pb2.LOOP_NORMAL_FORCE,
+         "normal-displacement": api_pb2.LOOP_NORMAL_DISPLACEMENT}
+
+
+def _loop(loop):
+    """A ControlLoop from a CLI name, an enum name or the enum value."""
+    if isinstance(loop, int):
+        return loop
+    if loop in LOOPS:
+        return LOOPS[loop]
+    try:
+        return api_pb2.ControlLoop.Value(loop.upper())
+    except ValueError:
+        raise ValueError(f"{loop!r} is not a control loop (one of {', '.join(LOOPS)})") from None
 
 
 class TriboError(Exception):
@@ -155,6 +172,31 @@ class Client:
 
     def abort_run(self, reason=""):
         return self.request(abort_run=api_pb2.AbortRun(reason=reason)).abort_run
+
+    # -- control (SI units: the loops' output is a drive force in N)
+
+    def get_gains(self):
+        """Every loop's gains: {"lateral-displacement": PidGains, ...}."""
+        names = {v: k for k, v in LOOPS.items()}
+        loops = self.request(get_gains=api_pb2.GetGains()).get_gains.loops
+        return {names.get(l.loop, api_pb2.ControlLoop.Name(l.loop)): l.gains for l in loops}
+
+    def set_gains(self, loop, **changes):
+        """Changes only the given PidGains fields of one loop (kp=..., ki=...;
+        needs the controller role) and returns the SetGainsReply: what the
+        daemon applied."""
+        loop = _loop(loop)
+        gains = next(l.gains for l in self.request(get_gains=api_pb2.GetGains()).get_gains.loops
+                     if l.loop == loop)
+        for field, value in changes.items():
+            setattr(gains, field, value)
+        return self.request(set_gains=api_pb2.SetGains(loop=loop, gains=gains)).set_gains
+
+    def rearm(self):
+        return self.request(rearm=api_pb2.Rearm()).rearm
+
+    def emergency_stop(self, reason=""):
+        return self.request(emergency_stop=api_pb2.EmergencyStop(reason=reason)).emergency_stop
 
     def events(self):
         """Run documents (ServerMessage with request_id 0), blocking."""

@@ -1,0 +1,80 @@
+#include "analysis/tip_tilt.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace tribo::analysis {
+
+namespace {
+
+constexpr double kMovingThresholdM = 1e-9;  // as run_metrics: setpoint travel below this is a hold
+constexpr double kFullContactFraction = 0.5;
+
+struct Span {
+  int first = 0, last = 0;  // inclusive
+};
+
+// Contiguous samples of one segment, safe-unload samples left out.
+std::vector<Span> segment_spans(const v1::SampleBlock& b) {
+  std::vector<Span> spans;
+  for (int i = 0; i < b.time_s_size(); ++i) {
+    if (b.status_flags(i) & v1::SAFE_UNLOAD) continue;
+    if (!spans.empty() && spans.back().last == i - 1 && b.segment_index(spans.back().first) == b.segment_index(i)) {
+      spans.back().last = i;
+    } else {
+      spans.push_back({i, i});
+    }
+  }
+  return spans;
+}
+
+bool lateral_moves(const v1::SampleBlock& b, const Span& s) {
+  return std::fabs(b.lateral_setpoint_m(s.last) - b.lateral_setpoint_m(s.first)) > kMovingThresholdM;
+}
+
+double peak_normal_setpoint_n(const v1::SampleBlock& b, const Span& s) {
+  double peak = 0;
+  for (int i = s.first; i <= s.last; ++i) peak = std::max(peak, b.normal_setpoint_n(i));
+  return peak;
+}
+
+}  // namespace
+
+std::optional<TipTiltEstimate> estimate_tip_tilt(const v1::SampleBlock& b) {
+  TipTiltEstimate e;
+  double lateral = 0, normal = 0;
+  bool slid_under_load = false;  // since the tip was last unloaded
+  for (const Span& s : segment_spans(b)) {
+    const double peak_n = peak_normal_setpoint_n(b, s);
+    if (lateral_moves(b, s)) {
+      if (peak_n > 0) slid_under_load = true;
+    } else if (peak_n > 0 && !slid_under_load && s.last - s.first >= 3) {
+      std::uint64_t used = 0;
+      for (int i = s.first; i <= s.last; ++i) {
+        if (b.normal_force_n(i) < kFullContactFraction * peak_n) continue;
+        lateral += b.lateral_force_n(i);
+        normal += b.normal_force_n(i);
+        ++used;
+      }
+      if (used > 0) {
+        if (e.holds++ == 0) e.first_segment = b.segment_index(s.first);
+        e.samples += used;
+      }
+    }
+    if (!(b.normal_setpoint_n(s.last) > 0)) slid_under_load = false;  // unloaded: the bristles relax
+  }
+  if (e.samples == 0 || !(normal > 0)) return std::nullopt;
+  e.tan_tilt = -lateral / normal;
+  e.mean_normal_force_n = normal / static_cast<double>(e.samples);
+  e.mean_lateral_force_n = lateral / static_cast<double>(e.samples);
+  return e;
+}
+
+double tilt_corrected_friction_n(double mean_friction_n, double velocity_m_per_s, double normal_force_n,
+                                 double tan_tilt) {
+  const double sign = velocity_m_per_s > 0 ? 1.0 : -1.0;
+  return mean_friction_n + sign * normal_force_n * tan_tilt;
+}
+
+}  // namespace tribo::analysis

@@ -1,0 +1,45 @@
+// The tip's tilt (§5.2) measured from a run, not taken from the config: a
+// tilted tip turns part of the normal load N into a lateral force, so the
+// transducer reads F sgn(v) - N tan(theta) while sliding and -N tan(theta)
+// at rest under load (tan(theta) > 0: the tilt pushes the tip towards +x).
+//
+// The estimate uses the loaded rests of the run: segments whose lateral
+// setpoint holds still while the normal setpoint is above zero, and before
+// which the tip has not slid under load since it was last unloaded. The
+// second condition matters: after a scratch the LuGre bristles stay
+// deflected at rest and carry nearly the whole friction force, so a hold
+// after sliding reads friction plus tilt, not tilt alone. Over the samples
+// whose measured normal force is at least half the hold's peak (full
+// contact; at light load the ratio is all noise),
+//
+//   tan(theta) = -sum(lateral force) / sum(normal force).
+//
+// Then the friction of a sliding segment is mean(lateral force) sgn(v) +
+// sgn(v) N tan(theta). SI units.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+
+#include "tribo/v1/api.pb.h"
+
+namespace tribo::analysis {
+
+struct TipTiltEstimate {
+  double tan_tilt = 0;             // tan(theta), positive towards +x
+  std::uint32_t first_segment = 0; // the first loaded rest used
+  std::uint32_t holds = 0;         // how many loaded rests were used
+  std::uint64_t samples = 0;
+  double mean_normal_force_n = 0;  // over those samples
+  double mean_lateral_force_n = 0;
+};
+
+// nullopt when the run has no loaded rest before sliding.
+std::optional<TipTiltEstimate> estimate_tip_tilt(const v1::SampleBlock& samples);
+
+// The friction of a sliding segment without the tilt's share:
+// mean_friction_n (lateral force x sgn(v)) + sgn(v) N tan(theta).
+double tilt_corrected_friction_n(double mean_friction_n, double velocity_m_per_s, double normal_force_n,
+                                 double tan_tilt);
+
+}  // namespace tribo::analysis
