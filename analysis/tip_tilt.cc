@@ -10,6 +10,7 @@ namespace {
 
 constexpr double kMovingThresholdM = 1e-9;  // as run_metrics: setpoint travel below this is a hold
 constexpr double kFullContactFraction = 0.5;
+constexpr double kHeldLoadFraction = 1e-6;  // a normal setpoint constant to this is a hold
 
 struct Span {
   int first = 0, last = 0;  // inclusive
@@ -39,6 +40,15 @@ double peak_normal_setpoint_n(const v1::SampleBlock& b, const Span& s) {
   return peak;
 }
 
+bool normal_holds(const v1::SampleBlock& b, const Span& s) {
+  double lo = b.normal_setpoint_n(s.first), hi = lo;
+  for (int i = s.first; i <= s.last; ++i) {
+    lo = std::min(lo, b.normal_setpoint_n(i));
+    hi = std::max(hi, b.normal_setpoint_n(i));
+  }
+  return hi - lo <= kHeldLoadFraction * hi;
+}
+
 }  // namespace
 
 std::optional<TipTiltEstimate> estimate_tip_tilt(const v1::SampleBlock& b) {
@@ -49,7 +59,7 @@ std::optional<TipTiltEstimate> estimate_tip_tilt(const v1::SampleBlock& b) {
     const double peak_n = peak_normal_setpoint_n(b, s);
     if (lateral_moves(b, s)) {
       if (peak_n > 0) slid_under_load = true;
-    } else if (peak_n > 0 && !slid_under_load && s.last - s.first >= 3) {
+    } else if (peak_n > 0 && !slid_under_load && normal_holds(b, s) && s.last - s.first >= 3) {
       std::uint64_t used = 0;
       for (int i = s.first; i <= s.last; ++i) {
         if (b.normal_force_n(i) < kFullContactFraction * peak_n) continue;

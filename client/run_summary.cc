@@ -81,7 +81,7 @@ std::string summary_text(const v1::RunSummary& s) {
     text += format("  tip tilt   tan(theta) = %.5f (%.3f°), measured at rest under load in segment %u\n",
                    s.tilt_tan(), std::atan(s.tilt_tan()) * 180 / M_PI, s.tilt_segment());
   } else {
-    text += "  tip tilt   not measured: no loaded rest before sliding; friction not tilt-corrected\n";
+    text += "  tip tilt   not measured: no loaded hold before sliding; friction not tilt-corrected\n";
   }
   if (s.scratches_size() == 0) text += "  no loaded sliding segment: no friction to report\n";
   for (const auto& c : s.scratches()) {

@@ -41,90 +41,65 @@ double configured_tan_tilt(const v1::DaemonConfig& c) {
   return std::tan(c.sim().tip().tilt_offset().angle_deg() * M_PI / 180);
 }
 
-// The standard scratch, and a variant with a 5 s loaded hold between the
+// The standard scratch, and its variant with a 5 s loaded hold between the
 // load and the scratch, each with and without tilt, on the same seed.
-v1::Protocol with_loaded_hold(v1::Protocol p) {
-  v1::Segment hold = p.segments(1);
-  hold.set_name("hold");
-  hold.set_duration_s(5);
-  p.mutable_segments()->Add();
-  for (int i = p.segments_size() - 1; i > 2; --i) *p.mutable_segments(i) = p.segments(i - 1);
-  *p.mutable_segments(2) = hold;
-  return p;
-}
-
 struct StandardScratch : ::testing::Test {
   static void SetUpTestSuite() {
-    const v1::Protocol protocol = daemon::testing::load_protocol_file("standard_scratch.textproto");
-    tilted = new v1::RunSummary(summarize(tribo::testing::default_config(), protocol));
-    untilted = new v1::RunSummary(summarize(untilted_config(), protocol));
-    held_tilted = new v1::RunSummary(summarize(tribo::testing::default_config(), with_loaded_hold(protocol)));
-    held_untilted = new v1::RunSummary(summarize(untilted_config(), with_loaded_hold(protocol)));
+    const v1::Protocol plain = daemon::testing::load_protocol_file("standard_scratch.textproto");
+    const v1::Protocol held = daemon::testing::load_protocol_file("standard_scratch_tilt_hold.textproto");
+    tilted = new v1::RunSummary(summarize(tribo::testing::default_config(), plain));
+    held_tilted = new v1::RunSummary(summarize(tribo::testing::default_config(), held));
+    held_untilted = new v1::RunSummary(summarize(untilted_config(), held));
   }
   static void TearDownTestSuite() {
-    for (auto* s : {tilted, untilted, held_tilted, held_untilted}) delete s;
+    for (auto* s : {tilted, held_tilted, held_untilted}) delete s;
   }
   static inline v1::RunSummary* tilted = nullptr;
-  static inline v1::RunSummary* untilted = nullptr;
   static inline v1::RunSummary* held_tilted = nullptr;
   static inline v1::RunSummary* held_untilted = nullptr;
 };
 
-// The estimate's error does not depend on the tilt: on the same seed the
-// tilted and the untilted run differ by exactly the configured tilt.
-TEST_F(StandardScratch, TheTiltMeasuredAtRestUnderLoadDiffersByTheConfiguredTilt) {
-  const v1::DaemonConfig config = tribo::testing::default_config();
-  ASSERT_TRUE(config.sim().tip().tilt_offset().enabled());
-  ASSERT_TRUE(tilted->has_tilt_tan());
-  ASSERT_TRUE(untilted->has_tilt_tan());
-  EXPECT_EQ(tilted->tilt_segment(), 1u);  // "load": the lateral setpoint holds while the load comes on
-  RecordProperty("tilt_tan", std::to_string(tilted->tilt_tan()));
-  RecordProperty("untilted_tilt_tan", std::to_string(untilted->tilt_tan()));
-  const double tan_tilt = configured_tan_tilt(config);
-  EXPECT_NEAR(tilted->tilt_tan() - untilted->tilt_tan(), tan_tilt, 0.01 * tan_tilt);
-}
-
-TEST_F(StandardScratch, TiltCorrectedFrictionDoesNotDependOnTheTilt) {
+// The standard scratch's only loaded rest is its load ramp, which the
+// estimate refuses (analysis/tip_tilt.h): no tilt, no corrected friction,
+// and the text says so.
+TEST_F(StandardScratch, WithoutALoadedHoldTheTiltIsNotMeasured) {
+  EXPECT_FALSE(tilted->has_tilt_tan());
   ASSERT_EQ(tilted->scratches_size(), 1);
-  ASSERT_EQ(untilted->scratches_size(), 1);
-  const v1::SlidingSummary& t = tilted->scratches(0);
-  const v1::SlidingSummary& u = untilted->scratches(0);
-  ASSERT_TRUE(t.has_mean_friction_tilt_corrected_un());
-  ASSERT_TRUE(u.has_mean_friction_tilt_corrected_un());
-  RecordProperty("tilted_raw_uN", std::to_string(t.mean_friction_un()));
-  RecordProperty("tilted_corrected_uN", std::to_string(t.mean_friction_tilt_corrected_un()));
-  RecordProperty("untilted_raw_uN", std::to_string(u.mean_friction_un()));
-  RecordProperty("untilted_corrected_uN", std::to_string(u.mean_friction_tilt_corrected_un()));
-  // Uncorrected, the tilt takes N tan(theta) = 26 µN (20 %) off the friction.
-  EXPECT_LT(t.mean_friction_un(), 0.85 * u.mean_friction_un());
-  EXPECT_NEAR(t.mean_friction_tilt_corrected_un(), u.mean_friction_tilt_corrected_un(),
-              0.001 * u.mean_friction_un());
-  EXPECT_NEAR(t.mu_tilt_corrected(), t.mean_friction_tilt_corrected_un() / t.normal_force_un(), 1e-12);
+  EXPECT_FALSE(tilted->scratches(0).has_mean_friction_tilt_corrected_un());
+  EXPECT_NE(summary_text(*tilted).find("tip tilt   not measured"), std::string::npos) << summary_text(*tilted);
 }
 
-// The standard scratch has no settled loaded rest: its only one is the load
-// ramp, during which the position loop drags the loading tip forward (see
-// README), so the bristles carry a force the estimate takes for tilt. A
-// 5 s loaded hold before the scratch gives the estimate time to average out
-// the bristles' wander at rest.
+// In the hold the tilted tip reads -N tan(theta) and the untilted one ~0.
+// On one seed both carry the same wander of the resting tip (the slow
+// position noise), so their difference is the tilt: measured 0.02746-0.02748
+// on seeds 1-8, 4.9 % above tan(1.5 deg) -- the contact keeps part of the
+// creep the tilt's push caused while the load came on. Alone, one 5 s hold
+// measures tan(theta) to +-15 % (sd over seeds 1-8: 0.0255 +- 0.0038).
 TEST_F(StandardScratch, ALoadedHoldRecoversTheTiltAndTheFriction) {
   const double tan_tilt = configured_tan_tilt(tribo::testing::default_config());
   ASSERT_TRUE(held_tilted->has_tilt_tan());
   ASSERT_TRUE(held_untilted->has_tilt_tan());
+  EXPECT_EQ(held_tilted->tilt_segment(), 2u);  // "hold"
   RecordProperty("held_tilt_tan", std::to_string(held_tilted->tilt_tan()));
   RecordProperty("held_untilted_tilt_tan", std::to_string(held_untilted->tilt_tan()));
-  EXPECT_NEAR(held_tilted->tilt_tan(), tan_tilt, 0.05 * tan_tilt);
-  EXPECT_NEAR(held_untilted->tilt_tan(), 0, 0.1 * tan_tilt);
+  EXPECT_NEAR(held_tilted->tilt_tan() - held_untilted->tilt_tan(), tan_tilt, 0.06 * tan_tilt);
+  EXPECT_NEAR(held_tilted->tilt_tan(), tan_tilt, 2 * 0.0038);
+  EXPECT_NEAR(held_untilted->tilt_tan(), 0, 2 * 0.0038);
   ASSERT_EQ(held_tilted->scratches_size(), 1);
   ASSERT_EQ(held_untilted->scratches_size(), 1);
-  const double untilted_friction = held_untilted->scratches(0).mean_friction_un();
-  RecordProperty("held_corrected_uN", std::to_string(held_tilted->scratches(0).mean_friction_tilt_corrected_un()));
-  EXPECT_NEAR(held_tilted->scratches(0).mean_friction_tilt_corrected_un(), untilted_friction,
-              0.01 * untilted_friction);
+  const v1::SlidingSummary& t = held_tilted->scratches(0);
+  const v1::SlidingSummary& u = held_untilted->scratches(0);
+  RecordProperty("held_corrected_uN", std::to_string(t.mean_friction_tilt_corrected_un()));
+  // Uncorrected, the tilt takes N tan(theta) = 26 µN (20 %) off the friction;
+  // corrected, the two runs agree to the tilt estimate's 5 % of it.
+  EXPECT_LT(t.mean_friction_un(), 0.85 * u.mean_friction_un());
+  EXPECT_NEAR(t.mean_friction_tilt_corrected_un(), u.mean_friction_tilt_corrected_un(),
+              0.06 * tan_tilt * t.normal_force_un());
+  EXPECT_NEAR(t.mu_tilt_corrected(), t.mean_friction_tilt_corrected_un() / t.normal_force_un(), 1e-12);
 }
 
 TEST_F(StandardScratch, TheTextSummaryPrintsBothFrictions) {
-  const std::string text = summary_text(*tilted);
+  const std::string text = summary_text(*held_tilted);
   EXPECT_NE(text.find("mean friction"), std::string::npos) << text;
   EXPECT_NE(text.find("friction (tilt-corrected)"), std::string::npos) << text;
   EXPECT_NE(text.find("tip tilt   tan(theta) = "), std::string::npos) << text;
