@@ -47,6 +47,10 @@ struct ModelStructure {
   bool fit_mass = false;           // the force also accelerates a mass M (drive data)
   double stribeck_exponent = 1.0;  // delta: 1 the dissertation's exponential, 2 Gaussian
   bool periodic_additive = false;  // position_periodic as a ripple that does not flip with direction
+  // The bristle relaxes at rest at |v_c| / g (parameter rest_creep_speed):
+  // friction lost at rest to a creep or dither the sampled motion does not
+  // show (tribo's closed loop at 10 kHz recorded at 200 Hz).
+  bool rest_creep = false;
   std::vector<Effect> effects;     // extensions, in the order they were accepted
 
   bool has(Effect e) const;
@@ -86,6 +90,7 @@ struct ModelData {
   std::vector<std::vector<double>> drift_basis;
   std::vector<double> normalised_time;
   std::vector<double> drive_velocity;  // the measured velocity, zero inside holds
+  std::vector<char> at_rest;           // inside a hold (motion segmentation)
   std::vector<double> step_velocity;   // mean velocity over (t[i-1], t[i]); [0] unused
 };
 

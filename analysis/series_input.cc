@@ -105,14 +105,10 @@ std::optional<MeasuredSeries> read_csv_series(const std::filesystem::path& path,
   return s;
 }
 
-std::optional<MeasuredSeries> read_run_series(const std::filesystem::path& run_dir, std::string& error) {
-  const auto run = wire::read_run_directory(run_dir, error);
-  if (!run) return std::nullopt;
+MeasuredSeries series_from_samples(const std::vector<Sample>& samples, const std::string& source) {
   MeasuredSeries s;
-  s.source = run_dir.string();
-  const int n = sample_count(run->samples);
-  for (int i = 0; i < n; ++i) {
-    const Sample sample = sample_at(run->samples, i);
+  s.source = source;
+  for (const Sample& sample : samples) {
     if (sample.status_flags & v1::SAFE_UNLOAD) continue;
     s.time_s.push_back(sample.time_s);
     s.position_m.push_back(sample.lateral_position_m);
@@ -122,6 +118,16 @@ std::optional<MeasuredSeries> read_run_series(const std::filesystem::path& run_d
     s.segment.push_back(sample.segment_index);
   }
   return s;
+}
+
+std::optional<MeasuredSeries> read_run_series(const std::filesystem::path& run_dir, std::string& error) {
+  const auto run = wire::read_run_directory(run_dir, error);
+  if (!run) return std::nullopt;
+  const int n = sample_count(run->samples);
+  std::vector<Sample> samples;
+  samples.reserve(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) samples.push_back(sample_at(run->samples, i));
+  return series_from_samples(samples, run_dir.string());
 }
 
 }  // namespace tribo::analysis

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "analysis/measured_series.h"
+#include "proto/sample_record.h"
 
 namespace tribo::analysis {
 
@@ -35,6 +36,12 @@ std::optional<std::vector<std::vector<double>>> read_csv_columns(const std::file
 
 std::optional<MeasuredSeries> read_csv_series(const std::filesystem::path& path,
                                               const ColumnMapping& columns, std::string& error);
+
+// Recorded tribo samples (a run directory's, or a closed loop's in-process):
+// time, lateral position, lateral force, normal force, lateral setpoint as
+// reference, segment index. Samples taken while unloading after a stop or
+// trip (SAFE_UNLOAD) are dropped.
+MeasuredSeries series_from_samples(const std::vector<Sample>& samples, const std::string& source);
 
 // A recorded tribo run: time, lateral position, lateral force, normal force,
 // lateral setpoint as reference, segment index. Samples taken while unloading

@@ -3,8 +3,9 @@
 // SYNTHETIC, TO BE REPLACED BY SIM-GENERATED RUNS (issue 7, phase 2): the
 // forward model is tests/analysis/synthetic_run.h, written apart from the
 // analysis's own candidate models (its own integrator and effect forms).
-// Once the simulated instrument carries the effects (issue 3), the same
-// checks run on recorded runs of tribo's closed loop.
+// tests/analysis/diagnosis_sim_test.cc runs the same checks on tribo's
+// simulated instrument; kept until every effect is identified there (three
+// of ten so far, README "Simulated tests").
 #include <cmath>
 #include <optional>
 

@@ -5,9 +5,11 @@
 // at speeds over two decades and at three loads. Units as on the instrument
 // (µm, µN) but stored in SI.
 //
-// SYNTHETIC, TO BE REPLACED BY SIM-GENERATED RUNS (phase 2 of issue 7): once
-// the simulated instrument carries the effects (issue 3), the same tests run
-// on recorded runs of tribo's closed loop.
+// Used where a known, noise-controlled truth in the analysis's own terms is
+// the point: the fit's unit tests (parameter recovery, segmentation) and the
+// benchmarks (bench/analysis_bench.cc, bench/lugre_fit_export.cc, runs of any
+// length). The diagnosis itself is tested on runs of tribo's simulated
+// instrument (tests/analysis/diagnosis_sim_test.cc).
 #pragma once
 
 #include <cstdint>

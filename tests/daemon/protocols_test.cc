@@ -33,7 +33,7 @@ TEST(ShippedProtocols, AllPassTheDryRunWithoutWarnings) {
       "standard_scratch.textproto",  "standard_scratch_tilt_hold.textproto",
       "velocity_sweep.textproto",    "stop_start.textproto",
       "velocity_reversal.textproto", "oscillation_amplitudes.textproto", "repeated_scratch.textproto",
-      "breakaway.textproto",         "zero_load.textproto"};
+      "breakaway.textproto",         "zero_load.textproto",              "identification.textproto"};
   std::set<std::string> found;
   for (const auto& entry : std::filesystem::directory_iterator(std::string(TRIBO_SOURCE_DIR) + "/config/protocols")) {
     found.insert(entry.path().filename().string());
@@ -63,6 +63,30 @@ TEST(ShippedProtocols, VelocitySweepCoversFortyScratchesAtFiveLoads) {
   EXPECT_EQ(scratches, 40);
   EXPECT_EQ(loads_un, (std::set<long>{1000, 3000, 5000, 7000, 9810}));
   for (const long v : {200, 500, 1000, 2000, 5000, 10000, 20000, 40000}) EXPECT_EQ(speeds_nm_s.count(v), 5u) << v;
+}
+
+TEST(ShippedProtocols, IdentificationExcitesEveryEffect) {
+  const ProtocolCheck c = check_file("identification.textproto");
+  ASSERT_TRUE(c.ok()) << all(c);
+  std::set<long> loads_un, speeds_nm_s, dwells_ms;
+  int passes[2] = {0, 0}, sines = 0;
+  for (const SegmentPlan& s : c.load_function.segments()) {
+    const double seconds = static_cast<double>(s.tick_count) / c.load_function.loop_rate_hz();
+    if (s.name.rfind("load", 0) == 0) loads_un.insert(std::lround(s.normal.end * 1e6));
+    if (s.name.rfind("hold", 0) == 0) dwells_ms.insert(std::lround(seconds * 1e3));
+    if (s.name.rfind("reversals", 0) == 0) ++sines;
+    if (s.name.rfind("pass", 0) != 0 || s.name.rfind("passes", 0) == 0) continue;
+    ASSERT_TRUE(s.lateral.end_relative);
+    ++passes[s.lateral.end > 0 ? 0 : 1];
+    speeds_nm_s.insert(std::lround(std::fabs(s.lateral.end) / seconds * 1e9));
+  }
+  EXPECT_EQ(loads_un, (std::set<long>{1000, 3000, 5000}));
+  EXPECT_EQ(speeds_nm_s, (std::set<long>{400, 2000, 8000, 40000}));  // two decades
+  EXPECT_EQ(passes[0], 12);  // forward
+  EXPECT_EQ(passes[1], 12);  // backward
+  EXPECT_EQ(sines, 3);
+  EXPECT_EQ(dwells_ms, (std::set<long>{250, 300, 500, 1000, 2000, 4000, 6000, 8000}));
+  EXPECT_LT(static_cast<double>(c.load_function.total_ticks()) / c.load_function.loop_rate_hz(), 210.0);
 }
 
 TEST(ShippedProtocols, StopStartRestsGrowAndSlidesRepeat) {

@@ -1,0 +1,202 @@
+// The diagnosis on runs of tribo's simulated instrument (sim/, the effects of
+// README "Simulated instrument physics"): the identification protocol
+// (config/protocols/identification.textproto) in the closed loop, one effect
+// switched on in the sim config and not declared to the analysis. The
+// diagnosis must name that effect first and lower the held-out error; a clean
+// run accepts nothing; effects that mimic each other are told apart.
+//
+// Strengths are the sim config's documented defaults unless a comment says
+// why not. Tilt is off except in the tilt test (tests/analysis/
+// sim_identification_run.h): on an instrument it is corrected or declared
+// (--effects), and with it always on every run would name tilt first.
+//
+// The analysis sees what tribo-fit would see in the run directory: lateral
+// position and force from the sensors, normal force; velocity and
+// acceleration derived. No mass is fitted: the plate's m a (1 g) is at most
+// 2.8 uN, above 1 uN in 40 of 38 700 samples (the 40 um/s onsets), below the
+// force channel's noise. The base model carries the relaxation at rest
+// (ModelStructure::rest_creep): in the closed loop the 10 kHz position noise
+// dithers the stuck contact and LuGre's bristle relaxes, by up to 60 % of the
+// friction over an 8 s hold at 5000 uN; without it the holds dominate the
+// residual (clean run: held-out NRMSE 0.195 instead of 0.100).
+//
+// Every test runs its own simulation (about 1 s of CPU for the 197 s
+// protocol at 10 kHz) and one diagnosis (5-15 s).
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "tests/analysis/analysis_test_support.h"
+#include "tests/analysis/sim_identification_run.h"
+
+namespace tribo::analysis {
+namespace {
+
+using testing::accepted;
+using testing::accepted_names;
+using testing::ConfigEdit;
+
+DiagnosisOptions options_for_runs(std::vector<Effect> candidates = {kAllEffects.begin(), kAllEffects.end()}) {
+  DiagnosisOptions options;
+  options.base.load_scaled = true;
+  options.base.rest_creep = true;
+  options.candidates = std::move(candidates);
+  return options;
+}
+
+// One line per run for the record (README table): what was accepted, the
+// held-out NRMSE before and after, and each fitted candidate's verdict.
+void report(const std::string& name, const Diagnosis& d) {
+  std::cout << "[sim-diagnosis] " << name << ": accepted " << accepted_names(d);
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "| held-out NRMSE %.4f -> %.4f, RMS %.3g -> %.3g N | fit NRMSE %.4f -> %.4f\n",
+                d.before.heldout.nrmse, d.after.heldout.nrmse, d.before.heldout.rms, d.after.heldout.rms,
+                d.before.fit.nrmse, d.after.fit.nrmse);
+  std::cout << buf;
+  std::cout << "    base:";
+  for (const auto& p : d.base.result.estimates) std::cout << " " << p.name << "=" << p.value;
+  std::cout << " (converged " << d.base.result.converged << ", " << d.base.result.iterations << " iterations)\n";
+  for (const auto& w : d.base.result.warnings) std::cout << "    base warning: " << w << "\n";
+  for (const auto& t : d.trials) {
+    std::cout << "    round " << t.round << " " << effect_name(t.effect) << (t.passed ? " PASS " : " fail ") << t.verdict
+              << "\n";
+  }
+  for (const auto& a : d.accepted) {
+    for (const auto& p : a.parameters) {
+      std::cout << "    " << effect_name(a.effect) << "." << p.name << " = " << p.value << " +- " << p.std_error << " "
+                << p.unit << "\n";
+    }
+  }
+  if (d.unexplained) std::cout << "    unexplained: " << *d.unexplained << "\n";
+}
+
+Diagnosis diagnose_run(const std::string& name, const ConfigEdit& edit, std::uint64_t seed = 1,
+                       const DiagnosisOptions& options = options_for_runs()) {
+  const MeasuredSeries s = testing::simulated_identification_run(testing::identification_config(edit), seed);
+  Diagnosis d = diagnose(s, options);
+  report(name, d);
+  return d;
+}
+
+v1::FrictionParams& friction(v1::DaemonConfig& c) { return *c.mutable_sim()->mutable_friction(); }
+
+struct Case {
+  const char* name;
+  Effect effect;
+  ConfigEdit edit;
+  std::vector<Effect> mimics;  // effects it could be mistaken for: not accepted
+};
+
+void PrintTo(const Case& c, std::ostream* os) { *os << c.name; }
+
+ConfigEdit dwell_stiction() {
+  // gain 0.3 (the config's); time constant 2 s instead of the config's 100 s
+  // (Fig. 4.22's rise over 30-1000 s would need holds of minutes): the
+  // protocol's holds of 0.25-8 s span it.
+  return [](v1::DaemonConfig& c) {
+    auto& d = *friction(c).mutable_dwell_stiction();
+    d.set_enabled(true);
+    d.set_gain(0.3);
+    d.set_time_constant_s(2.0);
+  };
+}
+
+// Each at the config's documented strength (README "Simulated instrument
+// physics"): lag 5 ms (Hess and Soom), log-velocity coefficient 0.002 per
+// e-fold above 0.1 um/s (Fig. 4.17: +9 % of mu over 0.4-40 um/s), friction
+// ~ N^(2/3) (Hertz area), 10 % over 0.5 um, 5 % direction asymmetry, tilt
+// 1.5 deg (Sec. 5.2), creep 0.1 nm/s RMS (Fig. 3.12), a 4-element Maxwell
+// slip with breakaway 0.9, a 20 nm dead zone.
+ConfigEdit frictional_lag() { return [](v1::DaemonConfig& c) { friction(c).mutable_frictional_lag()->set_enabled(true); }; }
+ConfigEdit velocity_strengthening() {
+  return [](v1::DaemonConfig& c) { friction(c).mutable_velocity_strengthening()->set_enabled(true); };
+}
+ConfigEdit load_dependence() { return [](v1::DaemonConfig& c) { friction(c).mutable_load_dependence()->set_enabled(true); }; }
+ConfigEdit position_periodic() { return [](v1::DaemonConfig& c) { friction(c).mutable_position_periodic()->set_enabled(true); }; }
+ConfigEdit direction_asymmetry() {
+  return [](v1::DaemonConfig& c) { friction(c).mutable_direction_asymmetry()->set_enabled(true); };
+}
+ConfigEdit tilt_offset() {
+  return [](v1::DaemonConfig& c) { c.mutable_sim()->mutable_tip()->mutable_tilt_offset()->set_enabled(true); };
+}
+ConfigEdit drift() { return [](v1::DaemonConfig& c) { c.mutable_sim()->mutable_sample()->mutable_drift()->set_enabled(true); }; }
+ConfigEdit presliding_hysteresis() {
+  return [](v1::DaemonConfig& c) { friction(c).mutable_presliding_hysteresis()->set_enabled(true); };
+}
+ConfigEdit backlash() { return [](v1::DaemonConfig& c) { c.mutable_sim()->mutable_tip()->mutable_backlash()->set_enabled(true); }; }
+
+// Identified on the sim runs: named first, held-out error down, mimic not accepted.
+std::vector<Case> identified() {
+  return {
+      {"velocity_strengthening", Effect::kVelocityStrengthening, velocity_strengthening(), {}},
+      {"load_dependence", Effect::kLoadDependence, load_dependence(), {Effect::kTiltOffset}},
+      {"tilt_offset", Effect::kTiltOffset, tilt_offset(), {Effect::kDirectionAsymmetry}},
+  };
+}
+
+// NOT YET IDENTIFIED on the sim runs (README, "Simulated tests"): the same
+// assertions, disabled until the analysis gets them right. The base LuGre fit
+// on these runs often lands in a wrong basin (Stribeck curve collapsed, Fv
+// negative), because the motion segmentation counts the nm/s creep inside
+// holds as slow passes and the steady-state Stribeck start is fitted to them.
+std::vector<Case> known_gaps() {
+  return {
+      {"dwell_stiction", Effect::kDwellStiction, dwell_stiction(), {Effect::kDrift}},
+      {"frictional_lag", Effect::kFrictionalLag, frictional_lag(), {Effect::kPreslidingHysteresis}},
+      {"position_periodic", Effect::kPositionPeriodic, position_periodic(), {}},
+      {"direction_asymmetry", Effect::kDirectionAsymmetry, direction_asymmetry(), {Effect::kTiltOffset}},
+      {"drift", Effect::kDrift, drift(), {Effect::kDwellStiction}},
+      {"presliding_hysteresis", Effect::kPreslidingHysteresis, presliding_hysteresis(), {Effect::kFrictionalLag}},
+      {"backlash", Effect::kBacklash, backlash(), {Effect::kPreslidingHysteresis}},
+  };
+}
+
+class SimulatedEffect : public ::testing::TestWithParam<Case> {};
+
+TEST_P(SimulatedEffect, IsNamedFirstAndLowersTheHeldOutError) {
+  const Case& c = GetParam();
+  const Diagnosis d = diagnose_run(c.name, c.edit);
+  ASSERT_FALSE(d.accepted.empty()) << c.name << ": nothing accepted";
+  EXPECT_EQ(d.accepted.front().effect, c.effect) << "accepted: " << accepted_names(d);
+  for (Effect m : c.mimics) EXPECT_FALSE(accepted(d, m)) << "mimic accepted: " << accepted_names(d);
+  EXPECT_LT(d.after.heldout.rms, 0.95 * d.before.heldout.rms);
+  for (const auto& p : d.accepted.front().parameters) {
+    if (!p.fixed) {
+      EXPECT_TRUE(std::isfinite(p.std_error)) << p.name;
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Sim, SimulatedEffect, ::testing::ValuesIn(identified()),
+                         [](const auto& info) { return std::string(info.param.name); });
+INSTANTIATE_TEST_SUITE_P(DISABLED_SimKnownGap, SimulatedEffect, ::testing::ValuesIn(known_gaps()),
+                         [](const auto& info) { return std::string(info.param.name); });
+
+TEST(DiagnosisSim, ACleanRunAcceptsNothing) {
+  const Diagnosis d = diagnose_run("clean", {});
+  EXPECT_TRUE(d.accepted.empty()) << accepted_names(d);
+  EXPECT_EQ(d.rejected.size(), kAllEffects.size());
+}
+
+TEST(DiagnosisSim, StrongViscousFrictionIsNotMistakenForLogVelocity) {
+  // Viscous friction 2 N s/m (80 uN at 40 um/s) instead of the config's
+  // 0.001: it belongs in the base model's Fv, not in a log-velocity law.
+  const Diagnosis d = diagnose_run("viscous", [](v1::DaemonConfig& c) { friction(c).set_viscous_n_s_per_m(2.0); });
+  EXPECT_FALSE(accepted(d, Effect::kVelocityStrengthening)) << accepted_names(d);
+}
+
+TEST(DiagnosisSim, TheSameSeedGivesTheSameDiagnosis) {
+  const std::vector<Effect> two = {Effect::kTiltOffset, Effect::kDirectionAsymmetry};
+  const Diagnosis a = diagnose_run("tilt, seed 3", tilt_offset(), 3, options_for_runs(two));
+  const Diagnosis b = diagnose_run("tilt, seed 3 again", tilt_offset(), 3, options_for_runs(two));
+  ASSERT_EQ(a.accepted.size(), b.accepted.size());
+  ASSERT_EQ(a.model_after.size(), b.model_after.size());
+  for (std::size_t i = 0; i < a.model_after.size(); ++i) ASSERT_EQ(a.model_after[i], b.model_after[i]) << i;
+}
+
+}  // namespace
+}  // namespace tribo::analysis

@@ -1,0 +1,37 @@
+#include "tests/analysis/sim_identification_run.h"
+
+#include <stdexcept>
+#include <vector>
+
+#include "analysis/series_input.h"
+#include "tests/daemon/service_test_support.h"
+
+namespace tribo::testing {
+
+v1::DaemonConfig identification_config(const ConfigEdit& edit) {
+  v1::DaemonConfig config = default_config();
+  config.mutable_controller()->mutable_lateral_displacement()->set_setpoint_weight_p(1.0);
+  config.mutable_sim()->mutable_tip()->mutable_tilt_offset()->set_enabled(false);
+  if (edit) edit(config);
+  return config;
+}
+
+analysis::MeasuredSeries simulated_identification_run(const v1::DaemonConfig& config, std::uint64_t seed) {
+  const v1::Protocol protocol = daemon::testing::load_protocol_file("identification.textproto");
+  const daemon::testing::LoopRun run = daemon::testing::run_in_loop(config, protocol, {}, seed);
+  if (run.outcome.end != daemon::RunEnd::kCompleted) {
+    throw std::runtime_error("identification run did not complete: " + daemon::trip_description(run.outcome.trip));
+  }
+  if (run.samples.empty()) throw std::runtime_error("identification run recorded nothing");
+  // Segment 0 is the unloaded approach, the last the unloaded return.
+  const std::uint32_t last = run.samples.back().segment_index;
+  std::vector<Sample> loaded;
+  for (const Sample& s : run.samples) {
+    if (s.segment_index >= 1 && s.segment_index < last) loaded.push_back(s);
+  }
+  analysis::MeasuredSeries series = analysis::series_from_samples(loaded, "identification run (simulated)");
+  analysis::derive_motion(series, 0);
+  return series;
+}
+
+}  // namespace tribo::testing

@@ -1,0 +1,34 @@
+// Runs of tribo's simulated instrument for the diagnosis tests: the shipped
+// identification protocol (config/protocols/identification.textproto) in the
+// real-time loop in-process (tests/daemon/service_test_support.h,
+// run_in_loop), on the default config with one edit, and the recorded
+// samples as the analysis reads a recorded run (analysis/series_input.h).
+//
+// The base config differs from config/tribod.textproto in two documented
+// ways: the lateral loop weights its setpoint in P (b = 1, the protocol's
+// note: the 40 µm/s passes outlast the default loop's lag only then), and
+// the tip is not tilted (tilt is one effect of the vocabulary, switched on
+// by the tilt test like every other; see tests/analysis/diagnosis_sim_test.cc).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+
+#include "analysis/measured_series.h"
+#include "tribo/v1/daemon_config.pb.h"
+
+namespace tribo::testing {
+
+using ConfigEdit = std::function<void(v1::DaemonConfig&)>;
+
+// The base config of the identification runs (see above).
+v1::DaemonConfig identification_config(const ConfigEdit& edit = {});
+
+// The identification protocol on the simulated instrument with this config:
+// lateral position, lateral force (the sensor's: friction plus the plate's
+// inertia m a, the tilt, and the sensor noise), normal force, setpoint, from
+// the first load ramp to the end of the unloading (the unloaded approach and
+// return are left out); velocity and acceleration derived from the position.
+analysis::MeasuredSeries simulated_identification_run(const v1::DaemonConfig& config, std::uint64_t seed = 1);
+
+}  // namespace tribo::testing
