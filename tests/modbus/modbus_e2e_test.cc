@@ -24,25 +24,7 @@ namespace {
 using testing::BenchProcess;
 using testing::DaemonProcess;
 using testing::TempDir;
-
-// The standard scratch shortened for CI: same load (1000 µN) and speed
-// (0.5 µm/s), segments cut to 1 + 0.5 + 4 + 0.5 s. A Modbus run is paced by
-// the wall clock and this VM sustains about 5 kHz of the 10 kHz loop over
-// loopback, so the full 32 s protocol takes about a minute; the lock-step
-// handshake makes the result independent of the pace.
-v1::Protocol short_scratch() {
-  v1::Protocol p;
-  const auto error = wire::parse_text_proto(R"(
-    name: "standard-scratch-short"
-    acquisition_rate_hz: 1000
-    segments { name: "approach" duration_s: 1 normal { end_uN: 0 } lateral { end_um: 2 } }
-    segments { name: "load" duration_s: 0.5 normal { end_uN: 1000 } lateral { end_um: 2 } }
-    segments { name: "scratch" duration_s: 4 normal { end_uN: 1000 } lateral { end_um: 4 } }
-    segments { name: "unload" duration_s: 0.5 normal { end_uN: 0 } lateral { end_um: 4 } }
-  )", "short_scratch", p);
-  if (error) throw std::runtime_error(*error);
-  return p;
-}
+using testing::short_scratch;
 
 v1::Protocol standard_scratch() {
   v1::Protocol p;

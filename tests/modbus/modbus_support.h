@@ -11,6 +11,7 @@
 
 #include "tribo/v1/daemon_config.pb.h"
 #include "tribo/v1/modbus_config.pb.h"
+#include "tribo/v1/protocol.pb.h"
 
 namespace tribo::testing {
 
@@ -58,5 +59,11 @@ v1::DaemonConfig with_port(v1::DaemonConfig config, std::uint16_t port);
 // differential capacitance steepens (2 pm at x = 0 in config/tribod.textproto).
 // The converter the Modbus runs are compared against: "within quantisation".
 double lateral_position_step_m(const v1::DaemonConfig& sim_config, double position_m);
+
+// The standard scratch shortened for CI: same load (1000 µN) and speed
+// (0.5 µm/s), segments cut to 1 + 0.5 + 4 + 0.5 s. A Modbus run is paced by
+// the wall clock (the full 32 s protocol takes 35-60 s here); the lock-step
+// handshake makes the result independent of the pace.
+v1::Protocol short_scratch();
 
 }  // namespace tribo::testing

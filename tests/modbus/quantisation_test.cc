@@ -25,6 +25,8 @@
 namespace tribo {
 namespace {
 
+using testing::short_scratch;
+
 // The simulated backend behind a register map, in process.
 class MappedSimTransducer : public hal::Transducer {
  public:
@@ -67,21 +69,6 @@ class MappedSimTransducer : public hal::Transducer {
   std::uint32_t sequence_ = 0;
   hal::AxisPositions measured_;
 };
-
-// The standard scratch's load and speed, shortened (as in the e2e test).
-v1::Protocol short_scratch() {
-  v1::Protocol p;
-  const auto error = wire::parse_text_proto(R"(
-    name: "standard-scratch-short"
-    acquisition_rate_hz: 1000
-    segments { name: "approach" duration_s: 1 normal { end_uN: 0 } lateral { end_um: 2 } }
-    segments { name: "load" duration_s: 0.5 normal { end_uN: 1000 } lateral { end_um: 2 } }
-    segments { name: "scratch" duration_s: 4 normal { end_uN: 1000 } lateral { end_um: 4 } }
-    segments { name: "unload" duration_s: 0.5 normal { end_uN: 0 } lateral { end_um: 4 } }
-  )", "short_scratch", p);
-  if (error) throw std::runtime_error(*error);
-  return p;
-}
 
 analysis::SlidingSegmentMetrics scratch_metrics(hal::Transducer& transducer, const v1::DaemonConfig& config) {
   const daemon::ProtocolCheck check = daemon::validate_protocol(short_scratch(), config);
