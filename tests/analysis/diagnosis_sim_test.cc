@@ -44,6 +44,7 @@ DiagnosisOptions options_for_runs(std::vector<Effect> candidates = {kAllEffects.
   DiagnosisOptions options;
   options.base.load_scaled = true;
   options.base.rest_creep = true;
+  options.segmentation.segment_by_reference = true;  // as tribo-fit does for a run directory
   options.candidates = std::move(candidates);
   return options;
 }
