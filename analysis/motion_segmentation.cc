@@ -194,17 +194,16 @@ MotionSegmentation segment_motion(const MeasuredSeries& s, const SegmentationOpt
   const double v95 = percentile(smoothed_speed, 0.95);
   const double smoothed_noise = white_noise_rms(s.velocity_m_per_s) / std::sqrt(std::max(window / dt, 1.0));
   m.hold_speed_m_per_s = std::max(options.hold_speed_fraction * v95, 3.0 * smoothed_noise);
-  m.holds = find_holds(s, smoothed, m.hold_speed_m_per_s, min_hold);
 
   const auto [xmin, xmax] = std::minmax_element(s.position_m.begin(), s.position_m.end());
   m.position_noise_m = white_noise_rms(s.position_m);
   m.reversal_distance_m = std::max(options.reversal_fraction * (*xmax - *xmin), 5.0 * m.position_noise_m);
 
-  // Passes in the motion runs between holds.
+  // Holds, and passes in the motion runs between them.
   if (options.segment_by_reference && !s.reference_m.empty()) {
-    m.holds.clear();
     segment_by_reference(s, min_hold, m.holds, m.passes);
   } else {
+    m.holds = find_holds(s, smoothed, m.hold_speed_m_per_s, min_hold);
     std::size_t cursor = 0;
     auto motion_until = [&](std::size_t end_exclusive) {
       if (end_exclusive > cursor) split_run(s, smoothed, cursor, end_exclusive - 1, m.reversal_distance_m, m.passes);
