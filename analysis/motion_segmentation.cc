@@ -95,6 +95,47 @@ void split_run(const MeasuredSeries& s, const std::vector<double>& smoothed, std
   passes.push_back(p);
 }
 
+// Holds and passes from the setpoint (SegmentationOptions::segment_by_reference):
+// a hold where it stands still for min_hold_s, a new pass after every hold and
+// wherever it turns. Short standstills inside motion keep the pass's direction.
+void segment_by_reference(const MeasuredSeries& s, double min_hold_s, std::vector<Hold>& holds,
+                          std::vector<Pass>& passes) {
+  const std::size_t n = s.size();
+  const auto& r = s.reference_m;
+  // Setpoint direction of sample i: its step to the next sample (the last: its step from the previous).
+  std::vector<int> step(n, 0);
+  double max_step = 0;
+  for (std::size_t i = 0; i + 1 < n; ++i) max_step = std::max(max_step, std::fabs(r[i + 1] - r[i]));
+  const double still = 1e-6 * max_step;  // rounding of a constant setpoint
+  for (std::size_t i = 0; i < n; ++i) {
+    const double d = i + 1 < n ? r[i + 1] - r[i] : (n > 1 ? r[i] - r[i - 1] : 0.0);
+    step[i] = d > still ? +1 : (d < -still ? -1 : 0);
+  }
+  for (std::size_t i = 0; i < n;) {
+    std::size_t j = i;
+    while (j + 1 < n && (step[j + 1] == 0) == (step[i] == 0)) ++j;
+    if (step[i] == 0 && s.time_s[j] - s.time_s[i] >= min_hold_s) holds.push_back({i, j});
+    i = j + 1;
+  }
+  auto add_passes = [&](std::size_t first, std::size_t end_exclusive) {
+    int dir = 0;
+    for (std::size_t i = first; i < end_exclusive; ++i) {
+      if (step[i] == 0 || step[i] == dir) continue;
+      if (dir != 0) passes.back().last = i - 1;
+      passes.push_back({});
+      passes.back().first = dir != 0 ? i : first;
+      passes.back().direction = dir = step[i];
+    }
+    if (dir != 0) passes.back().last = end_exclusive - 1;
+  };
+  std::size_t cursor = 0;
+  for (const Hold& h : holds) {
+    add_passes(cursor, h.first);
+    cursor = h.last + 1;
+  }
+  add_passes(cursor, n);
+}
+
 // Groups sorted values into levels: a new level when the next value exceeds
 // the level's first value by more than the ratio (values > 0).
 std::vector<int> cluster_levels(const std::vector<double>& values, double ratio, std::vector<double>& level_values) {
@@ -153,22 +194,26 @@ MotionSegmentation segment_motion(const MeasuredSeries& s, const SegmentationOpt
   const double v95 = percentile(smoothed_speed, 0.95);
   const double smoothed_noise = white_noise_rms(s.velocity_m_per_s) / std::sqrt(std::max(window / dt, 1.0));
   m.hold_speed_m_per_s = std::max(options.hold_speed_fraction * v95, 3.0 * smoothed_noise);
-  m.holds = find_holds(s, smoothed, m.hold_speed_m_per_s, min_hold);
 
   const auto [xmin, xmax] = std::minmax_element(s.position_m.begin(), s.position_m.end());
   m.position_noise_m = white_noise_rms(s.position_m);
   m.reversal_distance_m = std::max(options.reversal_fraction * (*xmax - *xmin), 5.0 * m.position_noise_m);
 
-  // Passes in the motion runs between holds.
-  std::size_t cursor = 0;
-  auto motion_until = [&](std::size_t end_exclusive) {
-    if (end_exclusive > cursor) split_run(s, smoothed, cursor, end_exclusive - 1, m.reversal_distance_m, m.passes);
-  };
-  for (const Hold& h : m.holds) {
-    motion_until(h.first);
-    cursor = h.last + 1;
+  // Holds, and passes in the motion runs between them.
+  if (options.segment_by_reference && !s.reference_m.empty()) {
+    segment_by_reference(s, min_hold, m.holds, m.passes);
+  } else {
+    m.holds = find_holds(s, smoothed, m.hold_speed_m_per_s, min_hold);
+    std::size_t cursor = 0;
+    auto motion_until = [&](std::size_t end_exclusive) {
+      if (end_exclusive > cursor) split_run(s, smoothed, cursor, end_exclusive - 1, m.reversal_distance_m, m.passes);
+    };
+    for (const Hold& h : m.holds) {
+      motion_until(h.first);
+      cursor = h.last + 1;
+    }
+    motion_until(n);
   }
-  motion_until(n);
 
   // Per-pass attributes and per-sample labels.
   std::size_t hold_index = 0;

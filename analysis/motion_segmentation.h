@@ -21,6 +21,11 @@ struct SegmentationOptions {
   // velocity noise) for at least min_hold_s (0: max(0.05 s, 20 samples)).
   double hold_speed_fraction = 0.02;
   double min_hold_s = 0;
+  // Tribo runs (reference_m is the lateral setpoint): holds, directions and
+  // pass boundaries from the setpoint instead, which stands exactly still in
+  // a hold, while the tip settles at nm/s for a second after each stop. Not
+  // for a CSV's --reference, which may be any commanded signal.
+  bool segment_by_reference = false;
   // A reversal: the position retreats from its running extreme by more than
   // max(reversal_fraction * range of x, 5 x the position noise).
   double reversal_fraction = 1e-3;

@@ -208,6 +208,7 @@ int diagnose_command(int argc, char** argv) {
   options.base.fit_mass = fit_mass;
   options.base.load_scaled = series->has_normal() && !args->flag("--no-load-scaling");
   options.base.stribeck_exponent = exponent;
+  options.segmentation.segment_by_reference = std::filesystem::is_directory(input);  // a tribo run: the setpoint
   options.candidates = candidates;
   const auto t0 = std::chrono::steady_clock::now();
   Diagnosis d;

@@ -66,5 +66,45 @@ TEST(MotionSegmentation, FallsBackToTimeChunksForASingleSweep) {
   EXPECT_EQ(held, 500);
 }
 
+// A tribo run: the setpoint holds still exactly, while the tip, behind a
+// 0.2 s lag, is still creeping toward it all through the holds.
+TEST(MotionSegmentation, TakesHoldsPassesAndDirectionsFromTheSetpoint) {
+  auto setpoint_um = [](double t) {
+    if (t < 0.5) return 0.0;                              // hold 0.5 s
+    if (t < 0.6) return 10 * (t - 0.5);                   // + 1 um
+    if (t < 0.85) return 1.0;                             // hold 0.25 s
+    if (t < 0.95) return 1.0 - 10 * (t - 0.85);           // - 1 um, then turns at once
+    if (t < 1.0) return 10 * (t - 0.95);                  // + 0.5 um with a 0.02 s stop
+    if (t < 1.02) return 0.5;
+    if (t < 1.07) return 0.5 + 10 * (t - 1.02);
+    return 1.0;                                           // hold to the end
+  };
+  MeasuredSeries s;
+  double x = 0;
+  for (int i = 0; i < 320; ++i) {
+    const double t = 0.005 * i;
+    s.time_s.push_back(t);
+    s.reference_m.push_back(1e-6 * setpoint_um(t));
+    x += (s.reference_m.back() - x) * 0.005 / 0.2;
+    s.position_m.push_back(x);
+    s.force_n.push_back(1);
+  }
+  derive_motion(s, 0);
+  SegmentationOptions options;
+  options.segment_by_reference = true;
+  const MotionSegmentation m = segment_motion(s, options);
+  ASSERT_EQ(m.holds.size(), 3u);
+  EXPECT_EQ(m.holds[1].first, 120u);  // t = 0.6 s: the setpoint stops, the tip does not
+  ASSERT_EQ(m.passes.size(), 3u);
+  EXPECT_EQ(m.passes[0].direction, +1);
+  EXPECT_EQ(m.passes[1].direction, -1);
+  EXPECT_EQ(m.passes[2].direction, +1);
+  EXPECT_TRUE(m.passes[1].after_hold);
+  EXPECT_NEAR(m.passes[1].dwell_before_s, 0.245, 1e-9);
+  EXPECT_FALSE(m.passes[2].after_hold);  // a reversal
+  EXPECT_EQ(m.passes[2].first, 190u);   // t = 0.95 s
+  EXPECT_EQ(m.direction[202], +1);       // inside the 0.02 s stop
+}
+
 }  // namespace
 }  // namespace tribo::analysis
