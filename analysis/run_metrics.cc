@@ -3,45 +3,26 @@
 #include <algorithm>
 #include <cmath>
 
+#include "analysis/segment_spans.h"
+
 namespace tribo::analysis {
 
 namespace {
 
-constexpr double kMovingThresholdM = 1e-9;  // setpoint travel below this is a hold
 // The stiction peak is taken on a centred moving average of this length, so
 // that it is the spike and not the largest noise excursion among thousands of
 // samples (at 10 µN force noise a 20 ms window at 1 kHz leaves ~0.7 µN).
 constexpr double kPeakSmoothingS = 0.02;
 
-struct Span {
-  int first = 0;
-  int last = 0;  // inclusive
-};
-
-// Contiguous runs of samples with the same segment index, unload samples excluded.
-std::vector<Span> segment_spans(const v1::SampleBlock& b) {
-  std::vector<Span> spans;
-  for (int i = 0; i < b.time_s_size(); ++i) {
-    if (b.status_flags(i) & v1::SAFE_UNLOAD) continue;
-    if (!spans.empty() && spans.back().last == i - 1 &&
-        b.segment_index(spans.back().first) == b.segment_index(i)) {
-      spans.back().last = i;
-    } else {
-      spans.push_back({i, i});
-    }
-  }
-  return spans;
-}
-
-bool is_loaded_sliding(const v1::SampleBlock& b, const Span& s) {
+bool is_loaded_sliding(const v1::SampleBlock& b, const SegmentSpan& s) {
   if (s.last - s.first < 3) return false;
   for (int i = s.first; i <= s.last; ++i) {
     if (!(b.normal_setpoint_n(i) > 0)) return false;
   }
-  return std::fabs(b.lateral_setpoint_m(s.last) - b.lateral_setpoint_m(s.first)) > kMovingThresholdM;
+  return lateral_setpoint_moves(b, s);
 }
 
-SlidingSegmentMetrics measure(const v1::SampleBlock& b, const Span& s) {
+SlidingSegmentMetrics measure(const v1::SampleBlock& b, const SegmentSpan& s) {
   SlidingSegmentMetrics m;
   m.segment = b.segment_index(s.first);
   m.begin_s = b.time_s(s.first);
@@ -87,7 +68,7 @@ SlidingSegmentMetrics measure(const v1::SampleBlock& b, const Span& s) {
 
 std::vector<SlidingSegmentMetrics> sliding_segment_metrics(const v1::SampleBlock& samples) {
   std::vector<SlidingSegmentMetrics> metrics;
-  for (const Span& span : segment_spans(samples)) {
+  for (const SegmentSpan& span : segment_spans(samples)) {
     if (is_loaded_sliding(samples, span)) metrics.push_back(measure(samples, span));
   }
   return metrics;

@@ -2,35 +2,14 @@
 
 #include <cmath>
 
+#include "analysis/segment_spans.h"
+
 namespace tribo::analysis {
 
 namespace {
 
-constexpr double kMovingThresholdM = 1e-9;
-
-struct Span {
-  int first = 0, last = 0;
-};
-
-std::vector<Span> spans_by_segment(const v1::SampleBlock& b) {
-  std::vector<Span> spans;
-  for (int i = 0; i < b.time_s_size(); ++i) {
-    if (b.status_flags(i) & v1::SAFE_UNLOAD) continue;
-    if (!spans.empty() && spans.back().last == i - 1 && b.segment_index(spans.back().first) == b.segment_index(i)) {
-      spans.back().last = i;
-    } else {
-      spans.push_back({i, i});
-    }
-  }
-  return spans;
-}
-
-bool constant_normal(const v1::SampleBlock& b, const Span& s) {
+bool constant_normal(const v1::SampleBlock& b, const SegmentSpan& s) {
   return std::fabs(b.normal_setpoint_n(s.last) - b.normal_setpoint_n(s.first)) <= 1e-12;
-}
-
-bool lateral_moves(const v1::SampleBlock& b, const Span& s) {
-  return std::fabs(b.lateral_setpoint_m(s.last) - b.lateral_setpoint_m(s.first)) > kMovingThresholdM;
 }
 
 // Least-squares line y = a + b x; returns false when x does not vary.
@@ -61,8 +40,8 @@ bool line_fit(const std::vector<double>& x, const std::vector<double>& y, double
 }  // namespace
 
 std::optional<TiltFit> fit_surface_tilt(const v1::SampleBlock& b) {
-  for (const Span& s : spans_by_segment(b)) {
-    if (s.last - s.first < 3 || !constant_normal(b, s) || !lateral_moves(b, s)) continue;
+  for (const SegmentSpan& s : segment_spans(b)) {
+    if (s.last - s.first < 3 || !constant_normal(b, s) || !lateral_setpoint_moves(b, s)) continue;
     std::vector<double> x, z;
     for (int i = s.first; i <= s.last; ++i) {
       x.push_back(b.lateral_position_m(i));
@@ -89,8 +68,8 @@ std::vector<double> tilt_corrected_depth(const v1::SampleBlock& b, const TiltFit
 DriftFromHolds lateral_drift_from_holds(const v1::SampleBlock& b) {
   DriftFromHolds out;
   double weighted = 0, total = 0;
-  for (const Span& s : spans_by_segment(b)) {
-    if (s.last - s.first < 3 || lateral_moves(b, s) || !constant_normal(b, s) || !(b.normal_setpoint_n(s.first) > 0)) continue;
+  for (const SegmentSpan& s : segment_spans(b)) {
+    if (s.last - s.first < 3 || lateral_setpoint_moves(b, s) || !constant_normal(b, s) || !(b.normal_setpoint_n(s.first) > 0)) continue;
     std::vector<double> t, f;
     for (int i = s.first; i <= s.last; ++i) {
       t.push_back(b.time_s(i));

@@ -4,43 +4,22 @@
 #include <cmath>
 #include <vector>
 
+#include "analysis/segment_spans.h"
+
 namespace tribo::analysis {
 
 namespace {
 
-constexpr double kMovingThresholdM = 1e-9;  // as run_metrics: setpoint travel below this is a hold
 constexpr double kFullContactFraction = 0.5;
 constexpr double kHeldLoadFraction = 1e-6;  // a normal setpoint constant to this is a hold
 
-struct Span {
-  int first = 0, last = 0;  // inclusive
-};
-
-// Contiguous samples of one segment, safe-unload samples left out.
-std::vector<Span> segment_spans(const v1::SampleBlock& b) {
-  std::vector<Span> spans;
-  for (int i = 0; i < b.time_s_size(); ++i) {
-    if (b.status_flags(i) & v1::SAFE_UNLOAD) continue;
-    if (!spans.empty() && spans.back().last == i - 1 && b.segment_index(spans.back().first) == b.segment_index(i)) {
-      spans.back().last = i;
-    } else {
-      spans.push_back({i, i});
-    }
-  }
-  return spans;
-}
-
-bool lateral_moves(const v1::SampleBlock& b, const Span& s) {
-  return std::fabs(b.lateral_setpoint_m(s.last) - b.lateral_setpoint_m(s.first)) > kMovingThresholdM;
-}
-
-double peak_normal_setpoint_n(const v1::SampleBlock& b, const Span& s) {
+double peak_normal_setpoint_n(const v1::SampleBlock& b, const SegmentSpan& s) {
   double peak = 0;
   for (int i = s.first; i <= s.last; ++i) peak = std::max(peak, b.normal_setpoint_n(i));
   return peak;
 }
 
-bool normal_holds(const v1::SampleBlock& b, const Span& s) {
+bool normal_holds(const v1::SampleBlock& b, const SegmentSpan& s) {
   double lo = b.normal_setpoint_n(s.first), hi = lo;
   for (int i = s.first; i <= s.last; ++i) {
     lo = std::min(lo, b.normal_setpoint_n(i));
@@ -55,9 +34,9 @@ std::optional<TipTiltEstimate> estimate_tip_tilt(const v1::SampleBlock& b) {
   TipTiltEstimate e;
   double lateral = 0, normal = 0;
   bool slid_under_load = false;  // since the tip was last unloaded
-  for (const Span& s : segment_spans(b)) {
+  for (const SegmentSpan& s : segment_spans(b)) {
     const double peak_n = peak_normal_setpoint_n(b, s);
-    if (lateral_moves(b, s)) {
+    if (lateral_setpoint_moves(b, s)) {
       if (peak_n > 0) slid_under_load = true;
     } else if (peak_n > 0 && !slid_under_load && normal_holds(b, s) && s.last - s.first >= 3) {
       std::uint64_t used = 0;
