@@ -156,12 +156,12 @@ std::vector<ParamEstimate> parameters_of(const FitResult& fit, Effect effect) {
 }
 
 // Per held-out block: did the candidate lower the block's squared error?
-double block_agreement(const MotionSegmentation& m, const std::vector<double>& measured, const std::vector<double>& before,
-                       const std::vector<double>& after) {
+double block_agreement(const MotionSegmentation& m, const std::vector<char>& heldout, const std::vector<double>& measured,
+                       const std::vector<double>& before, const std::vector<double>& after) {
   std::map<int, std::pair<double, double>> sse;
   std::map<int, std::size_t> count;
   for (std::size_t i = 0; i < measured.size(); ++i) {
-    if (!m.heldout[i]) continue;
+    if (!heldout[i]) continue;
     const double eb = measured[i] - before[i], ea = measured[i] - after[i];
     auto& s = sse[m.block_of[i]];
     s.first += eb * eb;
@@ -336,8 +336,14 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
   Diagnosis out;
   out.motion = segment_motion(series, options.segmentation);
   const ModelData data(series, out.motion);
-  const std::vector<char> in_fit = invert(out.motion.heldout);
-  const std::vector<char> heldout(out.motion.heldout.begin(), out.motion.heldout.end());
+  std::vector<char> in_fit = invert(out.motion.heldout);
+  std::vector<char> heldout(out.motion.heldout.begin(), out.motion.heldout.end());
+  if (options.base.state_from_rest) {
+    // The holds only set each pass's initial state (ModelStructure::state_from_rest).
+    for (std::size_t i = 0; i < series.size(); ++i) {
+      if (data.at_rest[i]) in_fit[i] = heldout[i] = 0;
+    }
+  }
   const std::vector<char> everything(series.size(), 1);
 
   out.base = fit_lugre(data, options.base, in_fit, options.lugre);
@@ -402,7 +408,7 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
       trial.heldout_rms_before = heldout_before;
       trial.heldout_rms_after = rms_over(series.force_n, model, heldout);
       trial.heldout_gain = heldout_before > 0 ? 1.0 - trial.heldout_rms_after / heldout_before : 0.0;
-      trial.block_agreement = block_agreement(out.motion, series.force_n, current.model, model);
+      trial.block_agreement = block_agreement(out.motion, heldout, series.force_n, current.model, model);
       trial.parameters = parameters_of(fit, e);
       trial.warnings = fit.warnings;
       trial.passed = trial.heldout_gain >= options.min_heldout_gain && trial.block_agreement >= options.min_block_agreement &&

@@ -82,16 +82,17 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
   j.end_object();
 
   j.key("segmentation").begin_object();
-  std::size_t heldout = 0;
-  for (char h : d.motion.heldout) heldout += h ? 1 : 0;
   j.field("passes", d.motion.passes.size()).field("holds", d.motion.holds.size());
-  j.field("heldout_scheme", d.motion.heldout_scheme).field("fit_samples", s.size() - heldout).field("heldout_samples", heldout);
+  j.field("heldout_scheme", d.motion.heldout_scheme)
+      .field("fit_samples", d.before.fit.n)
+      .field("heldout_samples", d.before.heldout.n);
   j.end_object();
 
   j.key("base_model").begin_object();
   const ModelStructure& st = d.base.result.params.structure;
   j.field("name", "lugre").field("load_scaled", st.load_scaled).field("fit_mass", st.fit_mass);
   j.field("stribeck_exponent", st.stribeck_exponent);
+  j.field("rest_creep", st.rest_creep).field("state_from_rest", st.state_from_rest);
   j.key("parameters");
   write_parameters(j, d.base.result.estimates);
   j.field("starts_evaluated", d.base.starts_evaluated).field("starts_refined", d.base.starts_refined);

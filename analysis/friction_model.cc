@@ -469,6 +469,23 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
     return z;
   };
 
+  // The bristle at a hold's end from the force measured there: the mean of
+  // (F - additive) over its last samples (up to 25 ms, at least one sample),
+  // over sigma0, within the deflection limit level / sigma0.
+  auto state_at_rest = [&](std::size_t i, const T& limit_level) -> T {
+    T sum = T(0.0 * sigma0);
+    int count = 0;
+    for (std::size_t j = i; j-- > 0 && d.at_rest[j] && (count == 0 || s.time_s[i - 1] - s.time_s[j] <= 0.025);) {
+      sum = sum + (s.force_n[j] - additive(j));
+      ++count;
+    }
+    const T z_rest = sum / (static_cast<double>(count) * sigma0);
+    const T limit = limit_level / sigma0;
+    if (value_of(z_rest) > value_of(limit)) return limit;
+    if (value_of(z_rest) < -value_of(limit)) return T(-limit);
+    return z_rest;
+  };
+
   // Initial state: steady sliding if moving, else relaxed.
   T vlag = lag ? lagged_velocity(0) : T(v[0]);
   T level = stribeck(0, absolute(vlag), sign_of(v[0]));
@@ -491,6 +508,9 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
       continue;
     }
     const T g = level / sigma0;
+    if (st.state_from_rest && i > 0 && d.at_rest[i - 1] && !d.at_rest[i] && !(backlash && in_gap)) {
+      z = state_at_rest(i, value_of(level_prev) > value_of(level) ? level_prev : level);
+    }
     if (i > 0) {
       const double h = s.time_s[i] - s.time_s[i - 1];
       const double v_step = d.step_velocity[i];

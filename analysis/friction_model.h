@@ -51,6 +51,14 @@ struct ModelStructure {
   // friction lost at rest to a creep or dither the sampled motion does not
   // show (tribo's closed loop at 10 kHz recorded at 200 Hz).
   bool rest_creep = false;
+  // The bristle state at the end of each hold is taken from the measured
+  // force there (at rest F = sigma0 z + the additive terms), and the holds are
+  // left out of the fit and of the held-out error (analysis/diagnosis.h):
+  // for records whose holds carry a relaxation the sampled motion cannot
+  // show (tribo's closed loop: the 10 kHz position dither drains LuGre's
+  // bristle, docs/identification.md "Simulated tests"). Each pass is then
+  // predicted from the force it starts at, not from a model of the hold.
+  bool state_from_rest = false;
   std::vector<Effect> effects;     // extensions, in the order they were accepted
 
   bool has(Effect e) const;

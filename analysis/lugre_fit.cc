@@ -19,13 +19,26 @@ struct LinearStart {
   std::size_t rows = 0;
 };
 
-bool sliding_sample(const ModelData& d, std::size_t i) {
+double pass_length(const ModelData& d, const Pass& pass) {
+  return std::fabs(d.series.position_m[pass.last] - d.series.position_m[pass.first]);
+}
+
+// Passes shorter than a tenth of the longest (small oscillations, the
+// reversals of a sine) may never leave presliding: they are no steady sliding.
+double min_steady_pass_length(const ModelData& d) {
+  double longest = 0;
+  for (const Pass& p : d.motion.passes) longest = std::max(longest, pass_length(d, p));
+  return 0.1 * longest;
+}
+
+bool sliding_sample(const ModelData& d, std::size_t i, double min_length) {
   const auto& m = d.motion;
   const int p = m.pass_of[i];
   if (p < 0) return false;
   const Pass& pass = m.passes[static_cast<std::size_t>(p)];
-  const double length = std::fabs(d.series.position_m[pass.last] - d.series.position_m[pass.first]);
-  return m.distance_since_start_m[i] >= 0.2 * length && d.series.velocity_m_per_s[i] * pass.direction > 0;
+  const double length = pass_length(d, pass);
+  return length >= min_length && m.distance_since_start_m[i] >= 0.2 * length &&
+         d.series.velocity_m_per_s[i] * pass.direction > 0;
 }
 
 LinearStart linear_start(const ModelData& d, const ModelStructure& st, const std::vector<char>& in_fit, bool offset) {
@@ -79,19 +92,22 @@ std::vector<CurvePoint> steady_sliding_points(const ModelData& d, const std::vec
     double sum_v = 0, sum_y = 0, sum_y2 = 0;
     int count = 0;
   };
+  const double min_length = min_steady_pass_length(d);
   std::vector<double> speeds;
   for (std::size_t i = 0; i < s.size(); ++i) {
-    if (in_fit[i] && sliding_sample(d, i)) speeds.push_back(std::fabs(s.velocity_m_per_s[i]));
+    if (in_fit[i] && sliding_sample(d, i, min_length)) speeds.push_back(std::fabs(s.velocity_m_per_s[i]));
   }
   if (speeds.size() < 20) return {};
   std::sort(speeds.begin(), speeds.end());
+  // The range leaves out the extreme 1 % below and 0.1 % above: the fastest
+  // passes are short and may hold only ~1 % of the sliding samples.
   const double lo = std::max(speeds[speeds.size() / 100], 1e-300);
-  const double hi = std::max(speeds[speeds.size() * 99 / 100], lo * 1.0001);
+  const double hi = std::max(speeds[speeds.size() * 999 / 1000], lo * 1.0001);
   constexpr int kBins = 24;
   const double span = std::log(hi / lo);
   std::map<int, Bin> bins;  // key: direction * (bin + 1)
   for (std::size_t i = 0; i < s.size(); ++i) {
-    if (!in_fit[i] || !sliding_sample(d, i)) continue;
+    if (!in_fit[i] || !sliding_sample(d, i, min_length)) continue;
     const double v = s.velocity_m_per_s[i];
     const double speed = std::fabs(v);
     if (speed < lo || speed > hi) continue;
@@ -156,7 +172,9 @@ LugreFit fit_lugre(const ModelData& d, const ModelStructure& st, const std::vect
       const double c = out.steady.value("Fc"), f = out.steady.value("Fs");
       if (c > 0) {
         const double curve_offset = !load && both_directions ? out.steady.values.back() : lin.offset;
-        levels.push_back({c, f > 0.05 * c ? f : 1.01 * c, out.steady.value("vs"), out.steady.value("Fv"), curve_offset});
+        // The curve is in mu when load-scaled; the model's Fv is a force per velocity.
+        const double fv = out.steady.value("Fv") * (load ? d.normal_ref : 1.0);
+        levels.push_back({c, f > 0.05 * c ? f : 1.01 * c, out.steady.value("vs"), fv, curve_offset});
       }
     } catch (const std::exception&) {
       out.steady_fitted = false;
@@ -182,7 +200,7 @@ LugreFit fit_lugre(const ModelData& d, const ModelStructure& st, const std::vect
     const double force_level = load ? l.fc * d.normal_ref : l.fc;
     // The relaxation at rest (when modelled) spans decades: a few starts.
     const std::vector<double> creep_fractions = st.rest_creep ? std::vector<double>{1e-3, 1e-2, 1e-1} : std::vector<double>{0};
-    for (double g_fraction : {1e-4, 1e-3, 1e-2, 1e-1}) {
+    for (double g_fraction : {1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 1e-1, 3e-1, 1.0}) {
       for (double damping : {1e-3, 1e-1}) {
         for (double creep : creep_fractions) {
           ModelParams p = start;

@@ -3,7 +3,8 @@
 //      the offset and the inertia,
 //   2. the steady-state Stribeck curve (analysis/stribeck_fit.h) on sliding
 //      samples binned by velocity, for Fc, Fs, vs, Fv,
-//   3. a grid of presliding lengths Fc/sigma0 and damping levels sigma1
+//   3. a grid of presliding lengths Fc/sigma0 (1e-4 to 1 times the median
+//      pass length, half a decade apart) and damping levels sigma1
 //      (multi-start), each simulated once; the best few are refined by the
 //      simulation-error fit (analysis/model_fit.h) and the best one is kept.
 #pragma once

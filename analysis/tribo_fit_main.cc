@@ -208,7 +208,12 @@ int diagnose_command(int argc, char** argv) {
   options.base.fit_mass = fit_mass;
   options.base.load_scaled = series->has_normal() && !args->flag("--no-load-scaling");
   options.base.stribeck_exponent = exponent;
-  options.segmentation.segment_by_reference = std::filesystem::is_directory(input);  // a tribo run: the setpoint
+  // A tribo run: holds, directions and passes from the setpoint; each pass
+  // starts from the force measured at rest (the loop's dither relaxes the
+  // contact in holds in a way the record cannot show).
+  const bool tribo_run = std::filesystem::is_directory(input);
+  options.segmentation.segment_by_reference = tribo_run;
+  options.base.state_from_rest = tribo_run;
   options.candidates = candidates;
   const auto t0 = std::chrono::steady_clock::now();
   Diagnosis d;
