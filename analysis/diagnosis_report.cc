@@ -92,7 +92,7 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
   const ModelStructure& st = d.base.result.params.structure;
   j.field("name", "lugre").field("load_scaled", st.load_scaled).field("fit_mass", st.fit_mass);
   j.field("stribeck_exponent", st.stribeck_exponent);
-  j.field("rest_creep", st.rest_creep).field("state_from_rest", st.state_from_rest);
+  j.field("state_from_rest", st.state_from_rest);
   j.key("parameters");
   write_parameters(j, d.base.result.estimates);
   j.field("starts_evaluated", d.base.starts_evaluated).field("starts_refined", d.base.starts_refined);

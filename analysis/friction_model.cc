@@ -52,7 +52,7 @@ double level_scale(const ModelData& d, const ModelStructure& st) {
 }
 
 struct Index {
-  int fc = -1, fs = -1, vs = -1, sigma0 = -1, sigma1 = -1, fv = -1, offset = -1, mass = -1, rest_creep = -1;
+  int fc = -1, fs = -1, vs = -1, sigma0 = -1, sigma1 = -1, fv = -1, offset = -1, mass = -1;
   int dwell_dfs = -1, dwell_time = -1, lag = -1, logv = -1, load_exponent = -1;
   int per_cos = -1, per_sin = -1, per_length = -1, asym_levels = -1, asym_viscous = -1;
   int tilt = -1, breakaway = -1, gap = -1;
@@ -70,7 +70,6 @@ Index index_of(const ModelParams& p) {
   k.fv = p.index("Fv");
   k.offset = p.index("offset");
   k.mass = p.index("mass");
-  k.rest_creep = p.index("rest_creep_speed");
   k.dwell_dfs = p.index("dwell_dFs");
   k.dwell_time = p.index("dwell_time");
   k.lag = p.index("lag_time");
@@ -264,10 +263,6 @@ ModelParams base_params(const ModelData& d, const ModelStructure& st) {
     p.specs.push_back({"mass", fu == "N" ? "kg" : fu + " s^2/m", Transform::kLinear, d.mass_scale, false, {}});
     p.theta.push_back(0.0);
   }
-  if (st.rest_creep) {
-    p.specs.push_back({"rest_creep_speed", "m/s", Transform::kLog, 0.01 * d.speed_ref, false, {}});
-    p.theta.push_back(0.0);
-  }
   return p;
 }
 
@@ -357,8 +352,6 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
   const bool ep = k.breakaway >= 0, backlash = k.gap >= 0;
   const bool load_scaled = st.load_scaled && s.has_normal();
   const T m = mass ? val(k.mass) : T(0.0);
-  const bool rest_creep = k.rest_creep >= 0;
-  const T creep_speed = rest_creep ? val(k.rest_creep) : T(0.0);
   const T dwell_dfs = dwell ? val(k.dwell_dfs) : T(0.0), dwell_time = dwell ? val(k.dwell_time) : T(1.0);
   const T lag_time = lag ? val(k.lag) : T(0.0);
   const T log_coeff = logv ? val(k.logv) : T(0.0);
@@ -543,11 +536,6 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
           }
         }
       }
-      // At rest (inside a hold) the bristle relaxes at the rate an
-      // unseen creep or dither |v_c| would give it, |v_c| / g: LuGre's
-      // friction loss at rest under vibration (README, "The simulated
-      // instrument"), which a motion sampled far below the loop rate cannot show.
-      if (rest_creep && d.at_rest[i - 1] && d.at_rest[i]) z = z * exp(-(creep_speed * h) / g);
     }
     if (!(backlash && in_gap)) {
       const double vi = v[i];

@@ -47,10 +47,6 @@ struct ModelStructure {
   bool fit_mass = false;           // the force also accelerates a mass M (drive data)
   double stribeck_exponent = 1.0;  // delta: 1 the dissertation's exponential, 2 Gaussian
   bool periodic_additive = false;  // position_periodic as a ripple that does not flip with direction
-  // The bristle relaxes at rest at |v_c| / g (parameter rest_creep_speed):
-  // friction lost at rest to a creep or dither the sampled motion does not
-  // show (tribo's closed loop at 10 kHz recorded at 200 Hz).
-  bool rest_creep = false;
   // The bristle state at the end of each hold is taken from the measured
   // force there (at rest F = sigma0 z + the additive terms), and the holds are
   // left out of the fit and of the held-out error (analysis/diagnosis.h):

@@ -198,18 +198,13 @@ LugreFit fit_lugre(const ModelData& d, const ModelStructure& st, const std::vect
     if (!both_directions) start.specs[static_cast<std::size_t>(start.index("offset"))].fixed = true;
     if (st.fit_mass) start.set_value("mass", lin.mass);
     const double force_level = load ? l.fc * d.normal_ref : l.fc;
-    // The relaxation at rest (when modelled) spans decades: a few starts.
-    const std::vector<double> creep_fractions = st.rest_creep ? std::vector<double>{1e-3, 1e-2, 1e-1} : std::vector<double>{0};
     for (double g_fraction : {1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 1e-1, 3e-1, 1.0}) {
       for (double damping : {1e-3, 1e-1}) {
-        for (double creep : creep_fractions) {
-          ModelParams p = start;
-          p.set_value("sigma0", force_level / (g_fraction * length));
-          p.set_value("sigma1", damping * force_level / d.speed_ref);
-          if (st.rest_creep) p.set_value("rest_creep_speed", creep * d.speed_ref);
-          const double rss = residual_sum_of_squares(d, p, in_fit);
-          starts.push_back({p, std::isfinite(rss) ? rss : HUGE_VAL});
-        }
+        ModelParams p = start;
+        p.set_value("sigma0", force_level / (g_fraction * length));
+        p.set_value("sigma1", damping * force_level / d.speed_ref);
+        const double rss = residual_sum_of_squares(d, p, in_fit);
+        starts.push_back({p, std::isfinite(rss) ? rss : HUGE_VAL});
       }
     }
   }
