@@ -52,6 +52,7 @@ struct DiagnosisOptions {
   double max_delta_aicc = -10.0;
   int max_candidates_per_round = 10;
   int max_rounds = 6;
+  unsigned threads = 0;  // candidates fitted at once (0: one per core); the result does not depend on it
 };
 
 struct ErrorStats {

@@ -10,7 +10,7 @@
 namespace tribo::analysis {
 
 enum class Effect {
-  kDwellStiction,          // static friction grows with the dwell before motion onset
+  kDwellStiction,          // static friction grows with the contact age (the rest before motion onset)
   kFrictionalLag,          // the velocity dependence acts with a time delay
   kVelocityStrengthening,  // friction grows with log velocity (thermal activation)
   kLoadDependence,         // friction not proportional to the normal load

@@ -53,7 +53,7 @@ double level_scale(const ModelData& d, const ModelStructure& st) {
 
 struct Index {
   int fc = -1, fs = -1, vs = -1, sigma0 = -1, sigma1 = -1, fv = -1, offset = -1, mass = -1;
-  int dwell_dfs = -1, dwell_time = -1, lag = -1, logv = -1, load_exponent = -1;
+  int dwell_dfs = -1, dwell_time = -1, dwell_memory = -1, lag = -1, logv = -1, load_exponent = -1;
   int per_cos = -1, per_sin = -1, per_length = -1, asym_levels = -1, asym_viscous = -1;
   int tilt = -1, breakaway = -1, gap = -1;
   std::vector<int> drift;
@@ -72,6 +72,7 @@ Index index_of(const ModelParams& p) {
   k.mass = p.index("mass");
   k.dwell_dfs = p.index("dwell_dFs");
   k.dwell_time = p.index("dwell_time");
+  k.dwell_memory = p.index("dwell_memory");
   k.lag = p.index("lag_time");
   k.logv = p.index("log_velocity_coeff");
   k.load_exponent = p.index("load_exponent");
@@ -272,7 +273,8 @@ std::vector<ParamSpec> effect_parameters(Effect e, const ModelData& d, const Mod
   switch (e) {
     case Effect::kDwellStiction:
       return {{"dwell_dFs", lu, Transform::kLinear, 0.2 * level, false, e},
-              {"dwell_time", "s", Transform::kLog, 1.0, false, e}};
+              {"dwell_time", "s", Transform::kLog, 1.0, false, e},
+              {"dwell_memory", "m", Transform::kLog, 1e-6, false, e}};
     case Effect::kFrictionalLag:
       return {{"lag_time", "s", Transform::kLog, 5e-3, false, e}};
     case Effect::kVelocityStrengthening:
@@ -330,6 +332,33 @@ ModelParams with_effect(const ModelParams& params, Effect e, const ModelData& d,
   return p;
 }
 
+// Dieterich's ageing law along the measured motion, d theta/dt = 1 - |v|
+// theta / D_c, exactly over each sample interval at its mean velocity: theta
+// is the time at rest in a hold and relaxes to D_c / |v| within a slip of a
+// few D_c in sliding, so a pass after a short hold starts from the age the
+// previous pass left (as on the instrument: sim/friction_effects.h), not
+// from zero. The record's first sample: steady sliding if moving, else new.
+template <class T>
+std::vector<T> contact_age(const ModelData& d, const T& memory_m) {
+  using std::exp;
+  const MeasuredSeries& s = d.series;
+  const std::size_t n = s.size();
+  std::vector<T> age(n, T(0.0 * memory_m));
+  if (n == 0) return age;
+  const double v0 = std::fabs(d.drive_velocity[0]);
+  if (v0 > 0) age[0] = memory_m / v0;
+  for (std::size_t i = 1; i < n; ++i) {
+    const double h = s.time_s[i] - s.time_s[i - 1], speed = std::fabs(d.step_velocity[i]);
+    if (speed == 0.0) {
+      age[i] = age[i - 1] + h;
+      continue;
+    }
+    const T steady = memory_m / speed;
+    age[i] = steady + (age[i - 1] - steady) * exp(-(speed * h) / memory_m);
+  }
+  return age;
+}
+
 template <class T>
 void simulate_generic(const ModelData& d, const ModelParams& p, const std::vector<T>& theta, std::vector<T>& force,
                       std::vector<T>* friction_out) {
@@ -353,6 +382,7 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
   const bool load_scaled = st.load_scaled && s.has_normal();
   const T m = mass ? val(k.mass) : T(0.0);
   const T dwell_dfs = dwell ? val(k.dwell_dfs) : T(0.0), dwell_time = dwell ? val(k.dwell_time) : T(1.0);
+  const std::vector<T> age = dwell ? contact_age(d, val(k.dwell_memory)) : std::vector<T>{};
   const T lag_time = lag ? val(k.lag) : T(0.0);
   const T log_coeff = logv ? val(k.logv) : T(0.0);
   const T load_exponent = load_dep ? val(k.load_exponent) : T(0.0);
@@ -372,10 +402,7 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
   // S(speed) at sample i for a motion of the given sign.
   auto stribeck = [&](std::size_t i, const T& speed, double sign) -> T {
     T static_level = fs;
-    if (dwell && d.motion.dwell_before_s[i] > 0) {  // a pass after a hold, or the hold itself
-      const double t2 = d.motion.dwell_before_s[i];
-      static_level = static_level + dwell_dfs * (t2 / (t2 + dwell_time));
-    }
+    if (dwell) static_level = static_level + dwell_dfs * (age[i] / (age[i] + dwell_time));
     const T ratio = speed / vs;
     const T shape = delta == 1.0 ? ratio : (delta == 2.0 ? T(ratio * ratio) : T(pow(ratio, delta)));
     T level = fc + (static_level - fc) * exp(-shape);

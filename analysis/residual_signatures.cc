@@ -126,7 +126,7 @@ Signature dwell_stiction(const Context& c) {
   // mean residual of the pass's first 30 % (dwell raises Fs, which also lifts
   // slow sliding through the Stribeck curve), against w ln(dwell), w the
   // Stribeck weight of Fs there, with w and time as controls.
-  std::vector<double> dwell, excess, early, when, weight;
+  std::vector<double> dwell, excess, early, when, weight, lengths;
   double level_sum = 0;
   const ModelParams& params = c.in.params;
   const double vs = params.value("vs"), delta = params.structure.stribeck_exponent;
@@ -154,6 +154,7 @@ Signature dwell_stiction(const Context& c) {
     }
     if (n_onset == 0 || n_steady == 0 || n_first == 0) continue;
     dwell.push_back(p.dwell_before_s);
+    lengths.push_back(length);
     excess.push_back(onset / n_onset - steady / n_steady);
     early.push_back(first / n_first);
     weight.push_back(w / n_first);
@@ -180,7 +181,9 @@ Signature dwell_stiction(const Context& c) {
   const double mean_factor = level_sum / static_cast<double>(dwell.size());
   const std::vector<double>& y = tb >= ta ? early : excess;
   const double spread = *std::max_element(y.begin(), y.end()) - *std::min_element(y.begin(), y.end());
-  sig.initial_values = {std::max(2.0 * spread / mean_factor, 1e-12), median(dwell)};
+  // The ageing memory: a tenth of a pass (the extension's fit tries 1/5 and
+  // 5 times each scale).
+  sig.initial_values = {std::max(2.0 * spread / mean_factor, 1e-12), median(dwell), 0.1 * median(lengths)};
   return sig;
 }
 

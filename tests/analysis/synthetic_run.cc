@@ -97,17 +97,18 @@ struct State {
   double v_lagged = 0;   // velocity seen by the Stribeck curve
   double play = 2e-6;    // backlash: centre of the gap
   bool engaged = true;
+  double age_s = 1.0;    // contact age (dwell stiction)
 };
 
 class Truth {
  public:
   Truth(const SyntheticEffects& e, const Motion& m) : e_(e), m_(m) {}
 
-  // dwell_s: duration of the rest before the present motion.
-  double friction_level(double speed_for_stribeck, double normal, double x, double sign, double dwell_s) const {
+  // age_s: the contact age (Dieterich ageing, State::age_s).
+  double friction_level(double speed_for_stribeck, double normal, double x, double sign, double age_s) const {
     if (normal <= 0) return 0.0;
     double mu_s = kMuStatic;
-    if (e_.dwell_gain > 0) mu_s *= 1 + e_.dwell_gain * dwell_s / (dwell_s + e_.dwell_time_s);
+    if (e_.dwell_gain > 0) mu_s *= 1 + e_.dwell_gain * age_s / (age_s + e_.dwell_time_s);
     double mu = kMuCoulomb + (mu_s - kMuCoulomb) * std::exp(-speed_for_stribeck / kStribeckVelocity);
     if (e_.log_velocity != 0) mu *= 1 + e_.log_velocity * std::log(std::max(speed_for_stribeck, 1e-9) / 1e-6);
     if (e_.periodic_amplitude != 0) mu *= 1 + e_.periodic_amplitude * std::sin(2 * std::numbers::pi * x / e_.periodic_length_m);
@@ -126,11 +127,11 @@ class Truth {
   }
 
   // Bristle rate and friction at drive velocity v.
-  void rates(const State& s, double t, double v, double dwell, double& dz, double& dvl, double& force) const {
+  void rates(const State& s, double t, double v, double& dz, double& dvl, double& force) const {
     const double normal = m_.normal(t);
     const double stribeck_speed = e_.lag_time_s > 0 ? std::fabs(s.v_lagged) : std::fabs(v);
     dvl = e_.lag_time_s > 0 ? (v - s.v_lagged) / e_.lag_time_s : 0.0;
-    const double level = friction_level(stribeck_speed, normal, s.x, v >= 0 ? 1.0 : -1.0, dwell);
+    const double level = friction_level(stribeck_speed, normal, s.x, v >= 0 ? 1.0 : -1.0, s.age_s);
     if (level <= 0) {
       dz = -s.z / 1e-3;
       force = 0;
@@ -142,17 +143,20 @@ class Truth {
   }
 
   // Advances the state over [t, t + h] in RK4 substeps; returns the friction at the end.
-  double step(State& s, double t, double h, double& dwell_clock, double& dwell_of_motion) const {
+  double step(State& s, double t, double h) const {
     const double dt = h / kSubsteps;
     double force = 0;
     for (int k = 0; k < kSubsteps; ++k) {
       const double t0 = t + k * dt;
       const double v0 = m_.velocity(t0), vh = m_.velocity(t0 + 0.5 * dt), v1 = m_.velocity(t0 + dt);
-      // Dwell: time spent at rest, remembered when motion starts.
-      if (std::fabs(vh) < 1e-12) dwell_clock += dt;
-      else if (dwell_clock > 0) {
-        dwell_of_motion = dwell_clock;
-        dwell_clock = 0;
+      // Contact age, d age/dt = 1 - |v| age / D_c, exactly at the mid-step
+      // speed and held over the substep.
+      const double speed = std::fabs(vh);
+      if (speed < 1e-12) {
+        s.age_s += dt;
+      } else {
+        const double steady = e_.dwell_memory_m / speed;
+        s.age_s = steady + (s.age_s - steady) * std::exp(-speed * dt / e_.dwell_memory_m);
       }
       const double x_next = s.x + dt * (v0 + 4 * vh + v1) / 6;
       double vp0 = v0, vph = vh, vp1 = v1;
@@ -173,7 +177,7 @@ class Truth {
       }
       auto f = [&](const State& st, double tt, double v, double& dz, double& dvl) {
         double fo = 0;
-        rates(st, tt, v, dwell_of_motion, dz, dvl, fo);
+        rates(st, tt, v, dz, dvl, fo);
         return fo;
       };
       double k1z, k1l, k2z, k2l, k3z, k3l, k4z, k4l;
@@ -217,10 +221,9 @@ analysis::MeasuredSeries synthetic_run(const SyntheticEffects& effects, std::uin
   const double h = 1.0 / options.rate_hz;
   const auto n = static_cast<std::size_t>(motion.end_s() / h);
   State state;
-  double dwell_clock = 1.0, dwell_of_motion = 1.0;
   for (std::size_t k = 0; k < n; ++k) {
     const double t = static_cast<double>(k) * h;
-    const double friction = k == 0 ? 0.0 : truth.step(state, t - h, h, dwell_clock, dwell_of_motion);
+    const double friction = k == 0 ? 0.0 : truth.step(state, t - h, h);
     const double normal = motion.normal(t);
     double lateral = friction + effects.tilt_tan * normal;
     if (effects.drift_n_per_s != 0) {

@@ -20,8 +20,9 @@ namespace tribo::testing {
 
 // Each effect in its own physical form; zero switches it off.
 struct SyntheticEffects {
-  double dwell_gain = 0;            // Fs after a long dwell: Fs (1 + gain); Armstrong's t/(t + dwell_time)
-  double dwell_time_s = 2.0;
+  double dwell_gain = 0;            // Fs after a long dwell: Fs (1 + gain); Armstrong's t/(t + dwell_time),
+  double dwell_time_s = 2.0;        // t the contact age of Dieterich's ageing law: the time at rest,
+  double dwell_memory_m = 0.5e-6;   // relaxing to D_c/|v| within a few D_c of sliding
   double lag_time_s = 0;            // Stribeck curve sees a first-order-lagged velocity
   double log_velocity = 0;          // mu multiplied by 1 + c ln(|v| / 1 µm/s)
   double load_exponent = 0;         // friction proportional to N^(1 + e) (e = -1/3: Hertz area)
