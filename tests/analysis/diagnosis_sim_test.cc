@@ -157,8 +157,9 @@ std::vector<Case> identified() {
 //     changes the force too little to see. The base model fits the 5 ms run
 //     as well as the clean run (held-out RMS 2.02 uN on both) and the lag
 //     fit goes to zero; LuGre's bristle already lags by g/|v| (30-150 ms at
-//     1 um/s), and above a few vs the Stribeck curve is flat. 20 ms: no
-//     signature; 50 ms: fitted 16 ms, held-out -4.1 %, block agreement 61 %.
+//     1 um/s), and above a few vs the Stribeck curve is flat. 20 ms: fitted
+//     8 ms, -0.9 %; 50 ms: fitted 35 ms, -8.2 %, but only 29 % of the
+//     held-out samples in improved passes (it acts at the fast onsets).
 //   drift (sample creep, 0.1 nm/s RMS): sigma0 v_creep moves the force only
 //     while the tip is stuck, 0.3 uN/s against the 45-55 uN/s the loop's
 //     dither relaxes a stuck bristle by; the holds only set each pass's
