@@ -421,23 +421,18 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
     return level;
   };
 
-  // The velocity the Stribeck curve sees: v through a first-order lag
-  // (sim/friction_effects.h; Armstrong's eq. 4 is a pure delay, which for a
-  // lag of a few samples is the same to first order), exactly over each
-  // interval with the measured velocity linear in between.
-  std::vector<T> lagged;
-  if (lag) {
-    using std::exp;
-    lagged.assign(n, T(0.0 * lag_time));
-    lagged[0] = T(d.drive_velocity[0] + 0.0 * lag_time);
-    for (std::size_t i = 1; i < n; ++i) {
-      const double h = s.time_s[i] - s.time_s[i - 1];
-      const double v0 = d.drive_velocity[i - 1], v1 = d.drive_velocity[i], slope = (v1 - v0) / h;
-      const T decay = exp(-h / lag_time);
-      lagged[i] = v1 - slope * lag_time + (lagged[i - 1] - v0 + slope * lag_time) * decay;
-    }
-  }
-  auto lagged_velocity = [&](std::size_t i) -> T { return lagged[i]; };
+  // Lagged velocity v(t_i - lag) by linear interpolation in the measured velocity.
+  std::size_t lag_k = 0;
+  auto lagged_velocity = [&](std::size_t i) -> T {
+    const T target = s.time_s[i] - lag_time;
+    const double tv = value_of(target);
+    if (tv <= s.time_s.front()) return T(d.drive_velocity.front() + 0.0 * lag_time);
+    while (lag_k + 1 < n && s.time_s[lag_k + 1] <= tv) ++lag_k;
+    if (lag_k + 1 >= n) return T(d.drive_velocity.back() + 0.0 * lag_time);
+    const double t0 = s.time_s[lag_k], t1 = s.time_s[lag_k + 1];
+    const double v0 = d.drive_velocity[lag_k], v1 = d.drive_velocity[lag_k + 1];
+    return v0 + (target - t0) * ((v1 - v0) / (t1 - t0));
+  };
 
   auto additive = [&](std::size_t i) -> T {
     T f = offset;
