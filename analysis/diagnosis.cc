@@ -95,9 +95,10 @@ double score_test(const ModelData& data, const ModelParams& current, const std::
 }
 
 // The base parameters an extension re-partitions with (fitted with it in
-// the first stage): dwell stiction shares Fs, a log-velocity term shares Fc
-// and Fv, presliding hysteresis and backlash share the bristle, and every
-// additive term shares the offset.
+// the first stage): dwell stiction shares Fs and vs (the contact age also
+// lifts slow sliding, which the base fit had put into the Stribeck curve), a
+// log-velocity term shares Fc and Fv, presliding hysteresis and backlash
+// share the bristle, and every additive term shares the offset.
 std::vector<std::string> coupled_base_parameters(Effect effect) {
   switch (effect) {
     case Effect::kDwellStiction: return {"Fs", "mu_s", "vs", "offset"};
@@ -166,7 +167,7 @@ std::vector<ParamEstimate> parameters_of(const FitResult& fit, Effect effect) {
 // -0.026 with a 28 nm memory), and a memory within the presliding
 // deflection (Fs / sigma0 at the median load) cannot be told from the
 // bristle the base model already has (on the presliding-hysteresis run:
-// +0.072 with 42 nm against a deflection of ~170 nm).
+// +0.072 with 42 nm against a deflection of 126 nm).
 std::string unphysical(const ModelData& data, const FitResult& fit, Effect effect) {
   if (effect != Effect::kDwellStiction) return {};
   const ModelParams& p = fit.params;
