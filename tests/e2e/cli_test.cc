@@ -38,6 +38,19 @@ struct Cli {
   }
 };
 
+v1::DaemonConfig config_with_token(const std::string& token) {
+  v1::DaemonConfig config = default_config();
+  config.mutable_server()->set_control_token(token);
+  return config;
+}
+
+// A daemon that gives control only with the token "tok", and the CLI for it.
+struct GuardedDaemon {
+  TempDir data, cfg;
+  DaemonProcess daemon{data.path(), write_config(cfg, config_with_token("tok"))};
+  Cli tribo{"127.0.0.1:" + std::to_string(daemon.port())};
+};
+
 TEST(TriboCli, StatusListFetchAndExportAgreeWithTheRecording) {
   TempDir data, out;
   DaemonProcess daemon(data.path());
@@ -88,11 +101,8 @@ TEST(TriboCli, StatusListFetchAndExportAgreeWithTheRecording) {
 }
 
 TEST(TriboCli, ExitCodesSayWhatWentWrong) {
-  TempDir data, cfg;
-  v1::DaemonConfig config = default_config();
-  config.mutable_server()->set_control_token("tok");
-  DaemonProcess daemon(data.path(), write_config(cfg, config));
-  const Cli tribo{"127.0.0.1:" + std::to_string(daemon.port())};
+  const GuardedDaemon guarded;
+  const Cli& tribo = guarded.tribo;
 
   const auto no_token = tribo({"run", kStandardProtocolPath});
   EXPECT_EQ(no_token.exit_code, 4) << no_token.err;
@@ -214,12 +224,9 @@ TEST(TriboCli, SetGainsRejectsBadValuesNamingTheField) {
 }
 
 TEST(TriboCli, RearmAfterAnEmergencyStopLetsARunStartAgain) {
-  TempDir data, cfg;
-  v1::DaemonConfig config = default_config();
-  config.mutable_server()->set_control_token("tok");
-  DaemonProcess daemon(data.path(), write_config(cfg, config));
-  const Cli tribo{"127.0.0.1:" + std::to_string(daemon.port())};
-  const auto protocol_file = cfg.path() / "short.textproto";
+  const GuardedDaemon guarded;
+  const Cli& tribo = guarded.tribo;
+  const auto protocol_file = guarded.cfg.path() / "short.textproto";
   std::ofstream(protocol_file) << wire::to_text_proto(short_protocol());
 
   const auto stop = tribo({"estop", "--reason", "drill", "--json"});  // any client may stop

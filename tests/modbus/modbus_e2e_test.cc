@@ -159,16 +159,13 @@ TEST(ModbusEndToEnd, DISABLED_FullStandardScratchGivesTheSimulatedBackendsFricti
 
 // Approach, load to 1000 µN, hold at +2 µm; the fault comes during the hold.
 v1::Protocol loaded_hold() {
-  v1::Protocol p;
-  const auto error = wire::parse_text_proto(R"(
+  return testing::protocol_from_text(R"(
     name: "loaded-hold"
     acquisition_rate_hz: 1000
     segments { name: "approach" duration_s: 0.3 normal { end_uN: 0 } lateral { end_um: 2 } }
     segments { name: "load" duration_s: 0.3 normal { end_uN: 1000 } lateral { end_um: 2 } }
     segments { name: "hold" duration_s: 2 normal { end_uN: 1000 } lateral { end_um: 2 } }
-  )", "loaded_hold", p);
-  if (error) throw std::runtime_error(*error);
-  return p;
+  )", "loaded_hold");
 }
 
 constexpr std::uint64_t kFaultStep = 8000;  // 0.8 s: loaded, in the hold

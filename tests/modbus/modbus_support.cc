@@ -116,18 +116,21 @@ double lateral_position_step_m(const v1::DaemonConfig& sim_config, double x) {
          sim::position_from_voltage_m(s.calibrated, gain, v - adc.step_v / 2);
 }
 
-v1::Protocol short_scratch() {
+v1::Protocol protocol_from_text(const std::string& text, const std::string& name) {
   v1::Protocol p;
-  const auto error = wire::parse_text_proto(R"(
+  if (const auto error = wire::parse_text_proto(text, name, p)) throw std::runtime_error(*error);
+  return p;
+}
+
+v1::Protocol short_scratch() {
+  return protocol_from_text(R"(
     name: "standard-scratch-short"
     acquisition_rate_hz: 1000
     segments { name: "approach" duration_s: 1 normal { end_uN: 0 } lateral { end_um: 2 } }
     segments { name: "load" duration_s: 0.5 normal { end_uN: 1000 } lateral { end_um: 2 } }
     segments { name: "scratch" duration_s: 4 normal { end_uN: 1000 } lateral { end_um: 4 } }
     segments { name: "unload" duration_s: 0.5 normal { end_uN: 0 } lateral { end_um: 4 } }
-  )", "short_scratch", p);
-  if (error) throw std::runtime_error(*error);
-  return p;
+  )", "short_scratch");
 }
 
 }  // namespace tribo::testing

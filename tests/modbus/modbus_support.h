@@ -65,5 +65,8 @@ double lateral_position_step_m(const v1::DaemonConfig& sim_config, double positi
 // the wall clock (the full 32 s protocol takes 35-60 s here); the lock-step
 // handshake makes the result independent of the pace.
 v1::Protocol short_scratch();
+// A protocol from its text (protobuf text format); throws with the parser's
+// message, naming `name`, if it does not parse.
+v1::Protocol protocol_from_text(const std::string& text, const std::string& name);
 
 }  // namespace tribo::testing
