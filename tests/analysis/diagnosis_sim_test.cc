@@ -186,7 +186,9 @@ std::vector<Case> identified() {
 //   drift (sample creep, 0.1 nm/s RMS): sigma0 v_creep moves the force only
 //     while the tip is stuck, 0.3 uN/s against the 45-55 uN/s the loop's
 //     dither relaxes a stuck bristle by; the holds only set each pass's
-//     state, and in sliding the creep changes nothing.
+//     state, and in sliding the creep changes nothing. The plain LuGre
+//     contact drains any held force under the position wander, so even a
+//     long hold shows no creep (tests/sim/friction_effects_test.cc).
 std::vector<Case> known_gaps() {
   return {
       {"frictional_lag", Effect::kFrictionalLag, frictional_lag(), {Effect::kPreslidingHysteresis}},

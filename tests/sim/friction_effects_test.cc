@@ -309,6 +309,66 @@ TEST(FrictionEffects, SampleCreepMakesTheHeldLateralForceDrift) {
   EXPECT_GT(with_creep - settling, rigid);
 }
 
+// Fig. 3.12 (a tip held 1000 s at 7000 uN drifts by +-300 uN) needs a contact
+// that holds a static force. With the sensors' noise on, the tip follows the
+// position wander (3 nm RMS, 0.3 Hz) and plain LuGre's bristle slips on every
+// nanometre of it: the held force drains, and creep cannot build up. The
+// elasto-plastic contact (breakaway_ratio, sim/lugre_friction.h) is elastic
+// there and shows the creep. Why the diagnosis cannot see drift on a run of
+// the default (plain) sim: docs/identification.md, "Simulated tests".
+struct HeldForce {
+  double start_n = 0, end_n = 0, creep_m = 0;  // force means over 2-3 s and 102-103 s
+};
+
+HeldForce hold_at_7mn(v1::DaemonConfig config, double breakaway_ratio, bool creep) {
+  config.mutable_sim()->mutable_tip()->mutable_tilt_offset()->set_enabled(false);
+  config.mutable_sim()->mutable_friction()->set_breakaway_ratio(breakaway_ratio);
+  // Fig. 3.12's ~100 nm of creep in 100 s instead of 1000 s (CPU time).
+  auto* d = config.mutable_sim()->mutable_sample()->mutable_drift();
+  d->set_enabled(creep);
+  d->set_rate_m_per_s(1e-9);
+  d->set_velocity_rms_m_per_s(0);
+  HeldForce h;
+  int n_start = 0, n_end = 0;
+  testing::run_closed_loop(config, 1, 103,
+                           [](double t) {
+                             return LoopSetpoints{std::clamp((t - 0.1) / 0.3, 0.0, 1.0) * 7e-3, 2e-6 * std::min(1.0, t / 0.1)};
+                           },
+                           [&](double t, const hal::SimTransducer& tr) {
+                             const double f = tr.instrument().measurement().lateral_force_n;
+                             if (t >= 2 && t < 3) h.start_n += f, ++n_start;
+                             if (t >= 102 && t < 103) h.end_n += f, ++n_end;
+                             h.creep_m = tr.instrument().truth().sample_offset_m;
+                           });
+  h.start_n /= n_start;
+  h.end_n /= n_end;
+  return h;
+}
+
+TEST(FrictionEffects, OnlyAnElasticContactHoldsItsForceAndShowsTheCreep) {
+  const double sigma0 = default_config().sim().friction().contact_stiffness_n_per_m();
+  const HeldForce silent = hold_at_7mn(quiet(), 0, false), plain = hold_at_7mn(default_config(), 0, false),
+                  plain_creep = hold_at_7mn(default_config(), 0, true), elastic = hold_at_7mn(default_config(), 0.8, false),
+                  elastic_creep = hold_at_7mn(default_config(), 0.8, true);
+  const double rigid = sigma0 * elastic_creep.creep_m;  // a rigidly held tip on an elastic contact
+  auto drifted = [](const HeldForce& with, const HeldForce& without) {
+    return (with.end_n - with.start_n) - (without.end_n - without.start_n);
+  };
+  std::printf("  held force 2 s -> 102 s: silent sensors %.0f -> %.0f uN, plain %.0f -> %.0f uN, elastic %.0f -> %.0f uN\n",
+              silent.start_n * 1e6, silent.end_n * 1e6, plain.start_n * 1e6, plain.end_n * 1e6, elastic.start_n * 1e6,
+              elastic.end_n * 1e6);
+  std::printf("  creep %.1f nm (sigma0 x creep %.0f uN): drift plain %.0f uN, elastic %.0f uN\n", elastic_creep.creep_m * 1e9,
+              rigid * 1e6, drifted(plain_creep, plain) * 1e6, drifted(elastic_creep, elastic) * 1e6);
+  ASSERT_GT(silent.start_n, 500e-6);  // stuck after the approach, below Fs = 1000 uN
+  EXPECT_GT(silent.end_n, 0.9 * silent.start_n) << "without the wander the stuck contact holds";
+  EXPECT_LT(plain.end_n, 0.1 * plain.start_n) << "plain LuGre drains under the wander";
+  EXPECT_GT(elastic.end_n, 0.7 * elastic.start_n) << "the elasto-plastic contact holds";
+  EXPECT_GT(-drifted(plain_creep, plain), 0) << "the creep pushes the force down (tip moves -r relative to the sample)";
+  EXPECT_LT(-drifted(plain_creep, plain), 0.2 * rigid) << "drained by plain LuGre";
+  EXPECT_GT(-drifted(elastic_creep, elastic), 0.7 * rigid) << "shown by the elastic contact";
+  EXPECT_LT(-drifted(elastic_creep, elastic), rigid) << "the loop gives a little";
+}
+
 TEST(FrictionEffects, RepeatedScratchesReachASteadyState) {
   v1::DaemonConfig config = quiet();
   auto* w = config.mutable_sim()->mutable_sample()->mutable_wear();
