@@ -26,26 +26,39 @@ FrictionLevels contact_levels(const FrictionModel& m, double n, double rotation_
   return FrictionLevels{m.lugre.static_coeff * scale, m.lugre.coulomb_coeff * scale, strengthening};
 }
 
-double stribeck_n(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c) {
+namespace {
+
+// S for Stribeck speed vs, the direction asymmetry taken for sgn(direction).
+double stribeck_at(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c, double vs,
+                   double direction) {
   double fs = levels.static_n;
   if (m.dwell_stiction.enabled) {
     const double age = c.contact_age_s;
     fs *= 1.0 + m.dwell_stiction.gain * age / (age + m.dwell_stiction.time_constant_s);
   }
-  const double vs = c.stribeck_velocity_m_per_s;
   double s = levels.coulomb_n + (fs - levels.coulomb_n) * stribeck_shape(m.lugre, vs);
   if (levels.strengthening_n > 0) {
-    s += levels.strengthening_n *
-         std::log1p(std::fabs(vs) / m.velocity_strengthening.reference_velocity_m_per_s);
+    s += levels.strengthening_n * std::log1p(std::fabs(vs) / m.velocity_strengthening.reference_velocity_m_per_s);
   }
   if (m.position_periodic.enabled) {
     const auto& p = m.position_periodic;
     s *= 1.0 + p.amplitude * std::sin(2 * std::numbers::pi * c.sample_position_m / p.period_m + p.phase_rad);
   }
-  if (m.direction_asymmetry.enabled && c.velocity_m_per_s != 0.0) {
-    s *= 1.0 + (c.velocity_m_per_s > 0 ? m.direction_asymmetry.ratio : -m.direction_asymmetry.ratio);
+  if (m.direction_asymmetry.enabled && direction != 0.0) {
+    s *= 1.0 + (direction > 0 ? m.direction_asymmetry.ratio : -m.direction_asymmetry.ratio);
   }
   return s;
+}
+
+}  // namespace
+
+double stribeck_n(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c) {
+  return stribeck_at(m, levels, c, c.stribeck_velocity_m_per_s, c.velocity_m_per_s);
+}
+
+double static_friction_n(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c,
+                         double direction) {
+  return stribeck_at(m, levels, c, 0.0, direction);
 }
 
 double modulation_floor(const FrictionModel& m) {

@@ -119,6 +119,10 @@ struct ContactPoint {
 // plain model when none is enabled.
 double stribeck_n(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c);
 
+// S at rest, pushed towards sgn(direction): the most the contact holds stuck.
+double static_friction_n(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c,
+                         double direction);
+
 // Lower bound on M_p M_d over all positions and directions (for step sizes).
 double modulation_floor(const FrictionModel& m);
 

@@ -94,6 +94,7 @@ StepReport SimInstrument::step(const DriveInput& drive, double dt_s) {
   inputs_.tip_force_n = load * tan_tilt_;
   inputs_.sample_velocity_m_per_s = truth_.sample_velocity_m_per_s;
   inputs_.sample_offset_m = truth_.sample_offset_m;
+  limit_to_static_friction(plant_, inputs_, lateral);
 
   // A handover first integrates its dead interval under the bias alone.
   AdvanceReport report;

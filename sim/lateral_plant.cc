@@ -1,5 +1,6 @@
 #include "sim/lateral_plant.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace tribo::sim {
@@ -226,6 +227,23 @@ bool integrate_lateral_split(const LateralPlant& plant, const LateralInputs& in,
     relax_contact(plant, in, h / 2, s);
   }
   return stopped;
+}
+
+void limit_to_static_friction(const LateralPlant& plant, const LateralInputs& in, LateralState& s) {
+  if (!in.levels.in_contact()) return;
+  const FrictionModel& m = plant.friction;
+  const ContactPoint c = contact_point(plant, in, s);
+  auto limit = [&](double z, double share) {
+    const double held_n = std::max(stribeck_n(m, in.levels, c), static_friction_n(m, in.levels, c, z));
+    const double most = share * held_n / m.lugre.sigma0_n_per_m;
+    return std::clamp(z, -most, most);
+  };
+  const PreslidingHysteresisParams& hy = m.presliding_hysteresis;
+  if (!hy.enabled) {
+    s.bristle_m = limit(s.bristle_m, 1.0);
+  } else {
+    for (int i = 0; i < hy.elements; ++i) s.slip_m[i] = limit(s.slip_m[i], slip_share(hy, i));
+  }
 }
 
 double stored_energy_j(const LateralPlant& plant, const LateralInputs& in, const LateralState& s) {

@@ -127,6 +127,13 @@ bool integrate_lateral_split(const LateralPlant& plant, const LateralInputs& in,
                              int substeps, LateralState& s,
                              SubstepScheme scheme = SubstepScheme::kRk4);
 
+// A stuck contact holds at most its static friction. LuGre alone keeps z at
+// v = 0 whatever the load, so a contact unloaded under a held force kept it
+// (627 uN at 1 mN of load, mu_s N = 143 uN) until contact was lost;
+// here the bristle(s) slip back to what the present levels hold, as soon as
+// the levels change. Sliding is untouched: z stays within max(g(v), g(0)).
+void limit_to_static_friction(const LateralPlant& plant, const LateralInputs& in, LateralState& s);
+
 // Stored energy: kinetic, spring, bristle (or elements), backlash coupling,
 // and the potentials of the held drive field and tip force. With no sample
 // creep it cannot grow while |z| <= g (LuGre's dissipativity; see tests).

@@ -309,6 +309,48 @@ TEST(FrictionEffects, SampleCreepMakesTheHeldLateralForceDrift) {
   EXPECT_GT(with_creep - settling, rigid);
 }
 
+// A tip dragged under 5 mN, stopped, then unloaded to zero over 2 s (noise-free
+// sensors: nothing else relaxes the contact). The held force may not exceed
+// what the falling load holds, mu_s N: it releases with the load. Plain LuGre
+// kept it (627 uN at 1 mN of load, mu_s N = 143 uN) and let go only when
+// contact was lost.
+void unload_while_stuck(bool maxwell_slip) {
+  v1::DaemonConfig config = quiet();
+  config.mutable_sim()->mutable_tip()->mutable_tilt_offset()->set_enabled(false);
+  config.mutable_sim()->mutable_friction()->mutable_presliding_hysteresis()->set_enabled(maxwell_slip);
+  const double load = 5e-3, mu_s = config.sim().friction().static_coeff();
+  double worst_ratio = 0, force_at_1mn = NAN;
+  testing::run_closed_loop(config, 1, 7.0,
+                           [&](double t) {
+                             const double unload = std::clamp((t - 4.5) / 2.0, 0.0, 1.0);
+                             return LoopSetpoints{std::clamp((t - 0.1) / 0.3, 0.0, 1.0) * load * (1 - unload),
+                                                  2e-6 + 2e-6 * std::clamp(t - 1.0, 0.0, 1.5)};
+                           },
+                           [&](double t, const hal::SimTransducer& tr) {
+                             const InstrumentTruth& truth = tr.instrument().truth();
+                             if (t < 4.5 || !truth.levels.in_contact()) return;
+                             double z = truth.lateral.bristle_m;
+                             if (maxwell_slip) {  // element stiffness sigma0 / n
+                               const int n = config.sim().friction().presliding_hysteresis().elements();
+                               z = 0;
+                               for (int i = 0; i < n; ++i) z += truth.lateral.slip_m[i] / n;
+                             }
+                             const double held = config.sim().friction().contact_stiffness_n_per_m() * std::fabs(z);
+                             worst_ratio = std::max(worst_ratio, held / truth.levels.static_n);
+                             if (std::isnan(force_at_1mn) && truth.normal.contact_load_n < 1e-3) {
+                               force_at_1mn = tr.instrument().measurement().lateral_force_n;
+                             }
+                           });
+  std::printf("  %s: held force at most %.3f mu_s N while unloading; %.1f uN at 1 mN (mu_s N %.1f uN)\n",
+              maxwell_slip ? "Maxwell slip" : "LuGre", worst_ratio, force_at_1mn * 1e6, mu_s * 1e-3 * 1e6);
+  EXPECT_LE(worst_ratio, 1 + 1e-9);
+  EXPECT_GT(worst_ratio, 0.9) << "the held force met the falling limit";
+  EXPECT_NEAR(force_at_1mn, mu_s * 1e-3, 0.05 * mu_s * 1e-3);
+}
+
+TEST(FrictionEffects, UnloadingReleasesAHeldForceWithTheLoad) { unload_while_stuck(false); }
+TEST(FrictionEffects, UnloadingReleasesAHeldForceWithTheLoadMaxwellSlip) { unload_while_stuck(true); }
+
 // Fig. 3.12 (a tip held 1000 s at 7000 uN drifts by +-300 uN) needs a contact
 // that holds a static force. With the sensors' noise on, the tip follows the
 // position wander (3 nm RMS, 0.3 Hz) and plain LuGre's bristle slips on every
