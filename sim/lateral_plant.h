@@ -130,8 +130,11 @@ bool integrate_lateral_split(const LateralPlant& plant, const LateralInputs& in,
 // A stuck contact holds at most its static friction. LuGre alone keeps z at
 // v = 0 whatever the load, so a contact unloaded under a held force kept it
 // (627 uN at 1 mN of load, mu_s N = 143 uN) until contact was lost;
-// here the bristle(s) slip back to what the present levels hold, as soon as
-// the levels change. Sliding is untouched: z stays within max(g(v), g(0)).
+// here the bristle(s) slip back to what the present levels hold, once per
+// tick when the levels are set. Steady sliding is untouched (z = g(v) within
+// g(0)); besides unloading, the limit acts only where a modulation (position,
+// contact age) lowers g faster than the bristle relaxes: an instant slip
+// instead of one over the next few nm.
 void limit_to_static_friction(const LateralPlant& plant, const LateralInputs& in, LateralState& s);
 
 // Stored energy: kinetic, spring, bristle (or elements), backlash coupling,
