@@ -1,5 +1,9 @@
 #include "client/tribo_client.h"
 
+#include <poll.h>
+
+#include <chrono>
+
 #include <algorithm>
 #include <array>
 #include <cstdlib>
@@ -59,7 +63,8 @@ struct TriboClient::Connection {
   std::string_view unfed;  // bytes read but not yet taken by the decoder
 };
 
-TriboClient::TriboClient(const Address& address) : connection_(std::make_unique<Connection>()) {
+TriboClient::TriboClient(const Address& address)
+    : connection_(std::make_unique<Connection>()), max_frame_bytes_(wire::kDefaultMaxFrameBytes) {
   std::error_code ec;
   asio::ip::tcp::resolver resolver(connection_->io);
   const auto endpoints = resolver.resolve(address.host, std::to_string(address.port), ec);
@@ -72,6 +77,7 @@ TriboClient::TriboClient(const Address& address) : connection_(std::make_unique<
 }
 
 TriboClient::TriboClient(const Address& address, const SessionOptions& options) : TriboClient(address) {
+  set_timeouts(options.request_timeout_ms, options.event_timeout_ms);
   hello(options);
 }
 
@@ -84,11 +90,15 @@ v1::HelloReply TriboClient::hello(const SessionOptions& options) {
   hello->set_client_name(options.client_name);
   hello->set_role(options.role);
   hello->set_token(options.token);
-  return request(message).hello();
+  v1::HelloReply reply = request(message).hello();
+  if (reply.max_frame_bytes() > 0) max_frame_bytes_ = std::min<std::size_t>(reply.max_frame_bytes(), wire::kDefaultMaxFrameBytes);
+  control_lease_s_ = reply.control_lease_s();
+  return reply;
 }
 
-v1::ServerMessage TriboClient::read_message() {
+v1::ServerMessage TriboClient::read_message(int timeout_ms) {
   Connection& c = *connection_;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
   std::string frame;
   for (;;) {
     const wire::DecodeStatus status = c.decoder.next(frame);
@@ -97,6 +107,13 @@ v1::ServerMessage TriboClient::read_message() {
       throw ClientError(connection_error("the daemon sent an invalid frame"));
     }
     if (c.unfed.empty()) {
+      if (timeout_ms > 0) {
+        const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+        pollfd p{c.socket.native_handle(), POLLIN, 0};
+        if (left.count() <= 0 || ::poll(&p, 1, static_cast<int>(left.count())) == 0) {
+          throw ClientError(connection_error("tribod did not answer within " + std::to_string(timeout_ms) + " ms"));
+        }
+      }
       std::error_code ec;
       const std::size_t n = c.socket.read_some(asio::buffer(c.buffer), ec);
       if (ec) throw ClientError(connection_error("connection to tribod lost: " + ec.message()));
@@ -115,12 +132,20 @@ v1::ServerMessage TriboClient::request(v1::ClientMessage message) {
   const std::uint64_t id = next_request_id_++;
   message.set_request_id(id);
   std::string frame;
-  wire::append_frame(message, wire::kDefaultMaxFrameBytes, frame);
+  if (!wire::append_frame(message, max_frame_bytes_, frame)) {
+    // Sending it would only make the daemon hang up; say why instead.
+    v1::Error e;
+    e.set_code(v1::INVALID_ARGUMENT);
+    e.set_field("frame");
+    e.set_message("the request is " + std::to_string(message.ByteSizeLong()) +
+                  " bytes, above the daemon's frame limit of " + std::to_string(max_frame_bytes_) + " bytes");
+    throw ClientError(e);
+  }
   std::error_code ec;
   asio::write(connection_->socket, asio::buffer(frame), ec);
   if (ec) throw ClientError(connection_error("cannot send to tribod: " + ec.message()));
   for (;;) {
-    v1::ServerMessage reply = read_message();
+    v1::ServerMessage reply = read_message(request_timeout_ms_);
     if (reply.request_id() == 0 && !reply.has_error()) {
       events_.push_back(std::move(reply));
       continue;
@@ -137,7 +162,7 @@ v1::ServerMessage TriboClient::next_event() {
     return event;
   }
   for (;;) {
-    v1::ServerMessage message = read_message();
+    v1::ServerMessage message = read_message(event_timeout_ms_);
     if (message.request_id() == 0) return message;
   }
 }
@@ -187,8 +212,18 @@ RunResult run_protocol(TriboClient& client, const v1::Protocol& protocol,
   else start.mutable_start_run();
   const std::string run_id = client.request(start).start_run().run_id();
 
+  // A lease (server.control_lease_s) needs a request now and then: the
+  // stream brings a document at least every 50 ms while the run goes.
+  const auto lease = std::chrono::duration<double>(client.control_lease_s() / 3);
+  auto next_heartbeat = std::chrono::steady_clock::now() + lease;
   std::vector<v1::SampleBlock> blocks;
   for (;;) {
+    if (client.control_lease_s() > 0 && std::chrono::steady_clock::now() >= next_heartbeat) {
+      v1::ClientMessage heartbeat;
+      heartbeat.mutable_get_status();
+      client.request(heartbeat);
+      next_heartbeat = std::chrono::steady_clock::now() + lease;
+    }
     v1::ServerMessage event = client.next_event();
     if (on_document) on_document(event);
     if (event.has_run_start() && event.run_start().run_id() == run_id) {

@@ -46,6 +46,10 @@ struct SessionOptions {
   std::string client_name = "tribo";
   v1::Role role = v1::OBSERVER;
   std::string token;  // the daemon's control token, for role CONTROLLER
+  // How long a request waits for its reply, and next_event() for a document
+  // (0: for ever). A daemon that stops answering is an error, not a hang.
+  int request_timeout_ms = 60000;
+  int event_timeout_ms = 0;
 };
 
 class TriboClient {
@@ -64,15 +68,29 @@ class TriboClient {
   // Throws ClientError if the reply is an error.
   v1::ServerMessage request(v1::ClientMessage message);
 
-  // The next run document (request_id 0); blocks. Throws ClientError on EOF.
+  // The next run document (request_id 0); blocks (at most the event
+  // timeout). Throws ClientError on EOF or timeout.
   v1::ServerMessage next_event();
 
+  // From the daemon's HelloReply: its frame limit (a larger request is
+  // refused here, before anything is sent) and the control lease.
+  std::size_t max_frame_bytes() const { return max_frame_bytes_; }
+  double control_lease_s() const { return control_lease_s_; }
+  void set_timeouts(int request_timeout_ms, int event_timeout_ms) {
+    request_timeout_ms_ = request_timeout_ms;
+    event_timeout_ms_ = event_timeout_ms;
+  }
+
  private:
-  v1::ServerMessage read_message();
+  v1::ServerMessage read_message(int timeout_ms);
   struct Connection;
   std::unique_ptr<Connection> connection_;
   std::uint64_t next_request_id_ = 1;
   std::deque<v1::ServerMessage> events_;
+  std::size_t max_frame_bytes_;
+  double control_lease_s_ = 0;
+  int request_timeout_ms_ = 60000;
+  int event_timeout_ms_ = 0;
 };
 
 struct RunResult {

@@ -1,5 +1,7 @@
 #include "daemon/api_server.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
 
 #include <spdlog/spdlog.h>
@@ -14,6 +16,10 @@ namespace {
 
 constexpr std::size_t kDefaultClientQueueBytes = 8u << 20;
 constexpr std::size_t kDefaultMaxClients = 256;
+constexpr double kDefaultHandshakeTimeoutS = 5;
+constexpr double kDefaultIdleTimeoutS = 300;
+constexpr std::size_t kDefaultMaxPartialBytes = 64u << 20;
+constexpr std::uint32_t kFreeTokenFailures = 5;  // before the back-off starts
 
 std::shared_ptr<const std::string> frame_of(const v1::ServerMessage& message) {
   auto frame = std::make_shared<std::string>();
@@ -72,9 +78,28 @@ void ApiServer::accept_next() {
     SessionLimits limits;
     limits.max_frame_bytes = config_.max_frame_bytes();
     limits.queue_bytes = config_.client_queue_bytes() > 0 ? config_.client_queue_bytes() : kDefaultClientQueueBytes;
+    const auto seconds = [](double s, double fallback) {
+      return std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+          std::chrono::duration<double>(s > 0 ? s : fallback));
+    };
+    limits.handshake_timeout = seconds(config_.handshake_timeout_s(), kDefaultHandshakeTimeoutS);
+    limits.idle_timeout = seconds(config_.idle_timeout_s(), kDefaultIdleTimeoutS);
+    limits.control_lease_s = config_.control_lease_s() > 0 ? config_.control_lease_s() : 0;
     auto session = std::make_shared<ClientSession>(std::move(socket), *this, *service_, limits);
-    sessions_.push_back(session);
     const std::size_t max_clients = config_.max_clients() > 0 ? config_.max_clients() : kDefaultMaxClients;
+    if (sessions_.size() >= max_clients) {
+      // Full: a connection that has not said Hello yet makes room (the
+      // oldest such). Silent sockets cannot lock out `tribo estop`.
+      for (const auto& s : sessions_) {
+        if (!s->handshake_done()) {
+          spdlog::warn("{} connections: closing the oldest that has not said hello", sessions_.size());
+          auto victim = s;
+          victim->close();
+          break;
+        }
+      }
+    }
+    sessions_.push_back(session);
     if (sessions_.size() > max_clients) {
       v1::ServerMessage refusal;
       *refusal.mutable_error() = make_error(v1::PERMISSION_DENIED, "server.max_clients",
@@ -107,29 +132,89 @@ void ApiServer::close_gracefully(std::chrono::milliseconds deadline) {
 
 void ApiServer::remove(ClientSession* session) {
   sessions_.remove_if([session](const auto& s) { return s.get() == session; });
-  if (controller_ == session) {
-    controller_ = nullptr;
-    const bool abort = config_.on_controller_loss() != v1::CONTINUE_RUN;
-    if (!closing_ && run_active_) {
-      spdlog::warn("the controlling client '{}' disconnected during run {}: {}", session->name(), run_id_,
-                   abort ? "aborting it" : "the run continues");
-      if (abort) (void)service_->abort_run("the controlling client disconnected");
-    }
-  }
+  if (controller_ == session) lose_controller(*session, "disconnected");
   if (closing_ && sessions_.empty()) close_deadline_.cancel();
 }
 
+bool ApiServer::token_matches(ClientSession& session, const std::string& token) {
+  if (!token_required()) return true;
+  const auto now = std::chrono::steady_clock::now();
+  if (token_failures_ >= kFreeTokenFailures && now < token_retry_after_) return false;  // backing off
+  // Constant time in the token's content: every byte is compared.
+  unsigned char diff = token.size() == control_token_.size() ? 0 : 1;
+  for (std::size_t i = 0; i < token.size(); ++i) {
+    diff |= static_cast<unsigned char>(token[i] ^ control_token_[i % std::max<std::size_t>(1, control_token_.size())]);
+  }
+  if (diff == 0) {
+    token_failures_ = 0;
+    return true;
+  }
+  ++token_failures_;
+  if (token_failures_ >= kFreeTokenFailures) {
+    // 0.1 s, doubling, at most 10 s between attempts (for every client).
+    const double wait_s = std::min(10.0, 0.1 * std::pow(2.0, std::min<std::uint32_t>(token_failures_ - kFreeTokenFailures, 10)));
+    token_retry_after_ = now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                   std::chrono::duration<double>(wait_s));
+  }
+  ++token_failures_unlogged_;
+  if (now - last_token_log_ > std::chrono::seconds(10)) {
+    spdlog::warn("wrong control token from client '{}' ({} wrong tokens since the last report)", session.name(),
+                 token_failures_unlogged_);
+    token_failures_unlogged_ = 0;
+    last_token_log_ = now;
+  }
+  return false;
+}
+
+void ApiServer::renew_lease(ClientSession& session) {
+  if (controller_ != &session || !(config_.control_lease_s() > 0)) return;
+  lease_expiry_ = std::chrono::steady_clock::now() +
+                  std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                      std::chrono::duration<double>(config_.control_lease_s()));
+}
+
+void ApiServer::check_lease(ClientSession& session, std::chrono::steady_clock::time_point now) {
+  if (controller_ != &session || !(config_.control_lease_s() > 0) || now < lease_expiry_) return;
+  lose_controller(session, "its control lease lapsed (no request within server.control_lease_s)");
+}
+
+void ApiServer::lose_controller(ClientSession& session, const char* why) {
+  if (controller_ != &session) return;
+  controller_ = nullptr;
+  const bool abort = config_.on_controller_loss() != v1::CONTINUE_RUN;
+  if (!closing_ && run_active_) {
+    spdlog::warn("the controlling client '{}' {} during run {}: {}", session.name(), why, run_id_,
+                 abort ? "aborting it" : "the run continues");
+    if (abort) (void)service_->abort_run(std::string("the controlling client ") + why);
+  } else {
+    spdlog::info("the controlling client '{}' {}", session.name(), why);
+  }
+}
+
+bool ApiServer::reserve_partial(std::size_t& held, std::size_t n) {
+  const std::size_t limit = config_.max_pending_bytes() > 0 ? config_.max_pending_bytes() : kDefaultMaxPartialBytes;
+  if (partial_bytes_ + n > limit) return false;
+  partial_bytes_ += n;
+  held += n;
+  return true;
+}
+
+void ApiServer::release_partial(std::size_t& held) {
+  partial_bytes_ -= std::min(partial_bytes_, held);
+  held = 0;
+}
+
 std::optional<v1::Error> ApiServer::claim_control(ClientSession& session, const std::string& token) {
-  if (token_required() && token != control_token_) {
-    spdlog::warn("client '{}' asked for control with a wrong token", session.name());
+  if (!token_matches(session, token)) {
     return make_error(v1::UNAUTHENTICATED, "token",
-                      token.empty() ? "control needs the daemon's token" : "the token is wrong");
+                      token.empty() ? "control needs the daemon's token" : "the token is wrong (or tried too often)");
   }
   if (controller_ != nullptr && controller_ != &session) {
     return make_error(v1::PERMISSION_DENIED, "role",
                       "client '" + controller_->name() + "' holds control; one controller at a time");
   }
   controller_ = &session;
+  renew_lease(session);
   return std::nullopt;
 }
 

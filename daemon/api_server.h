@@ -72,6 +72,17 @@ class ApiServer : public RunEventSink {
 
   // For sessions (io thread).
   std::optional<v1::Error> claim_control(ClientSession& session, const std::string& token);
+  // Whether token is the daemon's (constant-time; failures are rate-limited
+  // and their logging throttled). No token configured: any token matches.
+  bool token_matches(ClientSession& session, const std::string& token);
+  // The controller's lease: renewed by each request it sends; when it lapses
+  // the session loses control and on_controller_loss applies.
+  void renew_lease(ClientSession& session);
+  void check_lease(ClientSession& session, std::chrono::steady_clock::time_point now);
+  void lose_controller(ClientSession& session, const char* why);
+  // The budget of half-received frame bytes over all connections.
+  bool reserve_partial(std::size_t& held, std::size_t n);
+  void release_partial(std::size_t& held);
   void release_control(ClientSession& session);
   bool controls(const ClientSession& session) const { return controller_ == &session; }
   bool token_required() const { return !control_token_.empty(); }
@@ -98,6 +109,13 @@ class ApiServer : public RunEventSink {
   std::string run_id_;
   std::uint64_t next_sequence_ = 0;
   bool run_active_ = false;
+  std::chrono::steady_clock::time_point lease_expiry_;
+  std::size_t partial_bytes_ = 0, max_partial_bytes_ = 0;
+  // Wrong tokens: after a few, further attempts wait out a back-off.
+  std::uint32_t token_failures_ = 0;
+  std::chrono::steady_clock::time_point token_retry_after_;
+  std::chrono::steady_clock::time_point last_token_log_;
+  std::uint64_t token_failures_unlogged_ = 0;
 };
 
 }  // namespace tribo::daemon

@@ -1,6 +1,7 @@
 #include "daemon/autotune.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <numbers>
 #include <sstream>
@@ -25,9 +26,19 @@ class Axis {
   bool out_of_travel() const {
     return !std::isfinite(frame_.lateral_position_m) || std::fabs(frame_.lateral_position_m) > p_.max_travel_m;
   }
+  // The experiment must end now: emergency stop or a refused command.
+  bool stopped() const { return emergency_ || refused_; }
+  bool emergency_stopped() const { return emergency_; }
+  bool command_refused() const { return refused_; }
 
+  // One tick. After a stop every call writes a zero drive only.
   void apply(double lateral_drive_n) {
-    drive_ = lateral_drive_n;
+    if (!stopped() && p_.stop_requested != nullptr && p_.stop_requested->load(std::memory_order_relaxed)) {
+      emergency_ = true;
+      if (p_.stop_acted_ns != nullptr) p_.stop_acted_ns->store(now_ns(), std::memory_order_relaxed);
+    }
+    if (!stopped() && !(std::fabs(lateral_drive_n) <= p_.max_lateral_drive_n)) refused_ = true;
+    drive_ = stopped() ? 0.0 : lateral_drive_n;
     t_.write(hal::DriveCommand{0.0, drive_});
     t_.wait_next_tick();
     t_.read(frame_);
@@ -43,7 +54,7 @@ class Axis {
     const auto window = static_cast<std::uint64_t>(std::ceil(kBiasWindowS / dt_));
     double sum = 0;
     std::uint64_t n = 0;
-    for (std::uint64_t k = 0; k < move_ticks + hold_ticks && !out_of_travel(); ++k) {
+    for (std::uint64_t k = 0; k < move_ticks + hold_ticks && !out_of_travel() && !stopped(); ++k) {
       const double r = k < move_ticks ? from + distance * static_cast<double>(k + 1) / static_cast<double>(move_ticks) : to;
       apply(pid_update(p_.present, r, position(), 0.0, dt_, s));
       if (k + window >= move_ticks + hold_ticks) {
@@ -55,8 +66,14 @@ class Axis {
   }
 
  private:
+  static std::int64_t now_ns() {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(
+               std::chrono::steady_clock::now().time_since_epoch()).count();
+  }
+
   hal::Transducer& t_;
   const AutotuneParams& p_;
+  bool emergency_ = false, refused_ = false;
   double dt_;
   hal::SensorFrame frame_;
   double drive_ = 0;
@@ -102,7 +119,16 @@ AutotuneResult relay_autotune(hal::Transducer& transducer, const AutotuneParams&
   const double start = std::isfinite(axis.position()) ? axis.position() : 0.0;
   PidState pid;
   pid_reset(p.present, start, start, 0.0, 0.0, pid);
+  const auto stopped = [&](AutotuneResult& r) {
+    r.ticks = axis.ticks();
+    r.emergency_stopped = axis.emergency_stopped();
+    r.command_refused = axis.command_refused();
+    r.error = axis.emergency_stopped() ? "emergency stop: the experiment stopped and the lateral drive went to zero"
+                                       : "command refused: a non-finite or out-of-range lateral drive";
+    return r;
+  };
   const double bias = axis.move(pid, start, p.position_m, kHoldS);
+  if (axis.stopped()) return stopped(result);
   if (axis.out_of_travel()) {
     axis.apply(0.0);
     result.error = "the lateral position left the travel while moving to the relay position";
@@ -138,6 +164,7 @@ AutotuneResult relay_autotune(hal::Transducer& transducer, const AutotuneParams&
     lo = std::min(lo, axis.position());
     hi = std::max(hi, axis.position());
     axis.apply(u);
+    if (axis.stopped()) return stopped(result);
     if (axis.out_of_travel()) {
       axis.apply(0.0);
       result.error = "the relay oscillation left the travel (" + fmt(p.max_travel_m * 1e6) +
@@ -149,6 +176,7 @@ AutotuneResult relay_autotune(hal::Transducer& transducer, const AutotuneParams&
   const double end_position = axis.position();
   pid_reset(p.present, end_position, end_position, 0.0, axis.drive(), pid);
   axis.move(pid, p.position_m, start, kHoldS);
+  if (axis.stopped()) return stopped(result);
   result.ticks = axis.ticks();
   if (!steady) {
     result.error = "no steady limit cycle within " + fmt(p.max_duration_s) + " s (" +

@@ -24,6 +24,7 @@
 // Afterwards the axis returns to where it started with the present PID.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <string>
 
@@ -41,6 +42,16 @@ struct AutotuneParams {
   double move_speed_m_per_s = 10e-6;  // to and from position_m
   double max_travel_m = 15e-6;        // aborts beyond this
   PidGains present;                   // the loop's gains now
+  // Checked every tick (the experiment runs as an activity of the supervised
+  // loop): when it reads true the experiment stops at once, the lateral
+  // drive goes to zero (the axis is unloaded: its spring takes it home) and
+  // the result says "emergency stop". May be null.
+  const std::atomic<bool>* stop_requested = nullptr;
+  // Set to the monotonic time of the tick that acted on stop_requested.
+  std::atomic<std::int64_t>* stop_acted_ns = nullptr;
+  // The drive range a command must lie in (the supervisor's last check):
+  // a non-finite or larger drive is refused and ends the experiment.
+  double max_lateral_drive_n = 1e300;
 };
 
 struct AutotuneResult {
@@ -54,6 +65,8 @@ struct AutotuneResult {
   PidGains proposed;
   std::string rule;
   std::uint64_t ticks = 0;
+  bool emergency_stopped = false;  // stop_requested ended it
+  bool command_refused = false;    // a non-finite or out-of-range drive ended it
 };
 
 AutotuneResult relay_autotune(hal::Transducer& transducer, const AutotuneParams& params);

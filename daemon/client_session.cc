@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include "daemon/api_server.h"
+#include "daemon/field_bounds.h"
 #include "daemon/instrument_service.h"
 #include "daemon/run_archive.h"
 #include "proto/api_defaults.h"
@@ -83,7 +84,39 @@ ClientSession::ClientSession(asio::ip::tcp::socket socket, ApiServer& server,
       server_(server),
       service_(service),
       decoder_(limits.max_frame_bytes),
-      limits_(limits) {}
+      limits_(limits),
+      timer_(socket_.get_executor()) {}
+
+void ClientSession::start() {
+  last_frame_ = std::chrono::steady_clock::now();
+  arm_timer();
+  read_more();
+}
+
+// Handshake and idle timeouts: a connection that never says Hello, or that
+// neither sends a complete request nor subscribes for idle_timeout, is
+// closed; it cannot hold a slot (or a half-sent frame's memory) for ever.
+void ClientSession::arm_timer() {
+  if (closed_) return;
+  timer_.expires_after(std::chrono::milliseconds(200));
+  timer_.async_wait([self = shared_from_this()](std::error_code ec) {
+    if (ec || self->closed_) return;
+    const auto now = std::chrono::steady_clock::now();
+    const auto silent = now - self->last_frame_;
+    if (!self->handshake_done_ && silent > self->limits_.handshake_timeout) {
+      spdlog::info("closing a connection that sent no hello within {} s",
+                   std::chrono::duration<double>(self->limits_.handshake_timeout).count());
+      return self->close();
+    }
+    if (self->handshake_done_ && !self->subscribed_ && silent > self->limits_.idle_timeout) {
+      spdlog::info("closing client '{}': no request for {} s", self->client_name_,
+                   std::chrono::duration<double>(self->limits_.idle_timeout).count());
+      return self->close();
+    }
+    self->server_.check_lease(*self, now);
+    self->arm_timer();
+  });
+}
 
 void ClientSession::read_more() {
   socket_.async_read_some(asio::buffer(read_buffer_),
@@ -96,10 +129,20 @@ void ClientSession::read_more() {
 void ClientSession::on_bytes(std::size_t n) {
   std::string_view data(read_buffer_.data(), n);
   std::string frame;
+  // The bytes of a frame not yet complete count against the server's budget
+  // for all connections: many slowly sent large frames cannot exhaust memory.
+  if (!server_.reserve_partial(partial_bytes_, n)) {
+    spdlog::warn("client '{}': half-received frames exceed the server's budget; closing it", client_name_);
+    return close();
+  }
   while (!closed_ && !closing_) {
     data.remove_prefix(decoder_.feed(data));
     wire::DecodeStatus status;
-    while (!closing_ && (status = decoder_.next(frame)) == wire::DecodeStatus::kFrame) handle(frame);
+    while (!closing_ && (status = decoder_.next(frame)) == wire::DecodeStatus::kFrame) {
+      server_.release_partial(partial_bytes_);
+      last_frame_ = std::chrono::steady_clock::now();
+      handle(frame);
+    }
     if (closing_) return;
     if (status == wire::DecodeStatus::kOversized || status == wire::DecodeStatus::kBadHeader) {
       v1::ServerMessage reply;
@@ -126,6 +169,10 @@ void ClientSession::handle(const std::string& frame) {
     reply.set_request_id(request.request_id());
     dispatch(request, reply);
   }
+  if (deferred_) {
+    deferred_ = false;  // answered later, from the loop's completion
+    return;
+  }
   send(reply);
   if (hang_up_) close_after_writes();
 }
@@ -140,9 +187,25 @@ void ClientSession::dispatch(const v1::ClientMessage& request, v1::ServerMessage
     return set_error(reply, v1::HANDSHAKE_REQUIRED, "hello", "send hello (api_version " +
                                                                  std::to_string(kApiVersion) + ") first");
   }
-  if (is_control_command(body) && !server_.controls(*this)) {
+  // Aborting is stopping, not steering: a session that shows the control
+  // token may abort a run another session controls (`tribo abort` beside a
+  // hung `tribo run`).
+  const bool token_abort = body == v1::ClientMessage::kAbortRun && !server_.controls(*this) &&
+                           server_.token_matches(*this, request.abort_run().token());
+  if (is_control_command(body) && !server_.controls(*this) && !token_abort) {
+    if (body == v1::ClientMessage::kAbortRun && !request.abort_run().token().empty()) {
+      return set_error(reply, v1::UNAUTHENTICATED, "abort_run.token", "the token is wrong");
+    }
     return set_error(reply, v1::PERMISSION_DENIED, "role",
-                     "this session is an observer; control commands need the CONTROLLER role");
+                     "this session is an observer; control commands need the CONTROLLER role "
+                     "(an abort may instead carry the control token)");
+  }
+  server_.renew_lease(*this);
+  // Strings a request carries are bounded before anything stores or logs them.
+  // An emergency stop is never refused: its reason is cut instead.
+  if (body != v1::ClientMessage::kLoadProtocol && body != v1::ClientMessage::kEmergencyStop) {
+    const auto issues = check_field_bounds(request, "", 1);
+    if (!issues.empty()) return set_error(reply, v1::INVALID_ARGUMENT, issues.front().field, issues.front().message);
   }
   std::optional<v1::Error> error;
   switch (body) {
@@ -158,11 +221,13 @@ void ClientSession::dispatch(const v1::ClientMessage& request, v1::ServerMessage
     case v1::ClientMessage::kStartRun: {
       std::optional<std::uint64_t> seed;
       if (request.start_run().has_seed()) seed = request.start_run().seed();
-      error = service_.start_run(seed, *reply.mutable_start_run());
+      error = service_.start_run(seed, *reply.mutable_start_run(), request.start_run().annotations());
       break;
     }
     case v1::ClientMessage::kAbortRun:
-      error = service_.abort_run(request.abort_run().reason());
+      error = service_.abort_run(request.abort_run().reason().empty()
+                                     ? std::string("aborted by client '" + client_name_ + "'")
+                                     : printable_prefix(request.abort_run().reason(), kMaxTextBytes));
       if (!error) reply.mutable_abort_run()->set_run_id(service_.status().run_id());
       break;
     case v1::ClientMessage::kGetStatus:
@@ -203,8 +268,20 @@ void ClientSession::dispatch(const v1::ClientMessage& request, v1::ServerMessage
       error = service_.emergency_stop(request.emergency_stop().reason(), *reply.mutable_emergency_stop());
       break;
     case v1::ClientMessage::kAutotune:
-      error = service_.autotune(request.autotune(), *reply.mutable_autotune());
-      break;
+      // The experiment runs in the supervised loop; the reply follows when it
+      // ends, and every other request (an emergency stop above all) is
+      // answered meanwhile.
+      deferred_ = true;
+      service_.autotune_async(
+          request.autotune(), [self = shared_from_this(), id = request.request_id()](
+                                  std::optional<v1::Error> e, const v1::AutotuneReply& result) {
+            v1::ServerMessage late;
+            late.set_request_id(id);
+            if (e) *late.mutable_error() = *e;
+            else *late.mutable_autotune() = result;
+            asio::post(self->socket_.get_executor(), [self, late = std::move(late)] { self->send(late); });
+          });
+      return;
     default:
       error = v1::Error();
       error->set_code(v1::MALFORMED_REQUEST);
@@ -219,7 +296,8 @@ void ClientSession::hello(const v1::Hello& hello, v1::ServerMessage& reply) {
   if (handshake_done_) {
     return set_error(reply, v1::WRONG_STATE, "hello", "the handshake is already done");
   }
-  client_name_ = hello.client_name().substr(0, 64);
+  // Control characters would forge log lines: the name is logged often.
+  client_name_ = printable_prefix(hello.client_name(), 64);
   if (hello.api_version() != kApiVersion) {
     set_error(reply, v1::UNSUPPORTED_VERSION, "hello.api_version",
               "api_version " + std::to_string(hello.api_version()) +
@@ -244,6 +322,7 @@ void ClientSession::hello(const v1::Hello& hello, v1::ServerMessage& reply) {
     out->add_capabilities(c);
   }
   out->set_max_frame_bytes(static_cast<std::uint32_t>(limits_.max_frame_bytes));
+  out->set_control_lease_s(limits_.control_lease_s);
 }
 
 void ClientSession::status(v1::ServerMessage& reply) {
@@ -289,7 +368,11 @@ void ClientSession::offer_samples(SampleFrames& frames) {
       pending_gap_.emplace();
       pending_gap_->set_run_id(block.run_id());
       pending_gap_->set_first_sequence(first);
-      pending_gap_->set_reason("this client read too slowly; the samples are in the recording");
+      // Promise the recording only while it is healthy.
+      pending_gap_->set_reason(service_.recording_failed()
+                                   ? "this client read too slowly; the recording has failed, so these samples "
+                                     "may be lost"
+                                   : "this client read too slowly; the samples are in the recording");
     }
     pending_gap_->set_end_sequence(end);
     return;
@@ -344,6 +427,8 @@ void ClientSession::close_after_writes() {
 void ClientSession::close() {
   if (closed_) return;
   closed_ = true;
+  server_.release_partial(partial_bytes_);
+  timer_.cancel();
   std::error_code ignored;
   socket_.shutdown(asio::ip::tcp::socket::shutdown_both, ignored);
   socket_.close(ignored);

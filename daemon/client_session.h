@@ -10,6 +10,7 @@
 #pragma once
 
 #include <array>
+#include <chrono>
 #include <cstdint>
 #include <deque>
 #include <memory>
@@ -45,6 +46,9 @@ class SampleFrames {
 struct SessionLimits {
   std::size_t max_frame_bytes = 0;   // incoming frames
   std::size_t queue_bytes = 0;       // sample frames are dropped beyond this
+  std::chrono::steady_clock::duration handshake_timeout = std::chrono::seconds(5);
+  std::chrono::steady_clock::duration idle_timeout = std::chrono::seconds(300);
+  double control_lease_s = 0;  // told to clients in HelloReply
 };
 
 class ClientSession : public std::enable_shared_from_this<ClientSession> {
@@ -52,7 +56,7 @@ class ClientSession : public std::enable_shared_from_this<ClientSession> {
   ClientSession(asio::ip::tcp::socket socket, ApiServer& server, InstrumentService& service,
                 SessionLimits limits);
 
-  void start() { read_more(); }
+  void start();
   // Replies and run documents other than samples: always queued.
   void send(std::shared_ptr<const std::string> frame);
   void send(const v1::ServerMessage& message);
@@ -70,6 +74,7 @@ class ClientSession : public std::enable_shared_from_this<ClientSession> {
 
  private:
   void read_more();
+  void arm_timer();
   void on_bytes(std::size_t n);
   void handle(const std::string& frame);
   void dispatch(const v1::ClientMessage& request, v1::ServerMessage& reply);
@@ -89,12 +94,16 @@ class ClientSession : public std::enable_shared_from_this<ClientSession> {
   std::size_t frames_in_flight_ = 0;  // at the front of write_queue_, being written
   std::vector<asio::const_buffer> write_buffers_;
   bool hang_up_ = false;  // close once the current reply is sent
+  bool deferred_ = false;  // the current request is answered later (autotune)
   bool closing_ = false;
   bool closed_ = false;
   bool handshake_done_ = false;
   bool subscribed_ = false;
   std::uint32_t decimation_ = 1;
   std::string client_name_;
+  asio::steady_timer timer_;
+  std::chrono::steady_clock::time_point last_frame_;  // of the last complete request
+  std::size_t partial_bytes_ = 0;  // received since the last complete frame (server budget)
   // Samples dropped for this client and not yet announced: [first, end).
   std::optional<v1::GapNotice> pending_gap_;
 };

@@ -1,6 +1,9 @@
 #include "daemon/instrument_service.h"
 
+#include <sys/prctl.h>
+
 #include <chrono>
+#include <future>
 #include <cmath>
 #include <cstdio>
 
@@ -11,6 +14,9 @@
 #include "daemon/daemon_config.h"
 #include "daemon/protocol_validator.h"
 #include "daemon/run_loop.h"
+#include "daemon/field_bounds.h"
+#include "daemon/run_documents.h"
+#include "proto/run_files.h"
 #include "daemon/run_recorder.h"
 #include "daemon/safety_supervisor.h"
 #include "hal/backend_factory.h"
@@ -56,28 +62,11 @@ std::optional<Loop> loop_from_proto(v1::ControlLoop loop) {
   }
 }
 
-v1::BackendHealth health_message(std::string_view backend, const hal::BackendHealth& h) {
-  v1::BackendHealth m;
-  m.set_backend(std::string(backend));
-  m.set_connected(h.connected);
-  m.set_transactions(h.transactions);
-  m.set_timeouts(h.timeouts);
-  m.set_exceptions(h.exceptions);
-  m.set_bad_frames(h.bad_frames);
-  m.set_link_losses(h.link_losses);
-  m.set_reconnect_attempts(h.reconnect_attempts);
-  m.set_last_io_s(h.last_io_s);
-  m.set_max_io_s(h.max_io_s);
-  m.set_last_error(h.last_error);
-  m.set_first_error(h.first_error);
-  return m;
-}
-
 }  // namespace
 
 struct InstrumentService::ActiveRun {
   v1::RunStart start;
-  std::unique_ptr<hal::Transducer> transducer;
+  hal::Transducer* transducer = nullptr;  // the service's backend, on the loop thread
   LoadFunction load_function;
   RunLoopConfig loop_config;
   SpscQueue<Sample> queue{kQueueCapacity};
@@ -105,19 +94,19 @@ std::uint64_t unix_time_ns() {
                                         .count());
 }
 
-v1::RunDescriptor make_descriptor(const LoadFunction& load_function) {
-  v1::RunDescriptor d;
-  describe_channels(d);
-  d.set_expected_samples(load_function.expected_samples());
-  d.set_duration_s(static_cast<double>(load_function.total_ticks()) / load_function.loop_rate_hz());
-  // segment_index counts the unrolled segments (repeat blocks expanded).
-  for (const SegmentPlan& plan : load_function.segments()) d.add_segment_names(plan.name);
-  return d;
-}
-
 }  // namespace
 
 std::string InstrumentService::backend_name() const { return hal::backend_name(config_); }
+
+namespace {
+
+std::int64_t monotonic_now_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+}  // namespace
 
 InstrumentService::InstrumentService(v1::DaemonConfig config, std::string software_version,
                                      RunEventSink& sink)
@@ -126,9 +115,71 @@ InstrumentService::InstrumentService(v1::DaemonConfig config, std::string softwa
   gains_[v1::LOOP_LATERAL_FORCE - 1] = config_.controller().lateral_force();
   gains_[v1::LOOP_NORMAL_FORCE - 1] = config_.controller().normal_force();
   gains_[v1::LOOP_NORMAL_DISPLACEMENT - 1] = config_.controller().normal_displacement();
+  // The instrument: one backend for the daemon's lifetime (hal/transducer.h).
+  transducer_ = hal::make_transducer(config_, config_.sim().seed());
+  latch_incomplete_previous_run();
+  loop_thread_ = std::thread([this] { loop_main(); });
 }
 
-InstrumentService::~InstrumentService() { shutdown("daemon shutting down"); }
+InstrumentService::~InstrumentService() {
+  shutdown("daemon shutting down");
+  {
+    std::lock_guard lock(mutex_);
+    loop_exit_ = true;
+  }
+  activity_cv_.notify_all();
+  if (loop_thread_.joinable()) loop_thread_.join();
+}
+
+// A run whose directory has no stop document was cut short (kill, crash,
+// power): the tip may still be loaded. Come up latched until a re-arm has
+// read the instrument.
+void InstrumentService::latch_incomplete_previous_run() {
+  const auto runs = wire::list_recorded_runs(config_.recorder().data_dir());
+  if (runs.empty() || runs.front().finalized()) return;
+  const auto& last = runs.front();
+  state_ = v1::FAULTED;
+  trip_reason_ = "the previous run " + last.run_id() + " did not finish (" + std::to_string(last.sample_count()) +
+                 " samples on disk, no stop document): the daemon stopped during it and the instrument's "
+                 "state is unknown; check it and re-arm";
+  spdlog::warn("{}", trip_reason_);
+}
+
+void InstrumentService::loop_main() {
+  // Linux lets an ordinary thread's absolute-deadline sleep end up to 50 µs
+  // late (timer slack); the loop thread asks for 1 ns (bench: BM_PacedJitter).
+  prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);
+  std::unique_lock lock(mutex_);
+  for (;;) {
+    activity_cv_.wait(lock, [this] { return loop_exit_ || !pending_.empty(); });
+    if (pending_.empty()) return;  // loop_exit_ and nothing left to do
+    std::function<void()> activity = std::move(pending_.front());
+    pending_.pop_front();
+    activity_running_ = true;
+    lock.unlock();
+    activity();
+    lock.lock();
+    activity_running_ = false;
+    if (pending_.empty()) activity_.clear();
+    activity_cv_.notify_all();
+  }
+}
+
+void InstrumentService::post_activity(std::function<void()> activity) {
+  pending_.push_back(std::move(activity));
+  activity_cv_.notify_all();
+}
+
+void InstrumentService::wait_for_activities(std::unique_lock<std::mutex>& lock) {
+  activity_cv_.wait(lock, [this] { return pending_.empty() && !activity_running_; });
+}
+
+double InstrumentService::last_emergency_stop_latency_s() const {
+  const std::int64_t requested = estop_requested_ns_.load(), acted = estop_acted_ns_.load();
+  if (requested < 0) return -1;
+  if (acted < requested) return 0;  // acted while idle: latched at once
+  return static_cast<double>(acted - requested) * 1e-9;
+}
 
 std::optional<v1::Error> InstrumentService::load_protocol(const v1::Protocol& protocol,
                                                           v1::LoadProtocolReply& reply) {
@@ -158,49 +209,38 @@ std::optional<v1::Error> InstrumentService::load_protocol(const v1::Protocol& pr
 }
 
 std::optional<v1::Error> InstrumentService::start_run(std::optional<std::uint64_t> seed,
-                                                      v1::StartRunReply& reply) {
-  std::lock_guard lock(mutex_);
+                                                      v1::StartRunReply& reply,
+                                                      const v1::RunAnnotations& annotations) {
+  for (const auto& issue : check_field_bounds(annotations, "start_run.annotations", 1)) {
+    return make_error(v1::INVALID_ARGUMENT, issue.field, issue.message);
+  }
+  std::unique_lock lock(mutex_);
   if (state_ == v1::RUNNING) return make_error(v1::WRONG_STATE, "", "a run is already in progress");
   if (state_ == v1::FAULTED) {
     return make_error(v1::WRONG_STATE, "",
                       "the instrument is faulted (" + trip_reason_ + "); re-arm it first");
   }
   if (!protocol_) return make_error(v1::WRONG_STATE, "", "no protocol loaded");
+  if (!activity_.empty() && activity_ != "run") {
+    return make_error(v1::WRONG_STATE, "", "the instrument is busy: " + activity_ + " in progress");
+  }
+  if (!transducer_) return make_error(v1::INTERNAL, "backend", "cannot create the backend");
+  // The previous run may still be handing out its stop document.
+  wait_for_activities(lock);
   join_finished_run();
 
   auto run = std::make_unique<ActiveRun>();
   const std::uint64_t run_seed = seed.value_or(config_.sim().seed());
+  v1::PidGains gains[4];
+  for (int i = 0; i < 4; ++i) gains[i] = gains_[static_cast<std::size_t>(i)];
+  run->start = make_run_start(*protocol_, config_, load_function_, gains, run_seed, software_version_, annotations);
   v1::RunStart& start = run->start;
-  *start.mutable_protocol() = *protocol_;
-  *start.mutable_config() = config_;
-  start.mutable_config()->mutable_server()->clear_control_token();  // the run documents are public
-  *start.mutable_lateral_gains() = gains_[v1::LOOP_LATERAL_DISPLACEMENT - 1];
-  // The gains in force (SetGains) go into the recorded config too.
-  auto& recorded = *start.mutable_config()->mutable_controller();
-  *recorded.mutable_lateral_displacement() = gains_[v1::LOOP_LATERAL_DISPLACEMENT - 1];
-  *recorded.mutable_lateral_force() = gains_[v1::LOOP_LATERAL_FORCE - 1];
-  *recorded.mutable_normal_force() = gains_[v1::LOOP_NORMAL_FORCE - 1];
-  *recorded.mutable_normal_displacement() = gains_[v1::LOOP_NORMAL_DISPLACEMENT - 1];
-  start.set_seed(run_seed);
-  start.set_software_version(software_version_);
   start.set_start_time_utc(utc_timestamp_iso8601());
-  start.set_loop_rate_hz(config_.controller().loop_rate_hz());
-  for (const SegmentPlan& plan : load_function_.segments()) {
-    v1::RunSegment* seg = start.add_segments();
-    seg->set_name(plan.name);
-    seg->set_start_s(static_cast<double>(plan.start_tick) / load_function_.loop_rate_hz());
-    seg->set_duration_s(static_cast<double>(plan.tick_count) / load_function_.loop_rate_hz());
-    seg->set_normal_mode(plan.normal_mode == NormalMode::kClosedLoopForce ? v1::NORMAL_CLOSED_LOOP_FORCE
-                         : plan.normal_mode == NormalMode::kDisplacement  ? v1::NORMAL_DISPLACEMENT
-                                                                          : v1::NORMAL_OPEN_LOOP_FORCE);
-    seg->set_lateral_mode(plan.lateral_mode == LateralMode::kForce ? v1::LATERAL_FORCE : v1::LATERAL_DISPLACEMENT);
-  }
 
   std::string error;
   run->recorder = RunRecorder::create(config_.recorder().data_dir(), start, error);
   if (!run->recorder) return make_error(v1::INTERNAL, "recorder.data_dir", error);
-  run->transducer = hal::make_transducer(config_, run_seed);
-  if (!run->transducer) return make_error(v1::INTERNAL, "backend", "cannot create the backend");
+  run->transducer = transducer_.get();
   run->load_function = load_function_;
   run->loop_config = run_loop_config_from(start.config());
   // Only the simulated backend running as fast as possible may wait for the
@@ -211,14 +251,17 @@ std::optional<v1::Error> InstrumentService::start_run(std::optional<std::uint64_
   reply.set_run_id(start.run_id());
   last_run_id_ = start.run_id();
   state_ = v1::RUNNING;
+  recording_error_.clear();
   v1::RunDescriptor descriptor = make_descriptor(load_function_);
   descriptor.set_run_id(start.run_id());
   run->recorder->describe(descriptor);
   sink_.on_run_start(start);
   sink_.on_descriptor(descriptor);
-  spdlog::info("run {} started: protocol '{}', seed {}", start.run_id(), protocol_->name(), run_seed);
+  spdlog::info("run {} started: protocol '{}', seed {}", start.run_id(),
+               printable_prefix(protocol_->name(), 64), run_seed);
   run_ = std::move(run);
-  run_thread_ = std::thread([this, r = run_.get()] { run_main(*r); });
+  activity_ = "run";
+  post_activity([this, r = run_.get()] { run_main(*r); });
   return std::nullopt;
 }
 
@@ -268,6 +311,13 @@ v1::StatusReply InstrumentService::status() const {
     s.MergeFrom(last_timing_);
   }
   if (state_ == v1::FAULTED) s.set_tripped(true);
+  s.set_activity(activity_);
+  if (!recording_error_.empty()) {
+    s.set_recording_failed(true);
+    s.set_recording_error(recording_error_);
+    health->set_healthy(false);
+    health->set_detail("the recording failed: " + recording_error_);
+  }
   s.set_trip_reason(trip_reason_);
   s.set_trip_time_s(trip_time_s_);
   return s;
@@ -307,73 +357,129 @@ v1::GetGainsReply InstrumentService::gains() const {
 }
 
 std::optional<v1::Error> InstrumentService::rearm(v1::RearmReply& reply) {
-  std::lock_guard lock(mutex_);
+  std::unique_lock lock(mutex_);
   if (state_ != v1::FAULTED) {
     return make_error(v1::WRONG_STATE, "", "re-arm is for a faulted instrument; the state is " +
                                                v1::DaemonState_Name(state_));
   }
-  join_finished_run();
-  // Read the instrument as it is now, through a fresh backend session.
-  auto transducer = hal::make_transducer(config_, config_.sim().seed());
-  if (!transducer) return make_error(v1::INTERNAL, "backend", "cannot create the backend");
-  hal::SensorFrame f;
-  const hal::IoResult read = transducer->read(f);
-  const SupervisorParams p = supervisor_params_from_config(config_);
-  std::string problem;
-  char text[200];
-  if (read != hal::IoResult::kOk) {
-    problem = "the backend does not answer";
-  } else if (!std::isfinite(f.lateral_position_m) || !std::isfinite(f.lateral_force_n) ||
-             !std::isfinite(f.normal_force_n) || !std::isfinite(f.normal_displacement_m)) {
-    problem = "a sensor reading is not finite";
-  } else if (std::fabs(f.lateral_position_m) > p.max_lateral_travel_m) {
-    std::snprintf(text, sizeof text, "the lateral position %g m is beyond the travel %g m",
-                  f.lateral_position_m, p.max_lateral_travel_m);
-    problem = text;
-  } else if (std::fabs(f.normal_force_n) > p.contact_force_n) {
-    std::snprintf(text, sizeof text, "the normal force %g N is above the unloaded threshold %g N",
-                  f.normal_force_n, p.contact_force_n);
-    problem = text;
+  if (!activity_.empty()) {
+    return make_error(v1::WRONG_STATE, "", "the instrument is busy: " + activity_ + " in progress");
   }
-  if (!problem.empty()) {
-    return make_error(v1::WRONG_STATE, "", "cannot re-arm: " + problem + " (fault: " + trip_reason_ + ")");
+  if (!transducer_) return make_error(v1::INTERNAL, "backend", "cannot create the backend");
+  // The check reads the instrument on the loop thread, which owns the
+  // backend; this thread waits for its few ticks.
+  std::optional<std::string> problem;
+  bool done = false;
+  activity_ = "re-arm check";
+  post_activity([this, &problem, &reply, &done] {
+    auto p = rearm_check(reply);
+    std::lock_guard inner(mutex_);
+    problem = std::move(p);
+    done = true;
+  });
+  activity_cv_.wait(lock, [&] { return done && !activity_running_; });
+  if (problem) {
+    return make_error(v1::WRONG_STATE, "", "cannot re-arm: " + *problem + " (fault: " + trip_reason_ + ")");
   }
-  reply.set_lateral_position_m(f.lateral_position_m);
-  reply.set_lateral_force_n(f.lateral_force_n);
-  reply.set_normal_force_n(f.normal_force_n);
-  reply.set_normal_displacement_m(f.normal_displacement_m);
   spdlog::info("re-armed after: {}", trip_reason_);
   state_ = protocol_ ? v1::ARMED : v1::IDLE;
   return std::nullopt;
 }
 
+// Reads the continuing instrument (no new session: the state it is in now)
+// over kRearmTicks ticks, writing nothing: every read must answer with
+// finite values that are not frozen, the mean lateral position inside the
+// travel and the mean normal force below the unloaded threshold.
+std::optional<std::string> InstrumentService::rearm_check(v1::RearmReply& reply) {
+  constexpr int kRearmTicks = 64;
+  const SupervisorParams p = supervisor_params_from_config(config_);
+  hal::SensorFrame first, f;
+  double sum[4] = {0, 0, 0, 0};
+  bool changed[4] = {false, false, false, false};
+  for (int k = 0; k < kRearmTicks; ++k) {
+    if (k > 0) transducer_->wait_next_tick();
+    if (transducer_->read(f) != hal::IoResult::kOk) return "the backend does not answer";
+    const double v[4] = {f.lateral_position_m, f.lateral_force_n, f.normal_force_n, f.normal_displacement_m};
+    if (k == 0) first = f;
+    const double v0[4] = {first.lateral_position_m, first.lateral_force_n, first.normal_force_n,
+                          first.normal_displacement_m};
+    for (int c = 0; c < 4; ++c) {
+      if (!std::isfinite(v[c])) return "a sensor reading is not finite";
+      sum[c] += v[c];
+      if (v[c] != v0[c]) changed[c] = true;
+    }
+  }
+  char text[240];
+  const bool per_channel = config_.supervisor().frozen_channel_ticks() > 0;
+  const char* names[4] = {"lateral position", "lateral force", "normal force", "normal displacement"};
+  if (!changed[0] && !changed[1] && !changed[2] && !changed[3]) {
+    std::snprintf(text, sizeof text, "all four sensor channels repeated the same values for %d ticks: the readout "
+                                     "is frozen", kRearmTicks);
+    return std::string(text);
+  }
+  for (int c = 0; per_channel && c < 4; ++c) {
+    if (!changed[c]) {
+      std::snprintf(text, sizeof text, "the %s repeated the same value for %d ticks: frozen", names[c], kRearmTicks);
+      return std::string(text);
+    }
+  }
+  const double x = sum[0] / kRearmTicks, lf = sum[1] / kRearmTicks, n = sum[2] / kRearmTicks,
+               z = sum[3] / kRearmTicks;
+  if (std::fabs(x) > p.max_lateral_travel_m) {
+    std::snprintf(text, sizeof text, "the lateral position %g m is beyond the travel %g m", x, p.max_lateral_travel_m);
+    return std::string(text);
+  }
+  if (std::fabs(n) > p.contact_force_n) {
+    std::snprintf(text, sizeof text, "the normal force %g N (mean of %d ticks) is above the unloaded threshold %g N",
+                  n, kRearmTicks, p.contact_force_n);
+    return std::string(text);
+  }
+  reply.set_lateral_position_m(x);
+  reply.set_lateral_force_n(lf);
+  reply.set_normal_force_n(n);
+  reply.set_normal_displacement_m(z);
+  return std::nullopt;
+}
+
 std::optional<v1::Error> InstrumentService::emergency_stop(const std::string& reason,
                                                            v1::EmergencyStopReply& reply) {
+  estop_requested_ns_.store(monotonic_now_ns());
   std::lock_guard lock(mutex_);
-  const std::string why = reason.empty() ? "requested by a client" : reason;
+  const std::string why = reason.empty() ? "requested by a client" : printable_prefix(reason, kMaxTextBytes);
   if (state_ == v1::RUNNING && run_) {
     run_->emergency_reason = why;
     run_->control.emergency_stop.store(true);
     reply.set_run_was_active(true);
   } else {
+    if (activity_ == "autotune") {
+      // The experiment sees it at its next tick and stops; the latch follows.
+      activity_stop_reason_ = why;
+      activity_stop_.store(true);
+      reply.set_run_was_active(true);
+    } else {
+      estop_acted_ns_.store(estop_requested_ns_.load());
+    }
     state_ = v1::FAULTED;
     trip_reason_ = std::string(trip_reason_text(TripReason::kEmergencyStop)) + ": " + why;
     trip_time_s_ = 0;
   }
-  spdlog::warn("emergency stop: {}", why);
+  spdlog::warn("emergency stop: {}", printable_prefix(why, 200));
   return std::nullopt;
 }
 
-std::optional<v1::Error> InstrumentService::autotune(const v1::Autotune& request,
-                                                     v1::AutotuneReply& reply) {
+void InstrumentService::autotune_async(const v1::Autotune& request, AutotuneDone done) {
   AutotuneParams params;
+  const auto refuse = [&](v1::Error e) { done(std::move(e), v1::AutotuneReply{}); };
   {
     std::lock_guard lock(mutex_);
-    if (state_ == v1::RUNNING) return make_error(v1::WRONG_STATE, "", "a run is in progress");
+    if (state_ == v1::RUNNING) return refuse(make_error(v1::WRONG_STATE, "", "a run is in progress"));
     if (state_ == v1::FAULTED) {
-      return make_error(v1::WRONG_STATE, "", "the instrument is faulted (" + trip_reason_ + "); re-arm it first");
+      return refuse(make_error(v1::WRONG_STATE, "", "the instrument is faulted (" + trip_reason_ + "); re-arm it first"));
     }
-    join_finished_run();
+    if (!activity_.empty()) {
+      return refuse(make_error(v1::WRONG_STATE, "", "the instrument is busy: " + activity_ + " in progress"));
+    }
+    if (!transducer_) return refuse(make_error(v1::INTERNAL, "backend", "cannot create the backend"));
     const auto& c = config_.autotune();
     params.relay_amplitude_n = request.has_relay_amplitude_n() ? request.relay_amplitude_n() : c.relay_amplitude_n();
     params.hysteresis_m = request.has_hysteresis_m() ? request.hysteresis_m() : c.hysteresis_m();
@@ -382,41 +488,83 @@ std::optional<v1::Error> InstrumentService::autotune(const v1::Autotune& request
     params.max_duration_s = c.max_duration_s();
     params.max_travel_m = config_.limits().max_lateral_travel_m();
     params.present = pid_gains_from_proto(gains_[v1::LOOP_LATERAL_DISPLACEMENT - 1]);
+    params.max_lateral_drive_n = supervisor_params_from_config(config_).lateral_drive_max_n;
+    if (!(params.relay_amplitude_n > 0) || params.relay_amplitude_n > config_.limits().max_lateral_force_n()) {
+      return refuse(make_error(v1::INVALID_ARGUMENT, "autotune.relay_amplitude_n",
+                               "autotune.relay_amplitude_n must be in (0, " +
+                                   std::to_string(config_.limits().max_lateral_force_n()) + "] N"));
+    }
+    if (!(params.hysteresis_m >= 0) || !std::isfinite(params.hysteresis_m)) {
+      return refuse(make_error(v1::INVALID_ARGUMENT, "autotune.hysteresis_m",
+                               "autotune.hysteresis_m must be finite and >= 0"));
+    }
+    params.stop_requested = &activity_stop_;
+    params.stop_acted_ns = &estop_acted_ns_;
+    activity_stop_.store(false);
+    activity_ = "autotune";
+    // The experiment moves the instrument: unloaded, outside any run, from a
+    // fresh session (the simulated plant at rest with the config's seed).
+    post_activity([this, params, apply = request.apply(), done = std::move(done)] {
+      transducer_->begin_session(config_.sim().seed());
+      const AutotuneResult result = relay_autotune(*transducer_, params);
+      v1::AutotuneReply reply;
+      std::optional<v1::Error> error;
+      if (result.emergency_stopped) {
+        std::lock_guard lock(mutex_);
+        error = make_error(v1::WRONG_STATE, "", "autotune stopped: emergency stop: " + activity_stop_reason_);
+      } else if (!result.ok) {
+        if (result.command_refused) {
+          std::lock_guard lock(mutex_);
+          state_ = v1::FAULTED;
+          trip_reason_ = std::string(trip_reason_text(TripReason::kCommandInvalid)) + " (autotune)";
+        }
+        error = make_error(v1::INTERNAL, "", "autotune failed: " + result.error);
+      } else {
+        reply.set_ultimate_gain_n_per_m(result.ultimate_gain_n_per_m);
+        reply.set_ultimate_period_s(result.ultimate_period_s);
+        reply.set_oscillation_amplitude_m(result.amplitude_m);
+        reply.set_cycles(result.cycles);
+        *reply.mutable_proposed() = pid_gains_to_proto(result.proposed);
+        reply.set_rule(result.rule);
+        spdlog::info("autotune: Ku {} N/m, Pu {} s, amplitude {} m", result.ultimate_gain_n_per_m,
+                     result.ultimate_period_s, result.amplitude_m);
+        if (apply) {
+          v1::SetGainsReply applied;
+          error = set_gains(v1::LOOP_LATERAL_DISPLACEMENT, reply.proposed(), applied);
+          if (!error) reply.set_applied(true);
+        }
+      }
+      {
+        // Free before the reply goes out: a client may ask again at once.
+        std::lock_guard lock(mutex_);
+        activity_.clear();
+      }
+      done(std::move(error), reply);
+    });
   }
-  if (!(params.relay_amplitude_n > 0) || params.relay_amplitude_n > config_.limits().max_lateral_force_n()) {
-    return make_error(v1::INVALID_ARGUMENT, "autotune.relay_amplitude_n",
-                      "autotune.relay_amplitude_n must be in (0, " +
-                          std::to_string(config_.limits().max_lateral_force_n()) + "] N");
-  }
-  if (!(params.hysteresis_m >= 0)) {
-    return make_error(v1::INVALID_ARGUMENT, "autotune.hysteresis_m", "autotune.hysteresis_m must be >= 0");
-  }
-  // The experiment moves the instrument: it runs on a backend session of its
-  // own, unloaded, outside any run (the I/O thread waits for it).
-  auto transducer = hal::make_transducer(config_, config_.sim().seed());
-  if (!transducer) return make_error(v1::INTERNAL, "backend", "cannot create the backend");
-  const AutotuneResult result = relay_autotune(*transducer, params);
-  if (!result.ok) return make_error(v1::INTERNAL, "", "autotune failed: " + result.error);
-  reply.set_ultimate_gain_n_per_m(result.ultimate_gain_n_per_m);
-  reply.set_ultimate_period_s(result.ultimate_period_s);
-  reply.set_oscillation_amplitude_m(result.amplitude_m);
-  reply.set_cycles(result.cycles);
-  *reply.mutable_proposed() = pid_gains_to_proto(result.proposed);
-  reply.set_rule(result.rule);
-  spdlog::info("autotune: Ku {} N/m, Pu {} s, amplitude {} m", result.ultimate_gain_n_per_m,
-               result.ultimate_period_s, result.amplitude_m);
-  if (request.apply()) {
-    v1::SetGainsReply applied;
-    if (auto e = set_gains(v1::LOOP_LATERAL_DISPLACEMENT, reply.proposed(), applied)) return e;
-    reply.set_applied(true);
-  }
-  return std::nullopt;
+}
+
+std::optional<v1::Error> InstrumentService::autotune(const v1::Autotune& request, v1::AutotuneReply& reply) {
+  std::promise<std::pair<std::optional<v1::Error>, v1::AutotuneReply>> outcome;
+  auto future = outcome.get_future();
+  autotune_async(request, [&outcome](std::optional<v1::Error> e, const v1::AutotuneReply& r) {
+    outcome.set_value({std::move(e), r});
+  });
+  auto [error, result] = future.get();
+  reply = std::move(result);
+  return error;
 }
 
 void InstrumentService::run_main(ActiveRun& run) {
+  // A new session of the one backend: the simulated plant at rest with the
+  // run's seed (runs stay bit-identical), a real instrument as it is.
+  run.transducer->begin_session(run.start.seed());
   std::thread drain([this, &run] { drain_samples(run); });
   const RunOutcome outcome = execute_run(*run.transducer, run.load_function, run.loop_config,
                                          run.queue, run.control, run.telemetry);
+  if (outcome.trip.reason == TripReason::kEmergencyStop) {
+    estop_acted_ns_.store(run.telemetry.emergency_acted_ns.load());
+  }
   run.loop_finished.store(true, std::memory_order_release);
   drain.join();
 
@@ -476,8 +624,25 @@ void InstrumentService::run_main(ActiveRun& run) {
     stop.set_reason(stop.reason() + (stop.reason().empty() ? "" : "; ") +
                     std::to_string(dropped) + " samples dropped: the recorder fell behind");
   }
+  // A failed recording: which published samples are not on disk. finish()
+  // writes the stop document even so (it is small and may still fit).
+  const auto name_lost_range = [&] {
+    if (!run.recorder->write_failed()) return;
+    stop.set_recording_failed(true);
+    stop.set_lost_first_sequence(run.recorder->written());
+    stop.set_lost_end_sequence(run.published);
+    const std::string lost = "recording failed (" + run.recorder->error() + "): samples [" +
+                             std::to_string(run.recorder->written()) + ", " + std::to_string(run.published) +
+                             ") are not in the recording";
+    if (stop.reason().find(lost) == std::string::npos) {
+      stop.set_reason(stop.reason() + (stop.reason().empty() ? "" : "; ") + lost);
+    }
+  };
+  name_lost_range();
   if (!run.recorder->finish(stop)) {
-    spdlog::error("run {}: writing the recording failed", stop.run_id());
+    spdlog::error("run {}: writing the recording failed: {}", stop.run_id(), run.recorder->error());
+    if (stop.exit_status() == v1::SUCCESS) stop.set_exit_status(v1::FAULT);
+    name_lost_range();  // the failure may be the last block's
   }
   {
     // The state changes before the stop document goes out: a client that
@@ -487,10 +652,11 @@ void InstrumentService::run_main(ActiveRun& run) {
     last_counters_ = DrainCounters{run.recorded.load(), run.telemetry.samples_dropped.load(),
                                    run.sensor_invalid.load(), run.latest_time_s.load()};
     last_backend_health_ = stop.backend_health();
-    state_ = outcome.end == RunEnd::kTripped ? v1::FAULTED : v1::ARMED;
+    if (run.recorder->write_failed()) recording_error_ = run.recorder->error();
+    state_ = stop.exit_status() == v1::FAULT ? v1::FAULTED : v1::ARMED;
     last_timing_.Clear();
     fill_timing(run.telemetry, last_timing_);
-    if (outcome.end == RunEnd::kTripped) {
+    if (stop.exit_status() == v1::FAULT) {
       trip_reason_ = stop.reason();
       trip_time_s_ = outcome.trip_time_s;
     }
@@ -506,9 +672,20 @@ void InstrumentService::run_main(ActiveRun& run) {
 void InstrumentService::drain_samples(ActiveRun& run) {
   v1::SampleBlock block;
   auto last_publish = std::chrono::steady_clock::now();
+  // A failed write stops the run (the loop trips at its next tick and
+  // unloads); the samples keep going out to the clients, the only copy left.
+  const auto check_recorder = [&] {
+    if (run.recorder->write_failed() && !run.control.recording_failed.load(std::memory_order_relaxed)) {
+      run.control.recording_failed.store(true, std::memory_order_relaxed);
+      spdlog::error("run {}: {}; stopping the run", run.start.run_id(), run.recorder->error());
+      std::lock_guard lock(mutex_);
+      recording_error_ = run.recorder->error();
+    }
+  };
   const auto publish = [&] {
     if (sample_count(block) == 0) return;
     run.recorder->flush();
+    check_recorder();
     block.set_run_id(run.start.run_id());
     block.set_first_sequence(run.published);
     run.published += sample_count(block);
@@ -521,16 +698,8 @@ void InstrumentService::drain_samples(ActiveRun& run) {
   };
   const auto segment_event = [&](v1::SegmentEventKind kind, const Sample& s, std::uint64_t sequence) {
     publish();
-    v1::SegmentEvent event;
-    event.set_run_id(run.start.run_id());
-    event.set_sequence(sequence);
-    event.set_time_s(s.time_s);
-    event.set_kind(kind);
-    event.set_segment_index(s.segment_index);
-    const auto& segments = run.start.protocol().segments();
-    if (static_cast<int>(s.segment_index) < segments.size()) {
-      event.set_segment_name(segments[static_cast<int>(s.segment_index)].name());
-    }
+    const v1::SegmentEvent event =
+        make_segment_event(run.start.run_id(), run.load_function, kind, s.segment_index, sequence, s.time_s);
     run.recorder->record(event);
     sink_.on_segment_event(event);
   };
@@ -564,10 +733,8 @@ void InstrumentService::drain_samples(ActiveRun& run) {
   publish();
 }
 
-void InstrumentService::join_finished_run() {
-  if (run_thread_.joinable()) run_thread_.join();
-  run_.reset();
-}
+// The caller holds mutex_ with no activity running.
+void InstrumentService::join_finished_run() { run_.reset(); }
 
 void InstrumentService::shutdown(const std::string& reason) {
   {
@@ -576,18 +743,17 @@ void InstrumentService::shutdown(const std::string& reason) {
       run_->abort_reason = reason;
       run_->control.abort_requested.store(true);
     }
+    if (activity_ == "autotune") {
+      activity_stop_reason_ = reason;
+      activity_stop_.store(true);
+    }
   }
   wait_until_idle();
 }
 
 void InstrumentService::wait_until_idle() {
-  std::thread finished;
-  {
-    std::lock_guard lock(mutex_);
-    finished = std::move(run_thread_);
-  }
-  if (finished.joinable()) finished.join();
-  std::lock_guard lock(mutex_);
+  std::unique_lock lock(mutex_);
+  wait_for_activities(lock);
   run_.reset();
 }
 

@@ -1,11 +1,21 @@
-// The daemon's core, independent of the transport: holds the loaded protocol,
-// runs it (a real-time loop thread plus a drain thread that records samples and
-// publishes them), and tracks the state machine IDLE -> ARMED -> RUNNING ->
-// ARMED (or FAULTED after a safety trip). Thread-safe; the API server calls it
-// from its I/O thread, run documents leave through RunEventSink.
+// The daemon's core, independent of the transport: holds the loaded protocol
+// and the one instrument backend, and tracks the state machine IDLE -> ARMED
+// -> RUNNING -> ARMED (or FAULTED after a safety trip, an emergency stop, a
+// failed recording, or at start-up after a run that did not finish).
+//
+// One long-lived, supervised loop thread owns the backend and hosts
+// activities, one at a time: a protocol run (its real-time loop, safety
+// supervisor and stop sequence; a drain thread records and publishes its
+// samples), the autotune relay experiment, and the re-arm check. The API
+// thread only posts: it never ticks the instrument, so an emergency stop is
+// seen by whatever activity runs at its next tick. Run documents leave
+// through RunEventSink.
 #pragma once
 
 #include <array>
+#include <condition_variable>
+#include <deque>
+#include <functional>
 #include <atomic>
 #include <cstdint>
 #include <memory>
@@ -15,6 +25,7 @@
 #include <thread>
 
 #include "daemon/load_function.h"
+#include "hal/transducer.h"
 #include "tribo/v1/api.pb.h"
 
 namespace tribo::daemon {
@@ -40,7 +51,8 @@ class InstrumentService {
   ~InstrumentService();
 
   std::optional<v1::Error> load_protocol(const v1::Protocol& protocol, v1::LoadProtocolReply& reply);
-  std::optional<v1::Error> start_run(std::optional<std::uint64_t> seed, v1::StartRunReply& reply);
+  std::optional<v1::Error> start_run(std::optional<std::uint64_t> seed, v1::StartRunReply& reply,
+                                     const v1::RunAnnotations& annotations = {});
   std::optional<v1::Error> abort_run(const std::string& reason);
   v1::StatusReply status() const;
 
@@ -55,8 +67,22 @@ class InstrumentService {
   std::optional<v1::Error> rearm(v1::RearmReply& reply);
   // Trips the running run's supervisor, or latches FAULTED when idle.
   std::optional<v1::Error> emergency_stop(const std::string& reason, v1::EmergencyStopReply& reply);
-  // Relay autotune of the lateral displacement loop; not while running.
+  // Relay autotune of the lateral displacement loop; not while running. It
+  // runs as an activity of the loop; done is called from the loop thread
+  // with the outcome (immediately, on this thread, when refused).
+  using AutotuneDone = std::function<void(std::optional<v1::Error>, const v1::AutotuneReply&)>;
+  void autotune_async(const v1::Autotune& request, AutotuneDone done);
+  // The same, waiting for the outcome (tests, tools).
   std::optional<v1::Error> autotune(const v1::Autotune& request, v1::AutotuneReply& reply);
+
+  // The latest emergency stop's latency: from its request to the tick of the
+  // loop that acted on it (0: acted while idle; negative: none yet).
+  double last_emergency_stop_latency_s() const;
+  // The current or last run's recording failed.
+  bool recording_failed() const {
+    std::lock_guard lock(mutex_);
+    return !recording_error_.empty();
+  }
 
   // Aborts a running run (safe unload) and waits until it is recorded.
   void shutdown(const std::string& reason);
@@ -73,6 +99,15 @@ class InstrumentService {
   void run_main(ActiveRun& run);
   void drain_samples(ActiveRun& run);
   void join_finished_run();
+  // The supervised loop: runs posted activities one at a time.
+  void loop_main();
+  // Queues an activity; the caller holds mutex_ and has set activity_.
+  void post_activity(std::function<void()> activity);
+  // Waits (mutex_ held through lock) until no activity is queued or running.
+  void wait_for_activities(std::unique_lock<std::mutex>& lock);
+  // On the loop thread: reads the continuing instrument over several ticks.
+  std::optional<std::string> rearm_check(v1::RearmReply& reply);
+  void latch_incomplete_previous_run();
 
   const v1::DaemonConfig config_;
   const std::string software_version_;
@@ -96,7 +131,21 @@ class InstrumentService {
   };
   DrainCounters last_counters_;  // of the last finished run
   v1::BackendHealth last_backend_health_;
-  std::thread run_thread_;
+  std::string recording_error_;  // of the current or last run; empty: healthy
+
+  // The backend: created once, owned by the loop thread while an activity runs.
+  std::unique_ptr<hal::Transducer> transducer_;
+  std::thread loop_thread_;
+  std::condition_variable activity_cv_;  // with mutex_
+  std::deque<std::function<void()>> pending_;
+  std::string activity_;        // "run", "autotune", "re-arm check"; empty: idle
+  bool activity_running_ = false;
+  bool loop_exit_ = false;
+  // Emergency stop of activities other than a run (a run has its RunControl).
+  std::atomic<bool> activity_stop_{false};
+  std::string activity_stop_reason_;  // guarded by mutex_
+  std::atomic<std::int64_t> estop_requested_ns_{-1};
+  std::atomic<std::int64_t> estop_acted_ns_{-1};
 };
 
 }  // namespace tribo::daemon

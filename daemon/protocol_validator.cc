@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "daemon/electrostatic_drive.h"
+#include "daemon/field_bounds.h"
 #include "daemon/safety_supervisor.h"
 
 namespace tribo::daemon {
@@ -36,6 +37,9 @@ struct Range {
   double mid() const { return 0.5 * (lo + hi); }
   bool is_point() const { return lo == hi; }
 };
+
+// A rate field is unset only at +0: -0, negatives and NaN are set (and wrong).
+bool is_set_rate(double hz) { return hz != 0 || std::signbit(hz); }
 
 std::string range_text(const Range& r, const char* unit) {
   if (r.is_point()) return fmt(r.lo) + " " + unit;
@@ -149,6 +153,7 @@ class Checker {
   std::vector<SegmentPlan> plans_;
   std::uint64_t next_tick_ = 0;
   double protocol_rate_hz_ = 0;
+  std::string protocol_rate_field_ = "acquisition_rate_hz";
   bool first_ = true;
   AxisState normal_{v1::NORMAL_OPEN_LOOP_FORCE, Range::point(0)};    // unloaded at rest
   AxisState lateral_{v1::LATERAL_DISPLACEMENT, Range::point(0)};     // at the neutral point
@@ -358,10 +363,11 @@ void Checker::check_segment(const ExpandedSegment& e) {
   AxisFields lf = axis_fields(seg.lateral(), at + ".lateral", lateral_force_mode);
   lf.shape = lateral_shape;
 
-  // Acquisition rate.
-  const double rate = seg.acquisition_rate_hz() > 0 ? seg.acquisition_rate_hz() : protocol_rate_hz_;
-  const std::string rate_field =
-      seg.acquisition_rate_hz() > 0 ? at + ".acquisition_rate_hz" : "acquisition_rate_hz";
+  // Acquisition rate: 0 (unset) takes the protocol's; anything else, -0
+  // included, must be a rate.
+  const bool own_rate = is_set_rate(seg.acquisition_rate_hz());
+  const double rate = own_rate ? seg.acquisition_rate_hz() : protocol_rate_hz_;
+  const std::string rate_field = own_rate ? at + ".acquisition_rate_hz" : protocol_rate_field_;
   const double ratio = loop_hz_ / rate;
   const auto ticks_per_sample = static_cast<std::uint64_t>(std::llround(ratio));
   if (!(rate > 0) || !(rate <= loop_hz_) ||
@@ -573,8 +579,22 @@ void Checker::check_segment(const ExpandedSegment& e) {
 }
 
 ProtocolCheck Checker::run(const v1::Protocol& protocol) {
-  protocol_rate_hz_ = protocol.acquisition_rate_hz() > 0 ? protocol.acquisition_rate_hz()
-                                                         : config_.controller().default_acquisition_rate_hz();
+  // Every number finite, every string bounded, before any arithmetic on them.
+  for (auto& issue : check_field_bounds(protocol, "", kMaxErrors)) {
+    error(std::move(issue.field), std::move(issue.message));
+  }
+  if (!result_.errors.empty()) return std::move(result_);
+  if (is_set_rate(protocol.acquisition_rate_hz())) {
+    protocol_rate_hz_ = protocol.acquisition_rate_hz();
+    if (!(protocol_rate_hz_ > 0)) {
+      error("acquisition_rate_hz", "acquisition_rate_hz = " + fmt(protocol_rate_hz_) +
+                                       " Hz must be positive (0 or absent: the daemon's default)");
+      return std::move(result_);
+    }
+  } else {
+    protocol_rate_hz_ = config_.controller().default_acquisition_rate_hz();
+    protocol_rate_field_ = "controller.default_acquisition_rate_hz";
+  }
   if (protocol.segments_size() == 0) {
     error("segments", "the protocol has no segments");
     return std::move(result_);

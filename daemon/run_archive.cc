@@ -51,10 +51,29 @@ wire::RowIndex& RunArchive::index_of(const std::string& run_id) {
   return indexes_[run_id];
 }
 
+// A listing fits one reply whatever the data directory holds: strings are
+// cut (runs recorded before they were bounded may carry megabytes) and the
+// listing stops, marked truncated, before the reply outgrows kMaxListingBytes.
 v1::ListRunsReply RunArchive::list_runs(const v1::ListRuns& request) const {
+  constexpr std::size_t kMaxListingBytes = 2u << 20;
+  constexpr std::size_t kMaxListedString = 256;
+  const auto cut = [](std::string* s) {
+    if (s->size() > kMaxListedString) s->resize(kMaxListedString);
+  };
   v1::ListRunsReply reply;
+  std::size_t bytes = 0;
   for (auto& run : wire::list_recorded_runs(data_dir_)) {
     if (request.max_runs() > 0 && reply.runs_size() >= static_cast<int>(request.max_runs())) break;
+    cut(run.mutable_protocol_name());
+    cut(run.mutable_reason());
+    auto* a = run.mutable_annotations();
+    for (std::string* s : {a->mutable_sample(), a->mutable_tip(), a->mutable_operator_name(), a->mutable_note()}) cut(s);
+    const std::size_t size = run.ByteSizeLong() + 8;
+    if (bytes + size > kMaxListingBytes) {
+      reply.set_truncated(true);
+      break;
+    }
+    bytes += size;
     *reply.add_runs() = std::move(run);
   }
   return reply;

@@ -84,7 +84,8 @@ void RunLoop::start_stopping(RunEnd end) {
   if (controller_.breakaway_hold()) hold = controller_.hold_position_m();
   if (tick_ == 0) hold = frame_.lateral_position_m;  // no setpoint yet
   if (end == RunEnd::kTripped && outcome_.trip.lateral_position_suspect) hold = std::nan("");
-  stop_.begin(controller_.last_drive(), hold, sp_.segment, sp_.ticks_per_sample);
+  // From the drive the backend holds now: the last one written.
+  stop_.begin(written_, hold, sp_.segment, sp_.ticks_per_sample);
 }
 
 void RunLoop::finish() {
@@ -121,12 +122,18 @@ bool RunLoop::tick() {
   in.overruns = transducer_.overruns();
   in.drive = controller_.last_drive();
   in.emergency_stop = control_.emergency_stop.load(std::memory_order_relaxed);
+  in.recording_failed = control_.recording_failed.load(std::memory_order_relaxed);
   // Tracking needs a setpoint: none exists before the first tick's.
   in.lateral_displacement_mode =
       tick_ > 0 && sp_.lateral_mode == LateralMode::kDisplacement && !controller_.breakaway_hold();
   in.lateral_setpoint_m = sp_.lateral;
   in.lateral_setpoint_rate_m_per_s = sp_.lateral_rate;
-  if (supervisor_.check(in, tick_) != TripReason::kNone) start_stopping(RunEnd::kTripped);
+  if (const TripReason trip = supervisor_.check(in, tick_); trip != TripReason::kNone) {
+    if (trip == TripReason::kEmergencyStop) {
+      telemetry_.emergency_acted_ns.store(static_cast<std::int64_t>(t1), std::memory_order_relaxed);
+    }
+    start_stopping(RunEnd::kTripped);
+  }
   if (!stopping_ && control_.abort_requested.load(std::memory_order_relaxed)) {
     start_stopping(RunEnd::kAborted);
   }
@@ -149,7 +156,17 @@ bool RunLoop::tick() {
   const ControlOutput out = controller_.step(sp_, frame_);
   const std::uint64_t t3 = monotonic_ns();
 
-  last_write_ = transducer_.write(out.drive);
+  // Defence in depth: nothing non-finite or out of range reaches the
+  // backend, whatever the validator and the controller did. A refused
+  // command trips the run; the backend keeps the last drive written, from
+  // which the stop sequence unloads.
+  if (!supervisor_.command_allowed(out.drive, sp_.normal, sp_.lateral, !stopping_, tick_)) {
+    if (!stopping_) start_stopping(RunEnd::kTripped);
+  } else {
+    written_ = out.drive;
+    if (supervisor_.tripped() && !stopping_) start_stopping(RunEnd::kTripped);  // a non-finite setpoint
+  }
+  last_write_ = transducer_.write(written_);
   const std::uint64_t t4 = monotonic_ns();
 
   std::uint32_t flags = out.flags;

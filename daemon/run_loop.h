@@ -5,7 +5,8 @@
 //             the applied drive and the link (daemon/safety_supervisor.h)
 //   control   setpoints from the segment runner, or from the safe stop
 //             sequence once stopping; the controller computes the drive
-//   write     the drive to the HAL
+//   write     the drive to the HAL, after the supervisor's last check of
+//             the command (finite, within the amplifier's range)
 //   record    the tick into the acquisition filter; finished samples leave
 //             through the SPSC queue
 //   wait      the HAL's clock: lock-step plant step or absolute-deadline sleep
@@ -51,6 +52,9 @@ struct GainUpdate {
 struct RunControl {
   std::atomic<bool> abort_requested{false};
   std::atomic<bool> emergency_stop{false};
+  // The recorder could not write (full disk, I/O error): the run stops as a
+  // FAULT through the safe stop sequence.
+  std::atomic<bool> recording_failed{false};
   // One producer at a time (the service pushes under its mutex).
   SpscQueue<GainUpdate> gain_updates{16};
 };
@@ -62,6 +66,8 @@ struct RunTelemetry {
   std::atomic<std::uint64_t> samples_dropped{0};
   std::atomic<std::uint64_t> overruns{0};
   std::atomic<bool> tripped{false};
+  // Monotonic time (ns) of the tick that acted on an emergency stop.
+  std::atomic<std::int64_t> emergency_acted_ns{0};
   TickTiming timing;
 };
 
@@ -120,6 +126,7 @@ class RunLoop {
   double last_lateral_position_m_ = 0;
   double last_normal_displacement_m_ = 0;
   hal::IoResult last_write_ = hal::IoResult::kOk;
+  hal::DriveCommand written_;  // the last drive written to the backend
   TickSetpoints sp_;
 };
 

@@ -1,7 +1,14 @@
 #include "daemon/run_recorder.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
 #include <ctime>
 #include <system_error>
+
+#include <google/protobuf/util/json_util.h>
 
 #include "proto/run_files.h"
 
@@ -58,10 +65,19 @@ std::unique_ptr<RunRecorder> RunRecorder::create(const fs::path& data_dir, v1::R
     error = "cannot write " + (dir / wire::kMetadataFile).string();
     return nullptr;
   }
+  // Unbuffered: each block goes to the kernel in one write(2), so a failed
+  // write is seen at once and the file can be cut back to whole rows.
+  std::setvbuf(samples, nullptr, _IONBF, 0);
   const std::string header = csv_header();
   if (std::fwrite(header.data(), 1, header.size(), samples) != header.size() ||
-      std::fflush(samples) != 0) {
-    error = "cannot write " + (dir / wire::kSamplesFile).string();
+      ::fsync(fileno(samples)) != 0) {
+    error = "cannot write " + (dir / wire::kSamplesFile).string() + ": " + std::strerror(errno);
+    return nullptr;
+  }
+  recorder->good_bytes_ = static_cast<long>(header.size());
+  recorder->events_ = std::fopen((dir / kEventsFile).c_str(), "wb");
+  if (recorder->events_ == nullptr) {
+    error = "cannot create " + (dir / kEventsFile).string() + ": " + std::strerror(errno);
     return nullptr;
   }
   return recorder;
@@ -74,35 +90,61 @@ RunRecorder::RunRecorder(fs::path directory, std::FILE* samples, v1::RunMetadata
 
 RunRecorder::~RunRecorder() {
   if (samples_ != nullptr) std::fclose(samples_);
+  if (events_ != nullptr) std::fclose(events_);
+}
+
+void RunRecorder::fail(const std::string& what) {
+  if (write_failed_) return;
+  write_failed_ = true;
+  error_ = what;
 }
 
 void RunRecorder::describe(v1::RunDescriptor descriptor) {
   descriptor.set_run_id(metadata_.start().run_id());
   *metadata_.mutable_run_descriptor() = std::move(descriptor);
-  if (!write_metadata()) write_failed_ = true;
+  if (!write_metadata()) fail("writing " + (directory_ / wire::kMetadataFile).string());
 }
 
 void RunRecorder::append(const Sample& sample) {
+  ++appended_;
+  if (write_failed_) return;  // the file ends at its last whole row
   append_csv_row(sample, block_);
   if (++block_samples_ >= kBlockSamples) flush();
 }
 
 void RunRecorder::flush() {
-  if (block_samples_ == 0) return;
-  if (std::fwrite(block_.data(), 1, block_.size(), samples_) != block_.size()) write_failed_ = true;
-  if (std::fflush(samples_) != 0) write_failed_ = true;
+  if (block_samples_ == 0 || write_failed_) return;
+  const int fd = fileno(samples_);
+  const bool ok = std::fwrite(block_.data(), 1, block_.size(), samples_) == block_.size() && ::fsync(fd) == 0;
+  if (ok) {
+    good_bytes_ += static_cast<long>(block_.size());
+    written_ += block_samples_;
+  } else {
+    fail("writing " + (directory_ / wire::kSamplesFile).string() + ": " + std::strerror(errno));
+    // Cut the partial block off: the file keeps whole rows only.
+    (void)!::ftruncate(fd, good_bytes_);
+    std::fseek(samples_, good_bytes_, SEEK_SET);
+  }
   block_.clear();
   block_samples_ = 0;
 }
 
 void RunRecorder::record(const v1::SegmentEvent& event) {
   *metadata_.add_segment_events() = event;
-  if (!write_metadata()) write_failed_ = true;
+  if (events_ == nullptr || write_failed_) return;
+  std::string line;
+  google::protobuf::util::JsonPrintOptions options;
+  options.preserve_proto_field_names = true;
+  (void)google::protobuf::util::MessageToJsonString(event, &line, options);
+  line += '\n';
+  if (std::fwrite(line.data(), 1, line.size(), events_) != line.size() || std::fflush(events_) != 0) {
+    fail("writing " + (directory_ / kEventsFile).string() + ": " + std::strerror(errno));
+  }
 }
 
 void RunRecorder::record(const v1::Fault& fault) {
   *metadata_.add_faults() = fault;
-  if (!write_metadata()) write_failed_ = true;
+  if (!write_metadata()) fail("writing " + (directory_ / wire::kMetadataFile).string());
 }
 
 bool RunRecorder::write_metadata() {
@@ -113,7 +155,11 @@ bool RunRecorder::write_metadata() {
 bool RunRecorder::finish(const v1::RunStop& stop) {
   flush();
   *metadata_.mutable_stop() = stop;
-  if (!write_metadata()) write_failed_ = true;
+  // The stop document is written even after a failed sample write: it says
+  // which samples are missing (it is small, and may still fit).
+  const bool metadata_ok = write_metadata();
+  if (!metadata_ok) fail("writing " + (directory_ / wire::kMetadataFile).string());
+  if (::fsync(fileno(samples_)) != 0 && !write_failed_) fail("fsync of samples.csv: " + std::string(std::strerror(errno)));
   return !write_failed_;
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstdio>
 
 namespace tribo::daemon {
@@ -26,6 +27,8 @@ std::string_view trip_reason_text(TripReason reason) {
     case TripReason::kBreakpoint: return "loaded tip at the breakpoint";
     case TripReason::kSnapDownNormal: return "normal axis snap-down margin";
     case TripReason::kSnapDownLateral: return "lateral axis snap-down margin";
+    case TripReason::kCommandInvalid: return "command refused before the backend";
+    case TripReason::kRecordingFailed: return "recording failed";
   }
   return "unknown";
 }
@@ -59,6 +62,20 @@ SupervisorParams supervisor_params_from_config(const v1::DaemonConfig& c) {
   p.tracking_lag_s = s.tracking_lag_s();
   p.normal_axis = electrostatic_axis_from_config(c.transducer().normal());
   p.lateral_axis = electrostatic_axis_from_config(c.transducer().lateral());
+  // The most the amplifier can push, anywhere within the travel: max_drive_v
+  // on the active plate at its narrowest gap. A command beyond it is a bug,
+  // never a demand (without transducer constants only finiteness is checked).
+  const auto ceiling = [](const ElectrostaticAxis& a, double travel_m) {
+    const double gap = std::min(a.gap_positive_m, a.gap_negative_m) - travel_m;
+    const double f = 0.5 * a.permittivity_f_per_m * a.plate_area_m2 * a.max_drive_v * a.max_drive_v / (gap * gap);
+    return gap > 0 && f > 0 && std::isfinite(f) ? f : std::numeric_limits<double>::infinity();
+  };
+  const double normal_max = ceiling(p.normal_axis, l.max_normal_travel_m());
+  const double lateral_max = ceiling(p.lateral_axis, l.max_lateral_travel_m());
+  p.normal_drive_min_n = -normal_max;
+  p.normal_drive_max_n = normal_max;
+  p.lateral_drive_min_n = -lateral_max;
+  p.lateral_drive_max_n = lateral_max;
   return p;
 }
 
@@ -92,6 +109,30 @@ TripReason SafetySupervisor::latch_snap_down(TripReason reason, std::uint64_t ti
   return reason;
 }
 
+bool SafetySupervisor::drive_in_range(const hal::DriveCommand& d) const {
+  return std::isfinite(d.normal_force_n) && std::isfinite(d.lateral_force_n) &&
+         d.normal_force_n >= p_.normal_drive_min_n && d.normal_force_n <= p_.normal_drive_max_n &&
+         d.lateral_force_n >= p_.lateral_drive_min_n && d.lateral_force_n <= p_.lateral_drive_max_n;
+}
+
+bool SafetySupervisor::command_allowed(const hal::DriveCommand& d, double normal_setpoint, double lateral_setpoint,
+                                       bool setpoints_must_be_finite, std::uint64_t tick) {
+  const bool drive_ok = drive_in_range(d);
+  const bool setpoints_ok =
+      !setpoints_must_be_finite || (std::isfinite(normal_setpoint) && std::isfinite(lateral_setpoint));
+  if (drive_ok && setpoints_ok) return true;
+  if (!tripped()) {
+    if (!drive_ok) {
+      latch(TripReason::kCommandInvalid, tick, "drive normal %.6g N, lateral %.6g N is not finite or out of range",
+            d.normal_force_n, d.lateral_force_n);
+    } else {
+      latch(TripReason::kCommandInvalid, tick, "setpoint normal %.6g, lateral %.6g is not finite",
+            normal_setpoint, lateral_setpoint);
+    }
+  }
+  return drive_ok;  // a finite, in-range drive may still go out (the stop sequence's)
+}
+
 bool SafetySupervisor::overrun_trip(std::uint64_t overruns, std::uint64_t tick) {
   if (!overruns_primed_) {
     last_overruns_ = overruns;
@@ -116,6 +157,9 @@ TripReason SafetySupervisor::check(const SupervisorInput& in, std::uint64_t tick
 TripReason SafetySupervisor::evaluate(const SupervisorInput& in, std::uint64_t tick) {
   const hal::SensorFrame& f = in.frame;
   if (in.emergency_stop) return latch(TripReason::kEmergencyStop, tick, "requested by a client", 0, 0);
+  if (in.recording_failed) {
+    return latch(TripReason::kRecordingFailed, tick, "a write to the data directory failed; the run stops", 0, 0);
+  }
   if (in.read == hal::IoResult::kLinkDown || in.last_write == hal::IoResult::kLinkDown) {
     return latch(TripReason::kBackendLost, tick, "the backend reported its link down", 0, 0);
   }

@@ -75,6 +75,8 @@ enum class TripReason : std::uint8_t {
   kBreakpoint,
   kSnapDownNormal,
   kSnapDownLateral,
+  kCommandInvalid,    // the last check before a write: a non-finite or out-of-range command
+  kRecordingFailed,   // the recorder could not write: samples would be lost unseen
 };
 
 std::string_view trip_reason_text(TripReason reason);
@@ -106,6 +108,10 @@ struct SupervisorParams {
   double tracking_lag_s = 0;
   ElectrostaticAxis normal_axis;
   ElectrostaticAxis lateral_axis;
+  // The drive a backend may be sent, per axis: [min, max] N. Beyond it (or
+  // not finite) the command is refused whatever the validator said.
+  double normal_drive_min_n = 0, normal_drive_max_n = 0;
+  double lateral_drive_min_n = 0, lateral_drive_max_n = 0;
 };
 
 SupervisorParams supervisor_params_from_config(const v1::DaemonConfig& config);
@@ -118,6 +124,7 @@ struct SupervisorInput {
   std::uint64_t overruns = 0;     // the backend's running count
   hal::DriveCommand drive;        // the drive applied now (last tick's command)
   bool emergency_stop = false;
+  bool recording_failed = false;  // the recorder reported a failed write
   bool lateral_displacement_mode = true;
   double lateral_setpoint_m = 0;
   double lateral_setpoint_rate_m_per_s = 0;
@@ -141,6 +148,16 @@ class SafetySupervisor {
   // Returns the reason of a new trip, or kNone. After a trip it keeps
   // returning kNone; trip() stays latched.
   TripReason check(const SupervisorInput& in, std::uint64_t tick);
+
+  // The last check before a command reaches the backend (defence in depth:
+  // whatever the validator and the controller did). A non-finite or
+  // out-of-range drive, or a non-finite setpoint while a protocol runs,
+  // latches kCommandInvalid and returns false: the caller must not write it.
+  // Before a trip the first refusal is latched; after one, it only answers.
+  bool command_allowed(const hal::DriveCommand& drive, double normal_setpoint, double lateral_setpoint,
+                       bool setpoints_must_be_finite, std::uint64_t tick);
+  // Whether a drive is finite and within the drive range (no latch).
+  bool drive_in_range(const hal::DriveCommand& drive) const;
 
   const Trip& trip() const { return trip_; }
   bool tripped() const { return trip_.reason != TripReason::kNone; }

@@ -136,6 +136,12 @@ IoResult ModbusTransducer::write(const DriveCommand& command) {
   return io_result(link_.write(LinkOp::kWriteDrive, d.address, d.count, drive_registers_.data()));
 }
 
+void ModbusTransducer::begin_session(std::uint64_t seed) {
+  seed_ = seed;
+  session_pending_ = map_.session_address.has_value();
+  pacer_.reset();
+}
+
 void ModbusTransducer::wait_next_tick() {
   if (!pacer_) pacer_.emplace(period_s_);
   pacer_->wait();

@@ -37,6 +37,9 @@ class ModbusTransducer : public Transducer {
   IoResult read(SensorFrame& frame) override;
   IoResult write(const DriveCommand& command) override;
   void wait_next_tick() override;
+  // Sends the session reset (seed) before the next read, where the device map
+  // has a session block; the pacer starts again with the next tick.
+  void begin_session(std::uint64_t seed) override;
   std::uint64_t overruns() const override { return pacer_ ? pacer_->overruns() : 0; }
   BackendHealth health() const override { return link_.health(); }
 

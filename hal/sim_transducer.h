@@ -29,19 +29,24 @@ class SimTransducer : public Transducer {
   IoResult write(const DriveCommand& command) override;
   void wait_next_tick() override;
   std::uint64_t overruns() const override {
-    return (pacer_ ? pacer_->overruns() : 0) + faults_.overruns();
+    return (pacer_ ? pacer_->overruns() : 0) + faults_->overruns();
   }
 
+  void begin_session(std::uint64_t seed) override;
+
   // The plant's true state: for tests and diagnostics, never for control.
-  const sim::SimInstrument& instrument() const { return instrument_; }
+  const sim::SimInstrument& instrument() const { return *instrument_; }
 
  private:
-  sim::SimInstrument instrument_;
+  sim::InstrumentParams params_;
+  std::vector<sim::FaultSpec> fault_specs_;
+  bool pace_to_wall_clock_;
+  std::unique_ptr<sim::SimInstrument> instrument_;
   double period_s_;
   DriveCommand command_;
   std::uint32_t status_bits_ = 0;
   std::unique_ptr<WallClockPacer> pacer_;
-  sim::FaultInjector faults_;  // sim/fault_injection.h; empty: no faults
+  std::unique_ptr<sim::FaultInjector> faults_;  // sim/fault_injection.h; empty: no faults
   std::uint64_t ticks_ = 0;
 };
 

@@ -79,6 +79,15 @@ class Transducer {
 
   // Safe to call from any thread while the loop runs.
   virtual BackendHealth health() const { return {}; }
+
+  // Session lifecycle. A backend is created once per daemon and lives across
+  // runs: it is the instrument, and between runs it keeps whatever state the
+  // instrument is in (a re-arm reads that state, not a fresh one). A run (or
+  // another activity that needs a defined start) begins a session: the
+  // simulated backend restarts its plant at rest with the seed, so runs stay
+  // bit-identical; the Modbus backend sends the session reset its device map
+  // has (the bench emulator's seed), a real instrument simply continues.
+  virtual void begin_session(std::uint64_t seed) { (void)seed; }
 };
 
 }  // namespace tribo::hal

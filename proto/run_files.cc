@@ -232,6 +232,7 @@ std::vector<v1::RunListing> list_recorded_runs(const fs::path& data_dir) {
     r.set_protocol_name(metadata->start().protocol().name());
     r.set_start_time_utc(metadata->start().start_time_utc());
     r.set_seed(metadata->start().seed());
+    if (metadata->start().has_annotations()) *r.mutable_annotations() = metadata->start().annotations();
     r.set_finalized(metadata->has_stop());
     r.set_exit_status(metadata->stop().exit_status());
     r.set_reason(metadata->stop().reason());

@@ -129,7 +129,8 @@ TEST(Autotune, TheServiceProposesAndOnRequestAppliesTheGains) {
   f.start();
   v1::Autotune request;
   v1::AutotuneReply reply;
-  ASSERT_FALSE(f.service->autotune(request, reply));
+  const auto failed = f.service->autotune(request, reply);
+  ASSERT_FALSE(failed) << failed->message();
   EXPECT_GT(reply.ultimate_gain_n_per_m(), 0);
   EXPECT_FALSE(reply.applied());
   EXPECT_EQ(f.service->gains().loops(0).gains().kp(), f.config.controller().lateral_displacement().kp());

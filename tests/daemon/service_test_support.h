@@ -49,10 +49,15 @@ class RecordingSink : public RunEventSink {
     std::lock_guard lock(mutex_);
     stops.push_back(stop);
   }
+  void on_segment_event(const v1::SegmentEvent& event) override {
+    std::lock_guard lock(mutex_);
+    events.push_back(event);
+  }
   void clear() {
     std::lock_guard lock(mutex_);
     starts.clear();
     stops.clear();
+    events.clear();
     samples.Clear();
     acted = false;
   }
@@ -60,6 +65,7 @@ class RecordingSink : public RunEventSink {
   std::vector<v1::RunStart> starts;
   v1::SampleBlock samples;
   std::vector<v1::RunStop> stops;
+  std::vector<v1::SegmentEvent> events;
   bool gaps = false;
   double at_time_s = 0;
   std::function<void()> at_time;
