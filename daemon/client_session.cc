@@ -127,13 +127,18 @@ void ClientSession::read_more() {
 }
 
 void ClientSession::on_bytes(std::size_t n) {
-  std::string_view data(read_buffer_.data(), n);
+  if (process(std::string_view(read_buffer_.data(), n))) read_more();
+}
+
+bool ClientSession::process(std::string_view data) {
+  const std::size_t n = data.size();
   std::string frame;
   // The bytes of a frame not yet complete count against the server's budget
   // for all connections: many slowly sent large frames cannot exhaust memory.
   if (!server_.reserve_partial(partial_bytes_, n)) {
     spdlog::warn("client '{}': half-received frames exceed the server's budget; closing it", client_name_);
-    return close();
+    close();
+    return false;
   }
   while (!closed_ && !closing_) {
     data.remove_prefix(decoder_.feed(data));
@@ -143,7 +148,7 @@ void ClientSession::on_bytes(std::size_t n) {
       last_frame_ = std::chrono::steady_clock::now();
       handle(frame);
     }
-    if (closing_) return;
+    if (closing_) return false;
     if (status == wire::DecodeStatus::kOversized || status == wire::DecodeStatus::kBadHeader) {
       v1::ServerMessage reply;
       set_error(reply, v1::MALFORMED_REQUEST, "",
@@ -153,11 +158,11 @@ void ClientSession::on_bytes(std::size_t n) {
                     : "invalid frame size prefix");
       send(reply);
       close_after_writes();
-      return;
+      return false;
     }
     if (data.empty()) break;
   }
-  if (!closed_ && !closing_) read_more();
+  return !closed_ && !closing_;
 }
 
 void ClientSession::handle(const std::string& frame) {

@@ -57,6 +57,9 @@ class ClientSession : public std::enable_shared_from_this<ClientSession> {
                 SessionLimits limits);
 
   void start();
+  // Decodes and answers the requests in data (bytes as read from the
+  // socket); false once the session is closing. The fuzz target calls it.
+  bool process(std::string_view data);
   // Replies and run documents other than samples: always queued.
   void send(std::shared_ptr<const std::string> frame);
   void send(const v1::ServerMessage& message);

@@ -68,6 +68,46 @@ def main():
     modes.segments[2].lateral.end_uN = 100
     write("protocol_validator", "modes.bin", modes.SerializeToString())
 
+    # Issue 13: non-finite values where the range hull used to drop them.
+    nan, inf = float("nan"), float("inf")
+    for name, spoil in (
+            ("nan_normal_end.bin", lambda q: setattr(q.segments[4].normal, "end_uN", nan)),
+            ("nan_lateral_end.bin", lambda q: setattr(q.segments[2].lateral, "end_um", nan)),
+            ("inf_lateral_delta.bin", lambda q: setattr(q.segments[2].lateral, "delta_um", -inf)),
+            ("nan_rate.bin", lambda q: setattr(q, "acquisition_rate_hz", nan)),
+            ("negative_zero_rate.bin", lambda q: setattr(q, "acquisition_rate_hz", -0.0)),
+            ("nan_sine_end.bin", lambda q: setattr(q.segments[2].lateral.sine, "end_amplitude_um", nan))):
+        q = standard()
+        spoil(q)
+        write("protocol_validator", name, q.SerializeToString())
+
+    # The session's request handling: a controller's conversation, an
+    # observer's, and requests that carry non-finite or oversized values.
+    def msg(i, **body):
+        return api_pb2.ClientMessage(request_id=i, **body)
+    ctl = api_pb2.ClientMessage(request_id=1, hello=api_pb2.Hello(
+        api_version=1, client_name="seed", role=api_pb2.CONTROLLER, token="fuzz-token"))
+    obs = api_pb2.ClientMessage(request_id=1, hello=api_pb2.Hello(api_version=1, client_name="obs\nforged"))
+    short_load = msg(2, load_protocol=api_pb2.LoadProtocol(protocol=short))
+    notes = api_pb2.RunAnnotations(sample="s", tip="t", operator_name="o", note="n")
+    notes.extra["k"] = "v"
+    write("client_session", "controller", frames(
+        ctl, short_load, msg(3, subscribe=api_pb2.Subscribe(decimation=10)),
+        msg(4, start_run=api_pb2.StartRun(seed=5, annotations=notes)), status,
+        msg(5, abort_run=api_pb2.AbortRun(reason="r")), msg(6, list_runs=api_pb2.ListRuns(max_runs=3))))
+    write("client_session", "observer", frames(
+        obs, status, msg(2, emergency_stop=api_pb2.EmergencyStop(reason="x" * 300)),
+        msg(3, abort_run=api_pb2.AbortRun(token="fuzz-token")), msg(4, get_gains=api_pb2.GetGains())))
+    gains = api_pb2.PidGains(kp=nan, ki=1, kd=inf, output_min=-1, output_max=1)
+    write("client_session", "nonfinite", frames(
+        ctl, msg(2, set_gains=api_pb2.SetGains(loop=api_pb2.LOOP_LATERAL_DISPLACEMENT, gains=gains)),
+        msg(3, load_protocol=api_pb2.LoadProtocol(protocol=over)),
+        msg(4, autotune=api_pb2.Autotune(relay_amplitude_n=nan))))
+    write("client_session", "estop_rearm", frames(
+        ctl, msg(2, emergency_stop=api_pb2.EmergencyStop()), msg(3, rearm=api_pb2.Rearm()),
+        msg(4, get_run=api_pb2.GetRun(run_id="../../etc")), fetch))
+    write("client_session", "no_hello", frames(status, short_load) + b"\x80\x80\x40")
+
 
 if __name__ == "__main__":
     main()
