@@ -196,6 +196,7 @@ void ClientSession::dispatch(const v1::ClientMessage& request, v1::ServerMessage
   // token may abort a run another session controls (`tribo abort` beside a
   // hung `tribo run`).
   const bool token_abort = body == v1::ClientMessage::kAbortRun && !server_.controls(*this) &&
+                           !request.abort_run().token().empty() &&
                            server_.token_matches(*this, request.abort_run().token());
   if (is_control_command(body) && !server_.controls(*this) && !token_abort) {
     if (body == v1::ClientMessage::kAbortRun && !request.abort_run().token().empty()) {

@@ -362,10 +362,11 @@ std::optional<v1::Error> InstrumentService::rearm(v1::RearmReply& reply) {
     return make_error(v1::WRONG_STATE, "", "re-arm is for a faulted instrument; the state is " +
                                                v1::DaemonState_Name(state_));
   }
-  if (!activity_.empty()) {
+  if (!activity_.empty() && activity_ != "run") {
     return make_error(v1::WRONG_STATE, "", "the instrument is busy: " + activity_ + " in progress");
   }
   if (!transducer_) return make_error(v1::INTERNAL, "backend", "cannot create the backend");
+  wait_for_activities(lock);  // a faulted run may still be handing out its stop document
   // The check reads the instrument on the loop thread, which owns the
   // backend; this thread waits for its few ticks.
   std::optional<std::string> problem;
@@ -471,15 +472,16 @@ void InstrumentService::autotune_async(const v1::Autotune& request, AutotuneDone
   AutotuneParams params;
   const auto refuse = [&](v1::Error e) { done(std::move(e), v1::AutotuneReply{}); };
   {
-    std::lock_guard lock(mutex_);
+    std::unique_lock lock(mutex_);
     if (state_ == v1::RUNNING) return refuse(make_error(v1::WRONG_STATE, "", "a run is in progress"));
     if (state_ == v1::FAULTED) {
       return refuse(make_error(v1::WRONG_STATE, "", "the instrument is faulted (" + trip_reason_ + "); re-arm it first"));
     }
-    if (!activity_.empty()) {
+    if (!activity_.empty() && activity_ != "run") {
       return refuse(make_error(v1::WRONG_STATE, "", "the instrument is busy: " + activity_ + " in progress"));
     }
     if (!transducer_) return refuse(make_error(v1::INTERNAL, "backend", "cannot create the backend"));
+    wait_for_activities(lock);  // a finished run may still be handing out its stop document
     const auto& c = config_.autotune();
     params.relay_amplitude_n = request.has_relay_amplitude_n() ? request.relay_amplitude_n() : c.relay_amplitude_n();
     params.hysteresis_m = request.has_hysteresis_m() ? request.hysteresis_m() : c.hysteresis_m();
@@ -653,6 +655,7 @@ void InstrumentService::run_main(ActiveRun& run) {
                                    run.sensor_invalid.load(), run.latest_time_s.load()};
     last_backend_health_ = stop.backend_health();
     if (run.recorder->write_failed()) recording_error_ = run.recorder->error();
+    activity_.clear();  // free for the next request as soon as the state says so
     state_ = stop.exit_status() == v1::FAULT ? v1::FAULTED : v1::ARMED;
     last_timing_.Clear();
     fill_timing(run.telemetry, last_timing_);

@@ -1,6 +1,11 @@
 // tribod: the tribo daemon. Loads its config, serves the socket API and runs
 // protocols on the configured transducer backend.
+#include <unistd.h>
+
+#include <cerrno>
 #include <csignal>
+#include <cstring>
+#include <filesystem>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
@@ -82,6 +87,23 @@ int main(int argc, char** argv) {
   if (options.port) config.mutable_server()->set_port(static_cast<std::uint32_t>(*options.port));
   if (options.bind) config.mutable_server()->set_bind_address(*options.bind);
   if (options.data_dir) config.mutable_recorder()->set_data_dir(*options.data_dir);
+
+  // A data directory that cannot take a run is found now, not at the first
+  // run's start (or, worse, its first block).
+  {
+    std::error_code ec;
+    const std::filesystem::path dir = config.recorder().data_dir();
+    std::filesystem::create_directories(dir, ec);
+    std::string probe = (dir / ".tribod-write-test-XXXXXX").string();
+    const int fd = ec ? -1 : ::mkstemp(probe.data());
+    if (fd < 0) {
+      std::cerr << "tribod: recorder.data_dir = \"" << dir.string() << "\" is not writable: "
+                << (ec ? ec.message() : std::strerror(errno)) << "\n";
+      return 2;
+    }
+    ::close(fd);
+    ::unlink(probe.c_str());
+  }
 
   const std::string token = tribo::daemon::resolve_control_token(config.server());
   if (auto refusal = tribo::daemon::check_bind_policy(config.server(), token)) {

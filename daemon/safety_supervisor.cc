@@ -218,6 +218,18 @@ TripReason SafetySupervisor::evaluate(const SupervisorInput& in, std::uint64_t t
     return latch(TripReason::kSensorFrozen, tick, "all four channels repeated their values for %.0f ticks",
                  p_.frozen_sensor_ticks, 0);
   }
+  // A position reading that stands still while its setpoint moves on is a
+  // saturated or stuck readout (an ADC at its rail reads one code whatever
+  // the tip does), even where a coarse ADC may repeat a still tip's value.
+  const std::uint32_t position_repeats = repeats_[0].count();
+  if (position_repeats == 0 || !in.lateral_displacement_mode) position_setpoint_anchor_m_ = in.lateral_setpoint_m;
+  if (p_.frozen_sensor_ticks > 0 && in.lateral_displacement_mode && position_repeats >= p_.frozen_sensor_ticks &&
+      std::fabs(in.lateral_setpoint_m - position_setpoint_anchor_m_) > kFrozenPositionTravelM) {
+    trip_.lateral_position_suspect = true;
+    return latch(TripReason::kSensorFrozen, tick,
+                 "lateral position stuck at %g m while its setpoint moved %g m (saturated or frozen readout)",
+                 f.lateral_position_m, in.lateral_setpoint_m - position_setpoint_anchor_m_);
+  }
   // Filtered forces, velocity and acceleration.
   const double normal = normal_force_.update(f.normal_force_n);
   const double lateral = lateral_force_.update(f.lateral_force_n);

@@ -190,6 +190,8 @@ class SafetySupervisor {
   std::array<std::uint64_t, kMaxOverrunRing> overrun_ticks_{};
   std::size_t overrun_count_ = 0;  // total recorded into the ring
   std::uint64_t overrun_window_ticks_ = 0;
+  double position_setpoint_anchor_m_ = 0;  // the setpoint when the position last changed
+  static constexpr double kFrozenPositionTravelM = 100e-9;  // far above any position LSB
   double rate_envelope_ = 0;  // peak |setpoint rate|, decaying with tracking_lag_s
   double rate_decay_ = 0;
 };

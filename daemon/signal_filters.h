@@ -41,6 +41,7 @@ class RepeatCounter {
     primed_ = true;
     return repeats_;
   }
+  std::uint32_t count() const { return repeats_; }
 
  private:
   double last_ = 0;

@@ -405,3 +405,56 @@ TEST(Annotations, GoIntoTheStartDocumentAndTheListing) {
 
 }  // namespace
 }  // namespace tribo::daemon
+
+namespace tribo::daemon {
+namespace {
+
+// Item 11: a position ADC at its rail reads one code while the tip moves on
+// (the simulated one saturated at +13.77 µm inside the ±15 µm travel). Played
+// here by freezing the position channel alone mid-scratch: the setpoint moves
+// on, the reading does not.
+TEST(SaturatedReading, APositionStuckWhileItsSetpointMovesTrips) {
+  testing::ServiceFixture f;
+  f.add_fault(v1::SENSOR_FREEZE, v1::CHANNEL_LATERAL_POSITION, 2.5, 0);
+  f.start();
+  f.run(testing::parse_protocol(kScratch));
+  ASSERT_EQ(f.sink.stops.size(), 1u);
+  const v1::RunStop& stop = f.sink.stops[0];
+  EXPECT_EQ(stop.exit_status(), v1::FAULT) << stop.reason();
+  EXPECT_NE(stop.reason().find("stuck"), std::string::npos) << stop.reason();
+}
+
+}  // namespace
+}  // namespace tribo::daemon
+
+namespace tribo::daemon {
+namespace {
+
+// Item 10: segment events are appended as they happen (one line each in
+// events.jsonl), not by rewriting metadata.json per event (O(n^2) in the
+// segments); metadata.json gets them all once, with the stop document.
+TEST(RunDocuments, SegmentEventsAreAppendedAndFinalizedOnce) {
+  testing::ServiceFixture f;
+  f.start();
+  std::string text = "name: \"many\" acquisition_rate_hz: 1000\n";
+  text += "segments { name: \"approach\" duration_s: 0.1 normal { end_uN: 0 } lateral { end_um: 4 } }\n";
+  text += "segments { name: \"hops\" repeat { count: 200 segments { name: \"hop\" duration_s: 0.002 "
+          "normal { end_uN: 0 } lateral { shape: HOLD } } } }\n";
+  f.run(testing::parse_protocol(text));
+  ASSERT_EQ(f.sink.stops.size(), 1u);
+  ASSERT_EQ(f.sink.stops[0].exit_status(), v1::SUCCESS) << f.sink.stops[0].reason();
+  const auto dir = f.dir.path() / f.sink.stops[0].run_id();
+  std::ifstream events(dir / RunRecorder::kEventsFile);
+  std::string line;
+  std::size_t lines = 0;
+  while (std::getline(events, line)) ++lines;
+  EXPECT_EQ(lines, f.sink.events.size());
+  EXPECT_GE(lines, 201u);
+  std::string error;
+  const auto metadata = wire::read_run_metadata(dir, error);
+  ASSERT_TRUE(metadata) << error;
+  EXPECT_EQ(static_cast<std::size_t>(metadata->segment_events_size()), lines);
+}
+
+}  // namespace
+}  // namespace tribo::daemon

@@ -186,13 +186,22 @@ TEST(ApiRobustness, TheNumberOfClientsIsBounded) {
   v1::DaemonConfig config = default_config();
   config.mutable_server()->set_max_clients(3);
   DaemonProcess daemon(data.path(), write_config(cfg, config));
+  // Full of clients that said hello: the next one is refused.
   RawClient a(daemon.port()), b(daemon.port()), c(daemon.port());
-  EXPECT_TRUE(c.request(hello_message()).has_hello());
+  for (RawClient* x : {&a, &b, &c}) EXPECT_TRUE(x->request(hello_message()).has_hello());
   RawClient d(daemon.port());
   const auto refusal = d.read();
   ASSERT_TRUE(refusal && refusal->has_error());
   EXPECT_EQ(refusal->error().field(), "server.max_clients");
   EXPECT_TRUE(d.closed_by_peer());
+  // A connection that has not said hello makes room for a new one (issue 13:
+  // silent sockets must not lock out an emergency stop).
+  b.close();
+  RawClient silent(daemon.port());
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  RawClient e(daemon.port());
+  EXPECT_TRUE(e.request(hello_message()).has_hello());
+  EXPECT_TRUE(silent.closed_by_peer());
 }
 
 // A kill -9 mid-run: the recording reads back up to its last flushed block,

@@ -177,3 +177,18 @@ TEST(ApiSafety, LongStringsAreRefusedAndTheListingStaysReadable) {
 
 }  // namespace
 }  // namespace tribo
+
+namespace tribo {
+namespace {
+
+// Item 11: an unwritable data directory is refused at start-up, naming the field.
+TEST(ApiSafety, AnUnwritableDataDirectoryIsRefusedAtStartUp) {
+  const auto result = testing::run_command({testing::DaemonProcess::tribod_path(), "--config",
+                                            testing::DaemonProcess::default_config_path(), "--data-dir",
+                                            "/proc/tribo-no-such-dir", "--port", "0"});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("recorder.data_dir"), std::string::npos) << result.err;
+}
+
+}  // namespace
+}  // namespace tribo

@@ -98,7 +98,8 @@ def main():
     write("client_session", "observer", frames(
         obs, status, msg(2, emergency_stop=api_pb2.EmergencyStop(reason="x" * 300)),
         msg(3, abort_run=api_pb2.AbortRun(token="fuzz-token")), msg(4, get_gains=api_pb2.GetGains())))
-    gains = api_pb2.PidGains(kp=nan, ki=1, kd=inf, output_min=-1, output_max=1)
+    from tribo.v1 import daemon_config_pb2
+    gains = daemon_config_pb2.PidGains(kp=nan, ki=1, kd=inf, output_min=-1, output_max=1)
     write("client_session", "nonfinite", frames(
         ctl, msg(2, set_gains=api_pb2.SetGains(loop=api_pb2.LOOP_LATERAL_DISPLACEMENT, gains=gains)),
         msg(3, load_protocol=api_pb2.LoadProtocol(protocol=over)),
