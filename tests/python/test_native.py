@@ -1,0 +1,136 @@
+#!/usr/bin/python3
+"""tribo_native / tribo_client.sim against the real tools: a run simulated
+in-process equals tribod's recording byte for byte; metrics and diagnosis
+equal tribo-fit's JSON; validation errors name the field; the GIL is
+released while C++ runs.
+
+    /usr/bin/python3 tests/python/test_native.py --build-dir build --source-dir .
+(PYTHONPATH must hold client/python and build/python.)"""
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import threading
+import unittest
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from support import ARGS, Daemon, short_protocol  # noqa: E402
+
+import tribo_native  # noqa: E402
+from tribo_client import Client, read_run, sim  # noqa: E402
+
+
+class SimulatedRunEqualsTribod(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory()
+        cls.data = os.path.join(cls.tmp.name, "runs")
+        cls.config_path = os.path.join(ARGS.source_dir, "config/tribod.textproto")
+        daemon = Daemon(cls.data)
+        try:
+            with Client(daemon.address, role="controller") as c:
+                cls.recorded = c.run(short_protocol(), seed=7)
+        finally:
+            daemon.stop()
+        cls.run_dir = os.path.join(cls.data, cls.recorded.run_id)
+        cls.config = sim.load_config(cls.config_path)
+        cls.simulated = sim.simulate(cls.config, short_protocol(), seed=7)
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def test_samples_csv_is_byte_for_byte_tribods(self):
+        self.assertEqual(self.simulated.exit_status, "SUCCESS")
+        with open(os.path.join(self.run_dir, "samples.csv"), "rb") as f:
+            recorded = f.read()
+        self.assertGreater(len(recorded), 100000)
+        self.assertEqual(tribo_native.samples_csv(self.simulated.samples), recorded)
+
+    def test_arrays_equal_the_run_folder_read_back(self):
+        folder = read_run(self.run_dir)
+        for name, values in folder.samples.items():
+            np.testing.assert_array_equal(self.simulated.samples[name], values, err_msg=name)
+            self.assertEqual(self.simulated.samples[name].dtype, values.dtype, name)
+
+    def test_another_seed_differs(self):
+        other = sim.simulate(self.config, short_protocol(), seed=8)
+        self.assertFalse(np.array_equal(other.samples["lateral_force"], self.simulated.samples["lateral_force"]))
+
+    def test_metrics_equal_tribo_fit_metrics_json(self):
+        cli = subprocess.run([ARGS.tribo_fit, "metrics", self.run_dir, "--json"], capture_output=True, text=True,
+                             check=True)
+        expected = json.loads(cli.stdout)
+        self.assertTrue(expected["scratches"])
+        self.assertEqual(sim.metrics(self.simulated), expected)
+        self.assertEqual(sim.metrics(self.run_dir), expected)
+
+    def test_diagnosis_equals_tribo_fit_diagnose_json(self):
+        effects = "tilt_offset,direction_asymmetry"
+        cli = subprocess.run([ARGS.tribo_fit, "diagnose", self.run_dir, "--json", "--effects", effects],
+                             capture_output=True, text=True, check=True)
+        expected = json.loads(cli.stdout)
+        got = sim.diagnose(self.run_dir, effects=effects.split(","))
+        for report in (expected, got):  # how and how long it ran, not what it found
+            del report["input"]["command"]
+            report.pop("elapsed_s", None)
+        self.assertEqual(got, expected)
+        self.assertIn("accepted_effects", got)
+        # On the arrays of the simulated run: the same report, but for the source name.
+        from_arrays = sim.diagnose(self.simulated, effects=effects.split(","))
+        del from_arrays["input"]["command"], from_arrays["input"]["source"], expected["input"]["source"]
+        from_arrays.pop("elapsed_s", None)
+        self.assertEqual(from_arrays, expected)
+
+
+class Validation(unittest.TestCase):
+    def test_protocol_error_names_the_field(self):
+        protocol = short_protocol()
+        protocol.segments[1].normal.end_uN = 50000  # 50 mN, beyond the 10 mN limit
+        with self.assertRaises(sim.ValidationError) as caught:
+            sim.check(sim.load_config(os.path.join(ARGS.source_dir, "config/tribod.textproto")), protocol)
+        self.assertEqual(caught.exception.field, "segments[1].normal.end_uN")
+        self.assertIn("max_normal_force_n", str(caught.exception))
+
+    def test_config_error_names_the_field(self):
+        with open(os.path.join(ARGS.source_dir, "config/tribod.textproto"), encoding="utf-8") as f:
+            text = f.read()
+        config = sim.load_config(text)
+        config.controller.loop_rate_hz = -5
+        with self.assertRaises(sim.ValidationError) as caught:
+            sim.load_config(config)
+        self.assertIn("controller.loop_rate_hz", caught.exception.field)
+
+    def test_dict_protocol_and_text_config(self):
+        from google.protobuf import json_format
+        as_dict = json_format.MessageToDict(short_protocol(), preserving_proto_field_name=True)
+        summary = sim.check(os.path.join(ARGS.source_dir, "config/tribod.textproto"), as_dict)
+        self.assertAlmostEqual(summary["duration_s"], 3.0)
+        self.assertEqual(summary["expected_samples"], 3000)
+
+
+class GilReleased(unittest.TestCase):
+    def test_python_runs_while_the_simulation_does(self):
+        config = sim.load_config(os.path.join(ARGS.source_dir, "config/tribod.textproto"))
+        thread = threading.Thread(target=sim.simulate, args=(config, short_protocol(), 1))
+        counter = 0
+        thread.start()
+        while thread.is_alive():
+            counter += 1
+        thread.join()
+        # With the GIL held for the whole run this loop would get at most a few turns.
+        self.assertGreater(counter, 10000)
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--build-dir", required=True)
+    parser.add_argument("--source-dir", required=True)
+    args, rest = parser.parse_known_args()
+    ARGS.configure(args)
+    unittest.main(argv=[sys.argv[0]] + rest, verbosity=2)
