@@ -49,3 +49,15 @@ class Daemon:
     def stop(self):
         self.proc.terminate()
         self.proc.wait(timeout=30)
+        self.proc.stdout.close()
+
+
+def identification_short():
+    """The 19 s cut of the identification protocol of the tiny reliability
+    campaign (config/campaigns/identification_reliability_tiny.toml)."""
+    import tomllib
+    from google.protobuf import text_format
+    from tribo.v1 import protocol_pb2
+    with open(os.path.join(ARGS.source_dir, "config/campaigns/identification_reliability_tiny.toml"), "rb") as f:
+        spec = tomllib.load(f)
+    return text_format.Parse(spec["protocols"][0]["text"], protocol_pb2.Protocol())

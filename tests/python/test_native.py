@@ -17,29 +17,38 @@ import threading
 import unittest
 
 import numpy as np
+from google.protobuf import text_format
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from support import ARGS, Daemon, short_protocol  # noqa: E402
+from support import ARGS, Daemon, identification_short, short_protocol  # noqa: E402
 
 import tribo_native  # noqa: E402
 from tribo_client import Client, read_run, sim  # noqa: E402
 
 
 class SimulatedRunEqualsTribod(unittest.TestCase):
+    """A 19 s identification run (repeat blocks, per-pass values, 200 Hz) with
+    the identification config, on tribod and in-process."""
+
     @classmethod
     def setUpClass(cls):
         cls.tmp = tempfile.TemporaryDirectory()
         cls.data = os.path.join(cls.tmp.name, "runs")
-        cls.config_path = os.path.join(ARGS.source_dir, "config/tribod.textproto")
-        daemon = Daemon(cls.data)
+        cls.config = sim.load_config(os.path.join(ARGS.source_dir, "config/tribod.textproto"))
+        cls.config.controller.lateral_displacement.setpoint_weight_p = 1.0
+        cls.config.sim.tip.tilt_offset.enabled = False
+        config_path = os.path.join(cls.tmp.name, "tribod.textproto")
+        with open(config_path, "w", encoding="utf-8") as f:
+            f.write(text_format.MessageToString(cls.config))
+        cls.protocol = identification_short()
+        daemon = Daemon(cls.data, config_path)
         try:
             with Client(daemon.address, role="controller") as c:
-                cls.recorded = c.run(short_protocol(), seed=7)
+                cls.recorded = c.run(cls.protocol, seed=7)
         finally:
             daemon.stop()
         cls.run_dir = os.path.join(cls.data, cls.recorded.run_id)
-        cls.config = sim.load_config(cls.config_path)
-        cls.simulated = sim.simulate(cls.config, short_protocol(), seed=7)
+        cls.simulated = sim.simulate(cls.config, cls.protocol, seed=7)
 
     @classmethod
     def tearDownClass(cls):
@@ -49,7 +58,7 @@ class SimulatedRunEqualsTribod(unittest.TestCase):
         self.assertEqual(self.simulated.exit_status, "SUCCESS")
         with open(os.path.join(self.run_dir, "samples.csv"), "rb") as f:
             recorded = f.read()
-        self.assertGreater(len(recorded), 100000)
+        self.assertGreater(len(recorded), 300000)
         self.assertEqual(tribo_native.samples_csv(self.simulated.samples), recorded)
 
     def test_arrays_equal_the_run_folder_read_back(self):
@@ -59,7 +68,7 @@ class SimulatedRunEqualsTribod(unittest.TestCase):
             self.assertEqual(self.simulated.samples[name].dtype, values.dtype, name)
 
     def test_another_seed_differs(self):
-        other = sim.simulate(self.config, short_protocol(), seed=8)
+        other = sim.simulate(self.config, self.protocol, seed=8)
         self.assertFalse(np.array_equal(other.samples["lateral_force"], self.simulated.samples["lateral_force"]))
 
     def test_metrics_equal_tribo_fit_metrics_json(self):
@@ -95,7 +104,7 @@ class Validation(unittest.TestCase):
         with self.assertRaises(sim.ValidationError) as caught:
             sim.check(sim.load_config(os.path.join(ARGS.source_dir, "config/tribod.textproto")), protocol)
         self.assertEqual(caught.exception.field, "segments[1].normal.end_uN")
-        self.assertIn("max_normal_force_n", str(caught.exception))
+        self.assertIn("outside the normal force range [0, 10000] µN", caught.exception.message)
 
     def test_config_error_names_the_field(self):
         with open(os.path.join(ARGS.source_dir, "config/tribod.textproto"), encoding="utf-8") as f:
@@ -117,14 +126,23 @@ class Validation(unittest.TestCase):
 class GilReleased(unittest.TestCase):
     def test_python_runs_while_the_simulation_does(self):
         config = sim.load_config(os.path.join(ARGS.source_dir, "config/tribod.textproto"))
-        thread = threading.Thread(target=sim.simulate, args=(config, short_protocol(), 1))
-        counter = 0
+        protocol = sim.load_protocol(os.path.join(ARGS.source_dir, "config/protocols/standard_scratch.textproto"))
+        entering = threading.Event()
+
+        def simulate():
+            entering.set()
+            sim.simulate(config, protocol, 1)
+
+        thread = threading.Thread(target=simulate)
         thread.start()
+        entering.wait()
+        counter = 0
         while thread.is_alive():
             counter += 1
         thread.join()
-        # With the GIL held for the whole run this loop would get at most a few turns.
-        self.assertGreater(counter, 10000)
+        # Had the run held the GIL, this thread would get it back only once the
+        # run is over: a handful of turns at most.
+        self.assertGreater(counter, 1000)
 
 
 if __name__ == "__main__":

@@ -118,6 +118,7 @@ class Notebook(unittest.TestCase):
             notebook = os.path.join(tmp, "simulated_scratch.ipynb")
             shutil.copy(os.path.join(ARGS.source_dir, "client/python/examples/simulated_scratch.ipynb"), notebook)
             env = dict(os.environ, TRIBO_SOURCE_DIR=ARGS.source_dir)
+            env["PYTHONPATH"] = os.pathsep.join(os.path.abspath(p) for p in env.get("PYTHONPATH", "").split(os.pathsep) if p)
             result = subprocess.run([sys.executable, "-m", "nbconvert", "--to", "notebook", "--execute",
                                      "--ExecutePreprocessor.timeout=120", "--output", "executed.ipynb", notebook],
                                     capture_output=True, text=True, env=env, cwd=tmp, timeout=240)
