@@ -54,6 +54,8 @@ def _message(source, message_type):
         return source
     if isinstance(source, dict):
         return json_format.ParseDict(source, message_type())
+    if isinstance(source, bytes):  # wire format
+        return message_type.FromString(source)
     if isinstance(source, (str, os.PathLike)) and os.path.exists(source):
         with open(source, encoding="utf-8") as f:
             source = f.read()
@@ -68,7 +70,8 @@ def _message(source, message_type):
 
 
 def load_config(source="config/tribod.textproto"):
-    """A validated tribo.v1.DaemonConfig (ValidationError names the field)."""
+    """A validated tribo.v1.DaemonConfig (ValidationError names the field).
+    source: a path, protobuf text, wire-format bytes, a dict or a message."""
     config = _message(source, daemon_config_pb2.DaemonConfig)
     _native_call(_native.validate_config, config.SerializeToString())
     return config

@@ -53,6 +53,10 @@ def main(argv=None):
     if campaign.report.get("kind") == "identification_reliability" and len(frame):
         from .reliability import write_reliability
         write_reliability(frame, out_dir, campaign.report, campaign.name)
+    if failed and "error" in frame:
+        errors = frame.loc[frame["status"] != "ok", "error"]
+        if len(errors):
+            print(f"first failure: {errors.iloc[0]}", file=sys.stderr)
     print(f"{done} runs now, {skipped} done before, {failed} failed; table: "
           f"{os.path.join(out_dir, 'results.csv')} and results.h5", file=sys.stderr)
     return 1 if failed else 0

@@ -94,15 +94,16 @@ class Progress:
         self.stream.flush()
 
 
-def start_client(scheduler=None, workers=None, threads_per_worker=1):
+def start_client(scheduler=None, workers=None, threads_per_worker=1, local_directory=None):
     """A distributed.Client: on the given scheduler, or on a LocalCluster of
-    `workers` processes bound to 127.0.0.1 (default: one per core)."""
+    `workers` processes bound to 127.0.0.1 (default: one per core), their
+    scratch space in local_directory (default Dask's, under /tmp)."""
     from distributed import Client, LocalCluster
     if scheduler:
         return Client(scheduler), None
     cluster = LocalCluster(n_workers=workers or os.cpu_count(), threads_per_worker=threads_per_worker,
                            processes=True, host="127.0.0.1", dashboard_address=None,
-                           protocol="tcp", silence_logs=40)
+                           protocol="tcp", silence_logs=40, local_directory=local_directory)
     return Client(cluster), cluster
 
 
@@ -118,7 +119,8 @@ def run_campaign(campaign, out_dir, scheduler=None, workers=None, limit=None, pr
     failed = 0
     if pending:
         from distributed import as_completed
-        client, cluster = start_client(scheduler, workers)
+        client, cluster = start_client(scheduler, workers,
+                                       local_directory=os.path.join(out_dir, ".dask-worker-space"))
         try:
             by_future = {}
             futures = []
