@@ -72,6 +72,17 @@ def main():
     print(f"in-process: {simulated:.0f} s simulated in {cpu:.2f} s CPU ({wall:.2f} s wall): "
           f"{simulated / cpu:.0f}x real time per CPU second (simulation + metrics)")
 
+    # The simulation alone (no metrics), CPU time of this process.
+    config = sim.load_config(os.path.join(SOURCE_DIR, "config/tribod.textproto"))
+    config.controller.lateral_displacement.setpoint_weight_p = 1.0
+    cpu = time.process_time()
+    run = sim.simulate(config, identification, seed=1)
+    cpu = time.process_time() - cpu
+    figures["simulate_only"] = {"simulated_s": float(run.samples["t"][-1]), "cpu_s": cpu,
+                                "simulated_s_per_cpu_s": float(run.samples["t"][-1]) / cpu}
+    print(f"sim.simulate alone: {run.samples['t'][-1]:.0f} s simulated in {cpu:.2f} s CPU: "
+          f"{run.samples['t'][-1] / cpu:.0f}x real time per CPU second")
+
     rates = {}
     for workers in (1, 2):
         elapsed, rows = on_dask(long_tasks, workers)

@@ -46,17 +46,19 @@ def plot_confusion(confusion, path, title):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(1.2 + 0.9 * confusion.shape[1], 1.2 + 0.6 * confusion.shape[0]))
+    fig, ax = plt.subplots(figsize=(4.0 + 0.8 * confusion.shape[1], 2.4 + 0.5 * confusion.shape[0]))
     image = ax.imshow(confusion.to_numpy(), cmap="Blues", vmin=0, vmax=1, aspect="auto")
     ax.set_xticks(range(confusion.shape[1]), confusion.columns, rotation=35, ha="right", fontsize=8)
     ax.set_yticks(range(confusion.shape[0]), confusion.index, fontsize=8)
-    ax.set_xlabel("effect the diagnosis names first")
-    ax.set_ylabel("effect injected in the simulation")
+    ax.set_xlabel("effect the diagnosis names first", fontsize=9)
+    ax.set_ylabel("injected effect", fontsize=9)
     for i in range(confusion.shape[0]):
         for j in range(confusion.shape[1]):
             v = confusion.iat[i, j]
             ax.text(j, i, f"{v:.2f}", ha="center", va="center", fontsize=8, color="white" if v > 0.6 else "black")
-    fig.colorbar(image, ax=ax, label="fraction of runs")
+    bar = fig.colorbar(image, ax=ax)
+    bar.set_label("fraction of runs", fontsize=9)
+    bar.ax.tick_params(labelsize=8)
     ax.set_title(title, fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=200, bbox_inches="tight")
