@@ -15,6 +15,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 import unittest
 
@@ -108,6 +109,43 @@ class CampaignTable(unittest.TestCase):
                 self.assertEqual(os.stat(path).st_mtime_ns, mtime, f"{path} was redone")
             table = pd.read_csv(os.path.join(out, "results.csv"), float_precision="round_trip")
             self.assertEqual(sorted(table["seed"]), [1, 2, 3, 4])
+
+
+class ExistingScheduler(unittest.TestCase):
+    """The multi-machine path of docs/campaigns.md, on one machine:
+    dask-scheduler and dask-worker started here, the campaign pointed at them."""
+
+    def test_campaign_runs_on_a_running_scheduler(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            env = dict(os.environ)
+            env["PYTHONPATH"] = os.pathsep.join(os.path.abspath(p) for p in env.get("PYTHONPATH", "").split(os.pathsep) if p)
+            scheduler = subprocess.Popen(["/usr/bin/dask-scheduler", "--host", "127.0.0.1", "--port", "0",
+                                          "--no-dashboard"], stderr=subprocess.PIPE, text=True, env=env, cwd=tmp)
+            worker = None
+            try:
+                address = None
+                for line in scheduler.stderr:
+                    if "Scheduler at:" in line:
+                        address = line.split()[-1]
+                        break
+                self.assertTrue(address and address.startswith("tcp://127.0.0.1:"), address)
+                # Keep reading its log so that a full pipe never blocks it.
+                threading.Thread(target=lambda: [None for _ in scheduler.stderr], daemon=True).start()
+                worker = subprocess.Popen(["/usr/bin/dask-worker", address, "--nworkers", "1", "--nthreads", "1",
+                                           "--no-dashboard", "--local-directory", tmp],
+                                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env, cwd=tmp)
+                spec = write_spec(tmp, 'name = "remote"\nseeds = [1, 2]\ncompute = ["metrics"]\n')
+                out = os.path.join(tmp, "out")
+                result = campaign(spec, "--out", out, "--scheduler", address, timeout=120)
+                self.assertEqual(result.returncode, 0, result.stderr)
+                table = pd.read_csv(os.path.join(out, "results.csv"))
+                self.assertEqual(sorted(table["seed"]), [1, 2])
+                self.assertTrue((table["exit_status"] == "SUCCESS").all())
+            finally:
+                for proc in (worker, scheduler):
+                    if proc is not None:
+                        proc.terminate()
+                        proc.wait(timeout=30)
 
 
 class RefusedSpecs(unittest.TestCase):
