@@ -52,10 +52,42 @@ def on_dask(tasks, workers):
     return elapsed, rows
 
 
+DIAGNOSIS_CHILD = """
+import json, resource, sys, time
+from tribo_client import sim
+config = sim.load_config(sys.argv[1])
+config.controller.lateral_displacement.setpoint_weight_p = 1.0
+config.sim.tip.tilt_offset.enabled = False
+run = sim.simulate(config, sys.argv[2], seed=1)
+before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+wall, cpu = time.perf_counter(), time.process_time()
+sim.diagnose(run)
+wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+print(json.dumps({"samples": len(run), "wall_s": wall, "cpu_s": cpu, "rss_before_kib": before,
+                  "peak_rss_kib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss}))
+"""
+
+
+def diagnosis_figures(protocol):
+    """All ten candidates on a 198 s identification run (in a child process,
+    so that its peak RSS is the diagnosis' own)."""
+    import subprocess
+    out = subprocess.run([sys.executable, "-c", DIAGNOSIS_CHILD, os.path.join(SOURCE_DIR, "config/tribod.textproto"),
+                          protocol], capture_output=True, text=True, check=True)
+    d = json.loads(out.stdout)
+    d["peak_bytes_per_sample"] = (d["peak_rss_kib"] - d["rss_before_kib"]) * 1024 / d["samples"]
+    print(f"diagnosis of a {d['samples']}-sample identification run: {d['wall_s']:.1f} s wall, {d['cpu_s']:.1f} s CPU, "
+          f"peak RSS {d['peak_rss_kib'] / 1024:.0f} MiB ({d['peak_bytes_per_sample']:.0f} bytes per sample above the "
+          f"{d['rss_before_kib'] / 1024:.0f} MiB before)")
+    return d
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=8, help="runs of the identification protocol per measurement")
     parser.add_argument("--short-runs", type=int, default=40, help="runs of a 3 s scratch for the overhead")
+    parser.add_argument("--diagnosis", action="store_true",
+                        help="also: one diagnosis of a 198 s identification run (wall, CPU, peak memory)")
     parser.add_argument("--json")
     args = parser.parse_args()
     from tribo_client import sim
@@ -102,6 +134,8 @@ def main():
                            "per_run_overhead_s": overhead, "in_process_per_run_s": loop_wall / len(short_tasks)}
     print(f"per-run overhead of Dask (1 worker) against an in-process loop: {overhead * 1e3:.1f} ms "
           f"({len(short_tasks)} runs of a 3 s scratch: loop {loop_wall:.2f} s, Dask {dask_wall:.2f} s)")
+    if args.diagnosis:
+        figures["diagnosis"] = diagnosis_figures(identification)
     figures["load_after"] = os.getloadavg()
     if args.json:
         with open(args.json, "w", encoding="utf-8") as f:

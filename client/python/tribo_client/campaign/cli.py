@@ -1,12 +1,12 @@
-"""tribo-campaign SPEC: runs a campaign of simulated runs on Dask and writes
-one results table (docs/campaigns.md).
+"""tribo-campaign SPEC: simulated runs on Dask, one results table (docs/campaigns.md).
 
-    tribo-campaign config/campaigns/reliability_tiny.toml --out results/tiny
+    tribo-campaign config/campaigns/identification_reliability_tiny.toml --out results/tiny
     tribo-campaign SPEC --scheduler tcp://10.0.0.5:8786     # an existing cluster
     tribo-campaign SPEC --dry-run                            # expand and validate only
 
 Exit codes: 0 every run done; 1 some runs failed (rerun to retry them);
-2 the spec was refused (nothing ran)."""
+2 the spec was refused (nothing ran).
+"""
 
 import argparse
 import os
@@ -16,7 +16,7 @@ import sys
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="tribo-campaign", description=__doc__.splitlines()[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter,
-                                     epilog="\n".join(__doc__.splitlines()[2:]))
+                                     epilog="\n".join(__doc__.splitlines()[1:]))
     parser.add_argument("spec", help="the campaign spec (TOML)")
     parser.add_argument("--out", help="results directory (default: campaigns/<name> in the current directory)")
     parser.add_argument("--scheduler", help="address of a running Dask scheduler, e.g. tcp://HOST:8786 "
