@@ -14,12 +14,17 @@ import sys
 from tribo_client import Client, load_protocol_file, plots, read_run
 
 
-def print_metrics(run):
+def scratch_metrics(run):
+    """tribo-fit metrics of the run (None without the native module)."""
     try:
         from tribo_client import sim
     except ImportError:  # the native module is optional here
-        return
-    for s in sim.metrics(run)["scratches"]:
+        return None
+    return sim.metrics(run)
+
+
+def print_metrics(metrics):
+    for s in metrics["scratches"] if metrics else []:
         print(f"segment {s['segment']}: {s['velocity_m_per_s'] * 1e6:+.2f} µm/s at {s['normal_force_n'] * 1e6:.1f} µN: "
               f"friction {s['mean_friction_n'] * 1e6:.2f} µN, µ {s['mu']:.4f}")
 
@@ -40,9 +45,10 @@ def main(argv):
             run = client.run(load_protocol_file(args.protocol), seed=args.seed)
     else:
         parser.error("give a protocol to run or --run-dir")
-    plots.plot_run(run, args.png)
+    metrics = scratch_metrics(run)
+    plots.plot_run(run, args.png, metrics=metrics)
     print(f"run {run.run_id}: {run.exit_status}, {len(run.samples['t'])} samples; plot in {args.png}")
-    print_metrics(run)
+    print_metrics(metrics)
     return 0 if run.exit_status == "SUCCESS" else 1
 
 

@@ -63,9 +63,25 @@ def _shade_segments(axes, spans, label_axis, total_s):
                             ha="center", va="bottom", fontsize=7, clip_on=False)
 
 
-def plot_run(run, path=None, title=None):
+def _annotate_scratches(ax_f, ax_mu, spans, scratches):
+    """The steady mean friction and µ of each loaded sliding segment (the
+    scratch metrics of tribo-fit metrics), written over its segment."""
+    where = {index: (begin, end) for index, _, begin, end in spans}
+    for s in scratches:
+        if s["segment"] not in where:
+            continue
+        middle = sum(where[s["segment"]]) / 2
+        ax_f.annotate(f"steady friction {s['mean_friction_n'] * 1e6:.1f} µN", (middle, 0.04), xycoords=("data", "axes fraction"),
+                      ha="center", fontsize=8, color="C0")
+        ax_mu.annotate(f"steady µ = {s['mu']:.4f}", (middle, 0.06), xycoords=("data", "axes fraction"),
+                       ha="center", fontsize=8, color="C3")
+
+
+def plot_run(run, path=None, title=None, metrics=None):
     """Four stacked panels against time; returns the figure (saved at 200 dpi
-    when path is given). run: RunData, a client Run or a dict of channels."""
+    when path is given). run: RunData, a client Run or a dict of channels.
+    metrics: sim.metrics(run) (tribo-fit metrics) to write each scratch's
+    steady friction and µ on the figure."""
     import matplotlib
     if path is not None and matplotlib.get_backend().lower() not in ("agg", "module://matplotlib_inline.backend_inline"):
         matplotlib.use("Agg")
@@ -101,6 +117,8 @@ def plot_run(run, path=None, title=None):
         ax.grid(True, lw=0.3, color="0.85")
     spans = segment_spans(samples, names)
     _shade_segments((ax_f, ax_mu, ax_n, ax_x), spans, ax_f, float(t[-1] - t[0]) if len(t) else 0.0)
+    if metrics:
+        _annotate_scratches(ax_f, ax_mu, spans, metrics.get("scratches", []))
     if title is None:
         parts = [p for p in (getattr(run, "run_id", ""), getattr(run, "protocol_name", ""),
                              getattr(run, "exit_status", None)) if p]
