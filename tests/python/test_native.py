@@ -14,6 +14,7 @@ import subprocess
 import sys
 import tempfile
 import threading
+import time
 import unittest
 
 import numpy as np
@@ -125,24 +126,25 @@ class Validation(unittest.TestCase):
 
 class GilReleased(unittest.TestCase):
     def test_python_runs_while_the_simulation_does(self):
-        config = sim.load_config(os.path.join(ARGS.source_dir, "config/tribod.textproto"))
+        config = sim.load_config(os.path.join(ARGS.source_dir, "config/tribod.textproto")).SerializeToString()
         protocol = sim.load_protocol(os.path.join(ARGS.source_dir, "config/protocols/standard_scratch.textproto"))
-        entering = threading.Event()
+        protocol = protocol.SerializeToString()
+        counter, during, done = [0], [], threading.Event()
 
         def simulate():
-            entering.set()
-            sim.simulate(config, protocol, 1)
+            before = counter[0]
+            tribo_native.simulate(config, protocol, 1)
+            during.append(counter[0] - before)
+            done.set()
 
         thread = threading.Thread(target=simulate)
         thread.start()
-        entering.wait()
-        counter = 0
-        while thread.is_alive():
-            counter += 1
+        while not done.is_set():
+            counter[0] += 1
+            time.sleep(0)  # lets the other thread take the GIL whenever it wants it
         thread.join()
-        # Had the run held the GIL, this thread would get it back only once the
-        # run is over: a handful of turns at most.
-        self.assertGreater(counter, 1000)
+        # Had the run held the GIL, this loop could not have advanced during it (0).
+        self.assertGreater(during[0], 100)
 
 
 if __name__ == "__main__":
