@@ -58,7 +58,7 @@ class PythonClientTest(unittest.TestCase):
 
     def test_run_streams_into_numpy_arrays_equal_to_the_recording(self):
         with Client(self.daemon.address, role="controller") as c:
-            self.assertEqual(c.hello.role, 2)  # CONTROLLER
+            self.assertEqual(c.hello.role, "CONTROLLER")
             run = c.run(short_protocol(), seed=3)
         self.assertEqual(run.exit_status, "SUCCESS")
         n = run.stop.sample_count
@@ -68,13 +68,15 @@ class PythonClientTest(unittest.TestCase):
         self.assertEqual([e.segment_index for e in run.segment_events], [0, 1, 2, 3, 4])
         csv = np.loadtxt(os.path.join(self.data, run.run_id, "samples.csv"), delimiter=",", skiprows=1)
         self.assertEqual(csv.shape, (n, 9))
-        np.testing.assert_array_equal(run.samples["time_s"], csv[:, 0])
-        np.testing.assert_array_equal(run.samples["lateral_force_n"], csv[:, 7])
-        np.testing.assert_array_equal(run.samples["segment_index"], csv[:, 1].astype(np.uint32))
+        np.testing.assert_array_equal(run.samples["t"], csv[:, 0])
+        np.testing.assert_array_equal(run.samples["lateral_force"], csv[:, 7])
+        np.testing.assert_array_equal(run.samples["segment"], csv[:, 1].astype(np.uint32))
 
         with Client(self.daemon.address) as observer:
             fetched = observer.fetch(run.run_id)
-            np.testing.assert_array_equal(fetched.samples["normal_force_n"], run.samples["normal_force_n"])
+            np.testing.assert_array_equal(fetched.samples["normal_force"], run.samples["normal_force"])
+            self.assertEqual(fetched.exit_status, "SUCCESS")  # was None: fetch() left out the stop document
+            self.assertEqual(fetched.segment_names, run.segment_names)
             self.assertIn(run.run_id, [r.run_id for r in observer.list_runs()])
 
     def test_set_gains_changes_only_the_given_gain(self):
@@ -104,7 +106,9 @@ class PythonClientTest(unittest.TestCase):
                 observer.start_run()
             self.assertEqual(caught.exception.code, "PERMISSION_DENIED")
             self.assertEqual(caught.exception.field, "role")
-            self.assertEqual(observer.status().backend_health.backend, "sim")
+            status = observer.status()
+            self.assertEqual(status.backend_health.backend, "sim")
+            self.assertIn(status.state, ("IDLE", "ARMED"))  # a name, not the enum's number
 
     def test_example_plots_a_run_to_png(self):
         png = os.path.join(self.tmp.name, "run.png")

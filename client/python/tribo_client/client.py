@@ -9,7 +9,9 @@ import socket
 import numpy as np
 from google.protobuf import text_format
 
+from .channels import CHANNELS, INTEGER_CHANNELS, NAMES
 from .framing import encode_frame, read_frame
+from .records import as_record
 
 try:
     from tribo.v1 import api_pb2, protocol_pb2
@@ -20,11 +22,8 @@ except ImportError as e:  # pragma: no cover - a setup problem, said plainly
 
 API_VERSION = 1
 DEFAULT_ADDRESS = "127.0.0.1:7460"
-# SampleBlock fields, in the channel order of proto/sample_record.h.
-SAMPLE_FIELDS = ("time_s", "segment_index", "normal_setpoint_n", "normal_force_n",
-                 "normal_displacement_m", "lateral_setpoint_m", "lateral_position_m",
-                 "lateral_force_n", "status_flags")
-_INTEGER_FIELDS = {"segment_index", "status_flags"}
+# The SampleBlock field carrying each channel (tribo_client/channels.py).
+_BLOCK_FIELDS = {c.name: c.block_field for c in CHANNELS}
 _ROLES = {"observer": api_pb2.OBSERVER, "controller": api_pb2.CONTROLLER}
 # The controller's loops by the tribo CLI's names (tribo.v1.ControlLoop).
 LOOPS = {"lateral-displacement": api_pb2.LOOP_LATERAL_DISPLACEMENT,
@@ -67,7 +66,11 @@ def _parse_address(address):
 
 
 class Run:
-    """One run as a client saw it: documents and samples as numpy arrays."""
+    """One run as a client saw it: documents and samples as numpy arrays,
+    keyed by channel name (run.samples["lateral_force"], in N; units in
+    tribo_client.UNITS and run.units)."""
+
+    units = dict((c.name, c.unit) for c in CHANNELS)
 
     def __init__(self, run_id):
         self.run_id = run_id
@@ -79,7 +82,7 @@ class Run:
         self.gaps = []
         self.fetched_samples = 0
         self.sequence = np.zeros(0, dtype=np.uint64)
-        self.samples = {f: np.zeros(0) for f in SAMPLE_FIELDS}
+        self.samples = {name: np.zeros(0) for name in NAMES}
         self._blocks = []
 
     @property
@@ -91,9 +94,9 @@ class Run:
         if n == 0:
             return
         seq = block.first_sequence + decimation * np.arange(n, dtype=np.uint64)
-        self._blocks.append((seq, {f: np.asarray(getattr(block, f),
-                                                 dtype=np.uint32 if f in _INTEGER_FIELDS else float)
-                                   for f in SAMPLE_FIELDS}))
+        self._blocks.append((seq, {name: np.asarray(getattr(block, field),
+                                                    dtype=np.uint32 if name in INTEGER_CHANNELS else float)
+                                   for name, field in _BLOCK_FIELDS.items()}))
 
     def assemble(self):
         """Orders everything received by sequence number, drops duplicates."""
@@ -104,8 +107,22 @@ class Run:
         seq = seq[order]
         keep = np.concatenate(([True], seq[1:] != seq[:-1]))
         self.sequence = seq[keep]
-        for f in SAMPLE_FIELDS:
-            self.samples[f] = np.concatenate([b[1][f] for b in self._blocks])[order][keep]
+        for name in NAMES:
+            self.samples[name] = np.concatenate([b[1][name] for b in self._blocks])[order][keep]
+
+    @property
+    def protocol_name(self):
+        return self.start.protocol.name if self.start else ""
+
+    @property
+    def segment_names(self):
+        """Segment names by segment index (repeat blocks unrolled)."""
+        return list(self.descriptor.segment_names) if self.descriptor else []
+
+    def to_dataframe(self):
+        """The samples as a pandas DataFrame (units in df.attrs["units"])."""
+        from .runs import samples_dataframe
+        return samples_dataframe(self.samples, self.segment_names)
 
 
 class Client:
@@ -120,7 +137,8 @@ class Client:
         self._events = collections.deque()
         hello = api_pb2.Hello(api_version=API_VERSION, client_name=name, role=_ROLES[role],
                               token=token if token is not None else os.environ.get("TRIBO_TOKEN", ""))
-        self.hello = self.request(hello=hello).hello
+        # Enums by name: self.hello.role == "CONTROLLER".
+        self.hello = as_record(self.request(hello=hello).hello)
 
     def close(self):
         self._sock.close()
@@ -155,10 +173,11 @@ class Client:
         return reply
 
     def status(self):
-        return self.request(get_status=api_pb2.GetStatus()).status
+        """The daemon's status, enums by name: status().state == "ARMED"."""
+        return as_record(self.request(get_status=api_pb2.GetStatus()).status)
 
     def list_runs(self):
-        return list(self.request(list_runs=api_pb2.ListRuns()).list_runs.runs)
+        return [as_record(r) for r in self.request(list_runs=api_pb2.ListRuns()).list_runs.runs]
 
     def subscribe(self, decimation=1):
         self.request(subscribe=api_pb2.Subscribe(decimation=decimation))
@@ -256,7 +275,12 @@ class Client:
     def fetch(self, run_id, start=0, end=None):
         """Samples [start, end) of a recorded run (end None: all recorded) as a Run."""
         run = Run(run_id)
-        run.start = self.request(get_run=api_pb2.GetRun(run_id=run_id)).get_run.metadata.start
+        metadata = self.request(get_run=api_pb2.GetRun(run_id=run_id)).get_run.metadata
+        run.start = metadata.start
+        run.descriptor = metadata.run_descriptor if metadata.HasField("run_descriptor") else None
+        run.stop = metadata.stop if metadata.HasField("stop") else None  # None while it runs
+        run.segment_events = list(metadata.segment_events)
+        run.faults = list(metadata.faults)
         for block in self._fetch_blocks(run_id, start, end):
             run.add_block(block)
         run.assemble()

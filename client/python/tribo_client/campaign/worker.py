@@ -1,0 +1,65 @@
+"""What one Dask task does: simulate one run in-process and compute on it.
+Runs in the worker process; returns plain data (picklable, small): the row
+of the results table and the full reports for the run's folder."""
+
+import time
+
+import numpy as np
+
+
+def execute(task):
+    """task: a RunTask. Returns {"row": {...}, "metrics": ..., "diagnosis": ...}."""
+    from tribo_client import sim  # imported in the worker
+
+    started = time.perf_counter()
+    cpu_started = time.process_time()
+    row = {"key": task.key, "index": task.index, "seed": task.seed, "software_version": sim.software_version}
+    row.update(task.labels)
+    out = {"row": row, "metrics": None, "diagnosis": None}
+    try:
+        run = sim.simulate(task.config_bytes, task.protocol_bytes, seed=task.seed)
+    except Exception as e:  # noqa: BLE001 - the row records the failure, the campaign goes on
+        row.update(status="error", error=f"{type(e).__name__}: {e}")
+        return out
+    simulated = time.perf_counter()
+    samples = run.samples
+    row.update(status="ok", error="", exit_status=run.exit_status, trip_reason=run.stop.get("reason", ""),
+               samples=len(samples["t"]), simulated_s=float(samples["t"][-1]) if len(samples["t"]) else 0.0,
+               sim_wall_s=simulated - started)
+    if "metrics" in task.compute:
+        m = sim.metrics(run)
+        out["metrics"] = m
+        scratches = m["scratches"]
+        row["scratches"] = len(scratches)
+        row["mu_mean"] = float(np.mean([s["mu"] for s in scratches])) if scratches else float("nan")
+        row["friction_mean_n"] = float(np.mean([s["mean_friction_n"] for s in scratches])) if scratches else float("nan")
+        row["stiction_peak_mean_n"] = (float(np.mean([s["stiction_peak_n"] for s in scratches]))
+                                       if scratches else float("nan"))
+        row["drift_mean_rate_n_per_s"] = m["drift"]["mean_rate_n_per_s"]
+        row["tilt_slope"] = m["tilt"]["slope"] if m["tilt"] else float("nan")
+    if "diagnosis" in task.compute:
+        diag_started = time.perf_counter()
+        try:
+            d = sim.diagnose(_diagnosed_samples(samples, task.diagnosis), effects=task.diagnosis.get("effects"),
+                             begin_s=task.diagnosis.get("begin_s"), end_s=task.diagnosis.get("end_s"))
+            out["diagnosis"] = d
+            row["accepted_effects"] = ";".join(a["name"] for a in d["accepted_effects"])
+            row["heldout_rms_before"] = d["error_before"]["heldout"]["rms"]
+            row["heldout_rms_after"] = d["error_after"]["heldout"]["rms"]
+        except Exception as e:  # noqa: BLE001
+            row.update(status="error", error=f"diagnosis: {type(e).__name__}: {e}")
+        row["diagnosis_wall_s"] = time.perf_counter() - diag_started
+    row["wall_s"] = time.perf_counter() - started
+    row["cpu_s"] = time.process_time() - cpu_started
+    return out
+
+
+def _diagnosed_samples(samples, options):
+    """loaded_segments_only: without the first and the last segment (the
+    unloaded approach and return of the identification protocol), as the
+    diagnosis tests feed it (tests/analysis/sim_identification_run.cc)."""
+    if not options.get("loaded_segments_only"):
+        return samples
+    segment = samples["segment"]
+    keep = (segment >= 1) & (segment < segment[-1])
+    return {name: values[keep] for name, values in samples.items()}

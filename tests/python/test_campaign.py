@@ -1,0 +1,199 @@
+#!/usr/bin/python3
+"""tribo-campaign on a 2-worker Dask LocalCluster (127.0.0.1): the expected
+results table, every row rerunnable exactly; a killed campaign finishes the
+rest on restart without redoing finished runs; a bad override path or value
+is refused before any run starts, naming the field; the tiny identification
+reliability map.
+
+    /usr/bin/python3 tests/python/test_campaign.py --build-dir build --source-dir .
+(PYTHONPATH must hold client/python and build/python.)"""
+
+import argparse
+import glob
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import unittest
+
+import numpy as np
+import pandas as pd
+from google.protobuf import text_format
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from support import ARGS, short_protocol  # noqa: E402
+
+from tribo_client import sim  # noqa: E402
+from tribo_client.campaign.results import read_hdf5  # noqa: E402
+
+
+def campaign(*args, timeout=300, **kwargs):
+    return subprocess.run([sys.executable, "-m", "tribo_client.campaign", *args], capture_output=True, text=True,
+                          timeout=timeout, **kwargs)
+
+
+def write_spec(directory, body, protocol=None):
+    protocol_path = os.path.join(directory, "protocol.textproto")
+    with open(protocol_path, "w", encoding="utf-8") as f:
+        f.write(text_format.MessageToString(protocol or short_protocol()))
+    path = os.path.join(directory, "spec.toml")
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(f'config = "{os.path.join(ARGS.source_dir, "config/tribod.textproto")}"\n')
+        f.write(body)
+        f.write('\n[[protocols]]\npath = "protocol.textproto"\n')
+    return path
+
+
+class CampaignTable(unittest.TestCase):
+    def test_grid_of_runs_gives_the_expected_table(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            spec = write_spec(tmp, 'name = "grid"\nseeds = [1, 2]\ncompute = ["metrics"]\n'
+                                   '[grid]\n"sim.friction.coulomb_coeff" = [0.08, 0.12]\n')
+            out = os.path.join(tmp, "out")
+            result = campaign(spec, "--out", out, "--workers", "2")
+            self.assertEqual(result.returncode, 0, result.stderr)
+            self.assertIn("4/4 runs", result.stderr)  # the progress bar's last line
+            table = pd.read_csv(os.path.join(out, "results.csv"), float_precision="round_trip")
+            self.assertEqual(len(table), 4)
+            self.assertEqual(sorted(zip(table["sim.friction.coulomb_coeff"], table["seed"])),
+                             [(0.08, 1), (0.08, 2), (0.12, 1), (0.12, 2)])
+            self.assertTrue((table["status"] == "ok").all())
+            self.assertTrue((table["exit_status"] == "SUCCESS").all())
+            self.assertEqual(set(table["software_version"]), {sim.software_version})
+            # Each row reruns exactly from its recorded config, protocol and seed.
+            for row in table.itertuples():
+                folder = os.path.join(out, row.run_folder)
+                config = sim.load_config(os.path.join(folder, "config.textproto"))
+                rerun = sim.simulate(config, os.path.join(folder, "protocol.textproto"), seed=row.seed)
+                mu = np.mean([s["mu"] for s in sim.metrics(rerun)["scratches"]])
+                self.assertEqual(mu, row.mu_mean)
+            # More Coulomb friction, more µ, seed by seed (the 1 s scratch is
+            # still in the Stribeck transient: less than the 0.04 difference).
+            by = table.set_index(["seed", "sim.friction.coulomb_coeff"])["mu_mean"]
+            for seed in (1, 2):
+                self.assertGreater(by[(seed, 0.12)], by[(seed, 0.08)])
+            # The HDF5 table holds the same.
+            h5 = read_hdf5(os.path.join(out, "results.h5"))
+            np.testing.assert_array_equal(h5["mu_mean"].to_numpy(), table["mu_mean"].to_numpy())
+            self.assertEqual(list(h5["key"]), list(table["key"]))
+
+    def test_killed_campaign_finishes_the_rest_without_redoing(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            protocol = sim.load_protocol(os.path.join(ARGS.source_dir, "config/protocols/identification.textproto"))
+            spec = write_spec(tmp, 'name = "kill"\nseeds = {first = 1, count = 4}\ncompute = ["metrics"]\n'
+                                   '[overrides]\n"controller.lateral_displacement.setpoint_weight_p" = 1.0\n',
+                              protocol)
+            out = os.path.join(tmp, "out")
+            proc = subprocess.Popen([sys.executable, "-m", "tribo_client.campaign", spec, "--out", out,
+                                     "--workers", "2"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                    start_new_session=True)
+            try:
+                deadline = time.monotonic() + 240
+                while not glob.glob(os.path.join(out, "runs", "*", "result.json")):
+                    self.assertIsNone(proc.poll(), "the campaign ended before it could be killed")
+                    self.assertLess(time.monotonic(), deadline)
+                    time.sleep(0.02)
+            finally:
+                os.killpg(proc.pid, signal.SIGKILL)  # the driver and its local cluster
+                proc.wait()
+            finished = {p: os.stat(p).st_mtime_ns for p in glob.glob(os.path.join(out, "runs", "*", "result.json"))}
+            self.assertGreaterEqual(len(finished), 1)
+            self.assertLess(len(finished), 4)
+            result = campaign(spec, "--out", out, "--workers", "2")
+            self.assertEqual(result.returncode, 0, result.stderr)
+            self.assertIn(f"{4 - len(finished)} runs now, {len(finished)} done before", result.stderr)
+            for path, mtime in finished.items():
+                self.assertEqual(os.stat(path).st_mtime_ns, mtime, f"{path} was redone")
+            table = pd.read_csv(os.path.join(out, "results.csv"), float_precision="round_trip")
+            self.assertEqual(sorted(table["seed"]), [1, 2, 3, 4])
+
+
+class ExistingScheduler(unittest.TestCase):
+    """The multi-machine path of docs/campaigns.md, on one machine:
+    dask-scheduler and dask-worker started here, the campaign pointed at them."""
+
+    def test_campaign_runs_on_a_running_scheduler(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            env = dict(os.environ)
+            env["PYTHONPATH"] = os.pathsep.join(os.path.abspath(p) for p in env.get("PYTHONPATH", "").split(os.pathsep) if p)
+            scheduler = subprocess.Popen(["/usr/bin/dask-scheduler", "--host", "127.0.0.1", "--port", "0",
+                                          "--no-dashboard"], stderr=subprocess.PIPE, text=True, env=env, cwd=tmp)
+            worker = None
+            try:
+                address = None
+                for line in scheduler.stderr:
+                    if "Scheduler at:" in line:
+                        address = line.split()[-1]
+                        break
+                self.assertTrue(address and address.startswith("tcp://127.0.0.1:"), address)
+                # Keep reading its log so that a full pipe never blocks it.
+                threading.Thread(target=lambda: [None for _ in scheduler.stderr], daemon=True).start()
+                worker = subprocess.Popen(["/usr/bin/dask-worker", address, "--nworkers", "1", "--nthreads", "1",
+                                           "--no-dashboard", "--local-directory", tmp],
+                                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env, cwd=tmp)
+                spec = write_spec(tmp, 'name = "remote"\nseeds = [1, 2]\ncompute = ["metrics"]\n')
+                out = os.path.join(tmp, "out")
+                result = campaign(spec, "--out", out, "--scheduler", address, timeout=120)
+                self.assertEqual(result.returncode, 0, result.stderr)
+                table = pd.read_csv(os.path.join(out, "results.csv"))
+                self.assertEqual(sorted(table["seed"]), [1, 2])
+                self.assertTrue((table["exit_status"] == "SUCCESS").all())
+            finally:
+                for proc in (worker, scheduler):
+                    if proc is not None:
+                        proc.terminate()
+                        proc.wait(timeout=30)
+
+
+class RefusedSpecs(unittest.TestCase):
+    def refused(self, body, field):
+        with tempfile.TemporaryDirectory() as tmp:
+            spec = write_spec(tmp, body)
+            out = os.path.join(tmp, "out")
+            result = campaign(spec, "--out", out, timeout=60)
+            self.assertEqual(result.returncode, 2, result.stderr)
+            self.assertIn("refused before any run", result.stderr)
+            self.assertIn(field, result.stderr)
+            self.assertFalse(os.path.exists(out), "nothing may run or be written")
+            return result.stderr
+
+    def test_unknown_override_path_names_the_field(self):
+        stderr = self.refused('[grid]\n"sim.friction.coulomb_coef" = [0.1]\n', "sim.friction.coulomb_coef")
+        self.assertIn("has no field 'coulomb_coef'", stderr)
+
+    def test_unknown_variant_override_path(self):
+        self.refused('[[variants]]\nlabel = "x"\noverrides = { "sim.frction.coulomb_coeff" = 0.1 }\n',
+                     "sim.frction.coulomb_coeff")
+
+    def test_value_the_validator_refuses_names_the_field(self):
+        self.refused('[grid]\n"controller.loop_rate_hz" = [10000, -1]\n', "controller.loop_rate_hz")
+
+
+class ReliabilityMap(unittest.TestCase):
+    def test_tiny_identification_reliability_map(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            out = os.path.join(tmp, "out")
+            result = campaign(os.path.join(ARGS.source_dir, "config/campaigns/identification_reliability_tiny.toml"),
+                              "--out", out, "--workers", "2", timeout=400)
+            self.assertEqual(result.returncode, 0, result.stderr)
+            table = pd.read_csv(os.path.join(out, "reliability.csv"))
+            self.assertEqual(sorted(table["effect"]), ["direction_asymmetry", "none"])
+            self.assertTrue(table["runs"].eq(1).all())
+            self.assertTrue(table["false_positive_rate"].between(0, 1).all())
+            confusion = pd.read_csv(os.path.join(out, "confusion.csv"), index_col=0)
+            np.testing.assert_allclose(confusion.sum(axis=1).to_numpy(), 1.0)
+            self.assertIn("nothing", confusion.columns)
+            self.assertGreater(os.path.getsize(os.path.join(out, "confusion.png")), 5000)
+            print("\n" + table.to_string() + "\n" + confusion.to_string(), file=sys.stderr)
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--build-dir", required=True)
+    parser.add_argument("--source-dir", required=True)
+    args, rest = parser.parse_known_args()
+    ARGS.configure(args)
+    unittest.main(argv=[sys.argv[0]] + rest, verbosity=2)
