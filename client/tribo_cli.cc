@@ -448,6 +448,8 @@ int check_command(const Options& o) {
   }
   std::cout << fmt::format("protocol {} is valid: {:.3f} s, {} samples expected\n", reply.protocol_name(),
                            reply.duration_s(), reply.expected_samples());
+  // The description says what the protocol needs (e.g. a gain change first).
+  if (!protocol.description().empty()) std::cout << "description: " << protocol.description() << "\n";
   for (const auto& w : tribo::client::collapse_repeated(
            std::vector<std::string>(reply.warnings().begin(), reply.warnings().end()))) {
     std::cout << "warning: " << w << "\n";
