@@ -1,5 +1,5 @@
 // Preprocessing and identification metrics of a recorded scratch, after the
-// dissertation (physics.md §5, §6):
+// dissertation (Srivastava 2006, §3.3, §5.3 and Table 5.1):
 //   - tilt correction (§3.3.2): the slope of the normal displacement against
 //     the lateral position over a window where the normal force is constant
 //     and the tip moves, subtracted from the whole depth trace;
