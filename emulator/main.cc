@@ -1,6 +1,6 @@
 // tribo-bench: the simulated instrument behind the Modbus register map, for
 // hardware-in-the-loop runs of tribod without hardware and for the tests of
-// the Modbus backend. README.md "The bench emulator" says how to use it.
+// the Modbus backend. docs/modbus.md ("The bench emulator") says how to use it.
 #include <atomic>
 #include <csignal>
 #include <cstdio>

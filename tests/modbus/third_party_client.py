@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Reads tribo-bench with pymodbus, a Modbus client not written here, using
-only the register map as README.md documents it ("The Modbus backend"), and
+only the register map as docs/modbus.md documents it, and
 prints what it finds as JSON for tests/modbus/third_party_client_test.cc.
 
 usage: third_party_client.py PORT

@@ -3,7 +3,7 @@
 // electrostatic drive and all -- through the controller, as an experiment
 // would see them. Each test states its tolerance and why. Where the physics
 // does not reproduce an observation the test prints the numbers and asserts
-// only what holds; README.md ("Simulated instrument physics") lists those.
+// only what holds; docs/physics_and_sources.md lists those.
 #include <gtest/gtest.h>
 
 #include <algorithm>
