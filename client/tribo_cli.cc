@@ -138,9 +138,9 @@ tribo::v1::ErrorCode error_code_of(int exit_code) {
 }
 
 // Reports a failure on stderr, and as {"error": ...} on stdout with --json.
-int fail(bool json, const tribo::v1::Error& error, int code) {
-  std::cerr << "tribo: " << (error.field().empty() ? "" : error.field() + ": ")
-            << tribo::client::collapse_repeated_lines(error.message()) << "\n";
+int fail(bool json, tribo::v1::Error error, int code) {
+  error.set_message(tribo::client::explain_missing_duration(tribo::client::collapse_repeated_lines(error.message())));
+  std::cerr << "tribo: " << (error.field().empty() ? "" : error.field() + ": ") << error.message() << "\n";
   if (json) std::cout << "{\"error\": " << to_json(error) << ", \"exit_code\": " << code << "}\n";
   return code;
 }

@@ -65,6 +65,15 @@ std::string collapse_repeated_lines(const std::string& message) {
   return out + ")";
 }
 
+std::string explain_missing_duration(const std::string& message) {
+  static const std::regex zero(R"(duration_s = 0 s must be in \(0,)");
+  if (!std::regex_search(message, zero)) return message;
+  return std::regex_replace(message, zero,
+                            "no duration_s and no lateral.speed_um_per_s given (a segment needs its duration, or a "
+                            "speed for a lateral ramp): duration_s = 0 s must be in (0,",
+                            std::regex_constants::format_first_only);
+}
+
 std::string with_syntax_hint(const std::string& error) {
   std::string hint;
   if (error.find("Expected identifier, got: ") != std::string::npos &&

@@ -16,6 +16,10 @@ std::vector<std::string> collapse_repeated(const std::vector<std::string>& messa
 // issues collapsed as above.
 std::string collapse_repeated_lines(const std::string& message);
 
+// The daemon's message for a segment without a duration, said as what the
+// user left out: neither duration_s nor lateral.speed_um_per_s.
+std::string explain_missing_duration(const std::string& message);
+
 // A protobuf text-format parse error with a hint at its usual cause.
 std::string with_syntax_hint(const std::string& error);
 

@@ -130,6 +130,13 @@ TEST(UserMessages, AnIssueRepeatedForEveryPassIsSaidOnce) {
             "a (passes 1, 2 of 2): too fast (and 1 more: b;)");
 }
 
+TEST(UserMessages, AMissingSpeedIsSaidAsSuch) {
+  const std::string said = explain_missing_duration(
+      "segments[2] \"scratch\": duration_s = 0 s must be in (0, 3600] s (and 1 more: x;)");
+  EXPECT_NE(said.find("no duration_s and no lateral.speed_um_per_s given"), std::string::npos) << said;
+  EXPECT_EQ(explain_missing_duration("duration_s = 5 s is long"), "duration_s = 5 s is long");
+}
+
 TEST(UserMessages, AnUnclosedBlockGetsAHint) {
   const std::string hinted = with_syntax_hint("p.textproto:44:1: Expected identifier, got: ");
   EXPECT_NE(hinted.find("hint: the file ended inside a block"), std::string::npos) << hinted;

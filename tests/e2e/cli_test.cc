@@ -471,6 +471,14 @@ TEST(TriboCli, CheckIsTheDryRunWithWarningsAndAPlot) {
   EXPECT_EQ(refused.exit_code, 2) << refused.out;
   EXPECT_NE(refused.err.find("segments[1].normal.end_uN"), std::string::npos) << refused.err;
 
+  // A segment without duration and speed is said as such (not "duration_s = 0").
+  v1::Protocol no_speed = short_protocol();
+  no_speed.mutable_segments(2)->set_duration_s(0);
+  std::ofstream(out.path() / "no_speed.textproto") << wire::to_text_proto(no_speed);
+  const auto missing = tribo({"check", (out.path() / "no_speed.textproto").string()});
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_NE(missing.err.find("no duration_s and no lateral.speed_um_per_s"), std::string::npos) << missing.err;
+
   // A syntax error comes with a hint.
   std::ofstream(out.path() / "unclosed.textproto") << "name: \"x\"\nsegments {\n  name: \"a\"\n";
   const auto unclosed = tribo({"check", (out.path() / "unclosed.textproto").string()});
