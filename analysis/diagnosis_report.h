@@ -1,5 +1,5 @@
 // The diagnosis as the tribo-fit command reports it: one JSON object (its
-// field names are a contract for scripts, see README "tribo-fit"), a short
+// field names are a contract for scripts, see docs/tribo_fit.md), a short
 // human-readable text, and the CSV files the plotting script reads
 // (analysis/plot_diagnosis.py).
 #pragma once

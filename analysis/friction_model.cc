@@ -199,7 +199,7 @@ ModelData::ModelData(const MeasuredSeries& s, const MotionSegmentation& m) : ser
     mu_scale = std::max(median(mu), 1e-12);
   }
   // At rest the measured velocity is sensor noise; fed to LuGre, its |v|
-  // term would drain the bristle (the dither effect of README "The simulated
+  // term would drain the bristle (the dither effect of docs/physics_and_sources.md "The simulated
   // instrument") although the contact does not move. The model is therefore
   // driven at zero velocity while the tip rests: inside each hold, from the
   // first to the last sample within four position-noise widths of the resting

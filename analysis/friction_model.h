@@ -1,7 +1,7 @@
 // The friction model the identification fits, driven by the measured motion:
 // given x(t), v(t), a(t) (and the normal load N(t)), it predicts the force.
 //
-// Base model: LuGre (physics.md §4) with the dissertation's Stribeck shape,
+// Base model: LuGre (dissertation §2, eqs. 9-13) with the dissertation's Stribeck shape,
 //   S(v)  = L (Fc + (Fs - Fc) exp(-(|v|/vs)^delta))    L = N if load-scaled, else 1
 //   dz/dt = v - |v| z / g(v),   g(v) = S(v) / sigma0
 //   F     = sigma0 z + sigma1 dz/dt + Fv v + offset [+ M a]

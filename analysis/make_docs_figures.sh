@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Regenerates the before/after figures of docs/identification.md from the
-# measured data (../shared/data/real, README there) with tribo-fit and
+# measured data (DATA_DIR: the full published sets of tests/data/measured/README.md) with tribo-fit and
 # analysis/plot_diagnosis.py:
 #   analysis/make_docs_figures.sh DATA_DIR [BUILD_DIR]
 # DATA_DIR is the directory holding emps/, brfd/ and ratestate/. Files used:

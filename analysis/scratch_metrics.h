@@ -1,5 +1,5 @@
 // Preprocessing and identification metrics of a recorded scratch, after the
-// dissertation (physics.md §5, §6):
+// dissertation (Srivastava 2006, §3.3, §5.3 and Table 5.1):
 //   - tilt correction (§3.3.2): the slope of the normal displacement against
 //     the lateral position over a window where the normal force is constant
 //     and the tip moves, subtracted from the whole depth trace;
@@ -15,6 +15,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "analysis/run_metrics.h"
@@ -67,5 +68,50 @@ struct ScratchIdentification {
 };
 
 std::vector<ScratchIdentification> scratch_identification(const v1::SampleBlock& samples);
+
+// What a loaded sliding segment actually did, beside what was commanded: the
+// tip's measured velocity (least-squares slope of the measured position over
+// the steady window), the travel, and whether the window was a steady state.
+// Steady means: at least kMinSteadySamples samples, the measured velocity
+// within kSteadyVelocityTolerance of the commanded one, and a positive mean
+// friction; otherwise why_not says which failed, with the numbers.
+inline constexpr std::uint64_t kMinSteadySamples = 100;
+inline constexpr double kSteadyVelocityTolerance = 0.10;  // relative
+
+struct SlidingCheck {
+  double measured_velocity_m_per_s = 0;
+  double commanded_travel_m = 0;  // setpoint change over the segment
+  double measured_travel_m = 0;   // position change over the segment
+  bool steady = false;
+  std::string why_not;            // empty when steady
+  bool stiction_peak_found = false;  // a peak above the steady mean friction
+};
+
+SlidingCheck check_sliding(const v1::SampleBlock& samples, const SlidingSegmentMetrics& metrics);
+
+// A lateral oscillation (a SINE segment): the lateral setpoint reverses
+// direction at least twice. Its frequency is the setpoint's (whole cycles:
+// reversals / 2 over the segment), and amplitudes and phases come from a
+// least-squares fit of offset + drift + a sin + b cos at that frequency to the
+// setpoint, the measured position and the friction (lateral) force.
+struct OscillationMetrics {
+  std::uint32_t segment = 0;
+  double begin_s = 0, end_s = 0;
+  double frequency_hz = 0;
+  double cycles = 0;
+  std::uint64_t samples = 0;
+  double normal_force_n = 0;            // mean measured
+  double setpoint_amplitude_m = 0;
+  double position_amplitude_m = 0;
+  double position_phase_deg = 0;        // of the position against the setpoint; negative: lags
+  double force_amplitude_n = 0;
+  double force_phase_deg = 0;           // of the lateral force against the measured position
+};
+
+// The segments whose lateral setpoint oscillates, in order.
+std::vector<OscillationMetrics> oscillation_metrics(const v1::SampleBlock& samples);
+
+// True if the segment's lateral setpoint reverses direction at least twice.
+bool is_oscillation_segment(const v1::SampleBlock& samples, std::uint32_t segment);
 
 }  // namespace tribo::analysis

@@ -2,7 +2,7 @@
 // the dissertation struggled (§6.3.2: sensitive to the initial guess, points
 // dropped by hand at both ends):
 //
-//   LuGre steady state (physics.md §4):
+//   LuGre steady state (dissertation §2, eqs. 9-13):
 //     F(v) = sgn(v) (Fc + (Fs - Fc) exp(-(|v|/vs)^delta)) + Fv v [+ offset]
 //   eq. 44 (friction coefficient against the Gumbel number x):
 //     mu(x) = p1 + p2 exp(-p3 x) + p4 x

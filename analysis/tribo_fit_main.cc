@@ -1,4 +1,4 @@
-// tribo-fit: friction identification on measured data (see README "tribo-fit").
+// tribo-fit: friction identification on measured data (see docs/tribo_fit.md).
 //   tribo-fit diagnose INPUT ...   residual diagnosis over the effect vocabulary
 //   tribo-fit stribeck FILE.csv ...  steady-state curve fit (LuGre or eq. 44)
 #include <algorithm>

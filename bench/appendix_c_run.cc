@@ -1,4 +1,4 @@
-// Appendix C's simulated experiment (physics.md §5: hyssim04.m /
+// Appendix C's simulated experiment (dissertation Appendix C: hyssim04.m /
 // hysitronmod04.m / hysfricfcn04.m) solved by tribo's plant, for the
 // comparison with scipy's LSODA in bench/lsoda_compare.py.
 //

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """scipy's LSODA against tribo's plant on the dissertation's simulated experiment.
 
-Appendix C (physics.md §5): m = 1 g pulled for 1 s at 18 um/s by the I-PD loop
+Appendix C of the dissertation (§5.4): m = 1 g pulled for 1 s at 18 um/s by the I-PD loop
 Fd = I - mk x - mkd v, dI/dt = mki (r - x), against the modified LuGre friction
 (hysfricfcn04.m). States x, v, z, I, r.
 

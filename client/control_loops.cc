@@ -3,7 +3,8 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
-#include <cstdio>
+
+#include <fmt/format.h>
 
 namespace tribo::client {
 
@@ -84,17 +85,12 @@ bool set_gain_field(v1::PidGains& gains, const std::string& field, double value)
 
 std::string gains_text(v1::ControlLoop loop, const v1::PidGains& gains, const std::string& indent) {
   std::string text;
-  char line[160];
   for (const auto& field : gain_fields()) {
     const double value = gains.GetReflection()->GetDouble(gains, numeric_field(field));
     const std::string unit = gain_unit(loop, field);
-    std::snprintf(line, sizeof line, "%s%-21s %g%s\n", indent.c_str(), field.c_str(), value,
-                  unit.empty() ? "" : (" " + unit).c_str());
-    text += line;
+    text += fmt::format("{}{:<21} {:g}{}\n", indent, field, value, unit.empty() ? "" : " " + unit);
   }
-  std::snprintf(line, sizeof line, "%s%-21s %s\n", indent.c_str(), "anti_windup",
-                v1::AntiWindup_Name(gains.anti_windup()).c_str());
-  return text + line;
+  return text + fmt::format("{}{:<21} {}\n", indent, "anti_windup", v1::AntiWindup_Name(gains.anti_windup()));
 }
 
 }  // namespace tribo::client

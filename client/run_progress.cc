@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <fmt/format.h>
+
 #include "proto/sample_record.h"
 
 namespace tribo::client {
@@ -10,7 +12,7 @@ namespace tribo::client {
 namespace {
 
 constexpr auto kRedrawInterval = std::chrono::milliseconds(100);
-constexpr int kBarWidth = 24;
+constexpr int kBarWidth = 8;
 
 }  // namespace
 
@@ -52,12 +54,23 @@ std::string RunProgress::line() const {
   const int filled = static_cast<int>(std::lround(fraction * kBarWidth));
   std::string bar(static_cast<std::size_t>(filled), '#');
   bar.resize(kBarWidth, '-');
-  char text[256];
-  std::snprintf(text, sizeof text,
-                "[%s] %3.0f%%  seg %u/%d %-12.12s  t %7.1f s  left %7.1f s  friction %8.2f µN  normal %8.1f µN%s",
-                bar.c_str(), fraction * 100, segment_index_ + 1, descriptor_.segment_names_size(),
-                unloading_ ? "unloading" : segment_.c_str(), time_s_, std::max(0.0, total - time_s_),
-                friction_n_ * 1e6, normal_n_ * 1e6, gaps_ > 0 ? "  (catching up)" : "");
+  // Segments count from 1 here and in the text summary (JSON and samples.csv
+  // count segment_index from 0).
+  const std::string text = fmt::format("[{}] {:3.0f}% seg {}/{} {:<12.12} {:.0f}/{:.0f} s F {:.1f} µN N {:.0f} µN{}",
+                                       bar, fraction * 100, segment_index_ + 1, descriptor_.segment_names_size(),
+                                       unloading_ ? "unloading" : segment_, time_s_, total, friction_n_ * 1e6,
+                                       normal_n_ * 1e6, gaps_ > 0 ? " gap" : "");
+  return fit_columns(text, kMaxColumns);
+}
+
+std::string fit_columns(const std::string& text, std::size_t columns) {
+  std::size_t seen = 0;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    // Count UTF-8 lead bytes: one column per code point (µ, °).
+    if ((static_cast<unsigned char>(text[i]) & 0xC0) == 0x80) continue;
+    if (seen == columns) return text.substr(0, i);
+    ++seen;
+  }
   return text;
 }
 

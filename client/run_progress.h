@@ -1,5 +1,5 @@
 // The live line `tribo run` draws on a terminal while a run streams: a
-// progress bar, the segment, run time and time left, and the current
+// progress bar, the segment (counted from 1), run time of the total, and the current
 // friction and normal force (means over the latest block, in µN).
 #pragma once
 
@@ -10,6 +10,13 @@
 #include "tribo/v1/api.pb.h"
 
 namespace tribo::client {
+
+// The line never exceeds this many columns, so that an 80-column terminal
+// redraws it in place instead of wrapping.
+inline constexpr std::size_t kMaxColumns = 79;
+
+// text cut to at most `columns` display columns (UTF-8 code points).
+std::string fit_columns(const std::string& text, std::size_t columns);
 
 class RunProgress {
  public:

@@ -1,11 +1,14 @@
 #include "client/run_summary.h"
 
 #include <cmath>
-#include <cstdio>
+#include <string>
+
+#include <fmt/format.h>
 
 #include <google/protobuf/util/json_util.h>
 
 #include "analysis/run_metrics.h"
+#include "analysis/scratch_metrics.h"
 #include "analysis/tip_tilt.h"
 #include "proto/sample_record.h"
 
@@ -15,10 +18,22 @@ namespace {
 
 constexpr double kMicro = 1e6;  // SI to µm, µN
 
-std::string format(const char* fmt, auto... args) {
-  char buf[256];
-  std::snprintf(buf, sizeof buf, fmt, args...);
-  return buf;
+// The segment as text shows it: counted from 1 of the total, as the live
+// progress line does (JSON's `segment` and samples.csv's segment_index count
+// from 0).
+std::string segment_label(std::uint32_t segment, std::uint32_t total, const std::string& name) {
+  return total > 0 ? fmt::format("segment {}/{} \"{}\"", segment + 1, total, name)
+                   : fmt::format("segment {} \"{}\"", segment + 1, name);
+}
+
+std::string segment_name(const RunResult& run, std::uint32_t segment) {
+  // segment_index counts the unrolled segments (RunStart.segments: repeat
+  // blocks expanded); older daemons sent only the protocol.
+  const auto& unrolled = run.start.segments();
+  const auto& segments = run.start.protocol().segments();
+  const int i = static_cast<int>(segment);
+  if (!unrolled.empty()) return i < unrolled.size() ? unrolled[i].name() : "";
+  return i < segments.size() ? segments[i].name() : "";
 }
 
 }  // namespace
@@ -32,24 +47,26 @@ v1::RunSummary summarize_run(const RunResult& run) {
   s.set_sample_count(static_cast<std::uint32_t>(sample_count(run.samples)));
   s.set_duration_s(static_cast<double>(run.stop.cycle_count()) / run.start.loop_rate_hz());
   s.set_seed(run.start.seed());
-  // segment_index counts the unrolled segments (RunStart.segments: repeat
-  // blocks expanded); older daemons sent only the protocol.
-  const auto& unrolled = run.start.segments();
-  const auto& segments = run.start.protocol().segments();
+  s.set_segment_count(static_cast<std::uint32_t>(
+      run.start.segments_size() > 0 ? run.start.segments_size() : run.descriptor.segment_names_size()));
   const auto tilt = analysis::estimate_tip_tilt(run.samples);
   if (tilt) {
     s.set_tilt_tan(tilt->tan_tilt);
     s.set_tilt_segment(tilt->first_segment);
   }
   for (const auto& m : analysis::sliding_segment_metrics(run.samples)) {
+    // An oscillation is not a scratch: its mean velocity is ~0.
+    if (analysis::is_oscillation_segment(run.samples, m.segment)) continue;
     v1::SlidingSummary* out = s.add_scratches();
     out->set_segment(m.segment);
-    const int i = static_cast<int>(m.segment);
-    if (!unrolled.empty()) {
-      if (i < unrolled.size()) out->set_segment_name(unrolled[i].name());
-    } else if (i < segments.size()) {
-      out->set_segment_name(segments[i].name());
-    }
+    out->set_segment_name(segment_name(run, m.segment));
+    const analysis::SlidingCheck check = analysis::check_sliding(run.samples, m);
+    out->set_measured_velocity_um_s(check.measured_velocity_m_per_s * kMicro);
+    out->set_commanded_travel_um(check.commanded_travel_m * kMicro);
+    out->set_measured_travel_um(check.measured_travel_m * kMicro);
+    out->set_steady_state(check.steady);
+    out->set_not_steady_reason(check.why_not);
+    out->set_stiction_peak_found(check.stiction_peak_found);
     out->set_velocity_um_s(m.velocity_m_per_s * kMicro);
     out->set_normal_force_un(m.normal_force_n * kMicro);
     out->set_mean_friction_un(m.mean_friction_n * kMicro);
@@ -68,38 +85,71 @@ v1::RunSummary summarize_run(const RunResult& run) {
       out->set_mu_tilt_corrected(m.normal_force_n > 0 ? corrected_n / m.normal_force_n : 0.0);
     }
   }
+  for (const auto& o : analysis::oscillation_metrics(run.samples)) {
+    v1::OscillationSummary* out = s.add_oscillations();
+    out->set_segment(o.segment);
+    out->set_segment_name(segment_name(run, o.segment));
+    out->set_frequency_hz(o.frequency_hz);
+    out->set_cycles(o.cycles);
+    out->set_samples(static_cast<std::uint32_t>(o.samples));
+    out->set_normal_force_un(o.normal_force_n * kMicro);
+    out->set_setpoint_amplitude_um(o.setpoint_amplitude_m * kMicro);
+    out->set_position_amplitude_um(o.position_amplitude_m * kMicro);
+    out->set_position_phase_deg(o.position_phase_deg);
+    out->set_force_amplitude_un(o.force_amplitude_n * kMicro);
+    out->set_force_phase_deg(o.force_phase_deg);
+    out->set_begin_s(o.begin_s);
+    out->set_end_s(o.end_s);
+  }
   return s;
 }
 
 std::string summary_text(const v1::RunSummary& s) {
-  std::string text = format("run %s: %s", s.run_id().c_str(), s.exit_status().c_str());
+  std::string text = fmt::format("run {}: {}", s.run_id(), s.exit_status());
   if (!s.reason().empty()) text += " (" + s.reason() + ")";
-  text += format("\n  protocol   %s, %.3f s, %llu samples, seed %llu\n", s.protocol().c_str(),
-                 s.duration_s(), static_cast<unsigned long long>(s.sample_count()),
-                 static_cast<unsigned long long>(s.seed()));
+  text += fmt::format("\n  protocol   {}, {:.3f} s, {} samples, seed {}\n", s.protocol(), s.duration_s(),
+                      s.sample_count(), s.seed());
   if (s.has_tilt_tan()) {
-    text += format("  tip tilt   tan(theta) = %.5f (%.3f°), measured at rest under load in segment %u\n",
-                   s.tilt_tan(), std::atan(s.tilt_tan()) * 180 / M_PI, s.tilt_segment());
+    text += fmt::format("  tip tilt   tan(theta) = {:.5f} ({:.3f}°), measured at rest under load in {}\n",
+                        s.tilt_tan(), std::atan(s.tilt_tan()) * 180 / M_PI,
+                        fmt::format("segment {}/{}", s.tilt_segment() + 1, s.segment_count()));
   } else {
     text += "  tip tilt   not measured: no loaded hold before sliding; friction not tilt-corrected\n";
   }
-  if (s.scratches_size() == 0) text += "  no loaded sliding segment: no friction to report\n";
+  if (s.scratches_size() == 0 && s.oscillations_size() == 0) {
+    text += "  no loaded sliding segment: no friction to report\n";
+  }
   for (const auto& c : s.scratches()) {
-    text += format("  segment %u \"%s\": %+.3f µm/s at %.1f µN normal force\n", c.segment(),
-                   c.segment_name().c_str(), c.velocity_um_s(), c.normal_force_un());
-    text += format("    mean friction  %9.2f µN  (sd %.2f µN over %llu samples, t = %.3f..%.3f s)\n",
-                   c.mean_friction_un(), c.friction_sd_un(),
-                   static_cast<unsigned long long>(c.steady_samples()), c.steady_window_begin_s(),
-                   c.steady_window_end_s());
-    text += format("    mu = F/N       %9.4f\n", c.mu());
+    text += fmt::format("  {}: {:+.3f} µm/s commanded at {:.1f} µN normal force\n",
+                        segment_label(c.segment(), s.segment_count(), c.segment_name()), c.velocity_um_s(),
+                        c.normal_force_un());
+    text += fmt::format("    moved          {:+9.3f} µm/s measured, {:.3f} of {:.3f} µm travelled\n",
+                        c.measured_velocity_um_s(), c.measured_travel_um(), c.commanded_travel_um());
+    text += c.steady_state() ? "    steady state   reached\n"
+                             : "    steady state   NOT reached: " + c.not_steady_reason() +
+                                   "\n                   (friction and mu below describe a transient)\n";
+    text += fmt::format("    mean friction  {:9.2f} µN  (sd {:.2f} µN over {} samples, t = {:.3f}..{:.3f} s)\n",
+                        c.mean_friction_un(), c.friction_sd_un(), c.steady_samples(), c.steady_window_begin_s(),
+                        c.steady_window_end_s());
+    text += fmt::format("    mu = F/N       {:9.4f}\n", c.mu());
     if (c.has_mean_friction_tilt_corrected_un()) {
-      text += format("    friction (tilt-corrected)  %9.2f µN, mu %.4f\n", c.mean_friction_tilt_corrected_un(),
-                     c.mu_tilt_corrected());
+      text += fmt::format("    friction (tilt-corrected)  {:9.2f} µN, mu {:.4f}\n", c.mean_friction_tilt_corrected_un(),
+                          c.mu_tilt_corrected());
     }
-    text += format("    stiction peak  %9.2f µN  at %.3f s after motion onset\n", c.stiction_peak_un(),
-                   c.stiction_time_s());
-    text += format("    steady lag     %9.4f µm  (commanded minus measured position)\n",
-                   c.steady_lag_um());
+    text += c.stiction_peak_found()
+                ? fmt::format("    stiction peak  {:9.2f} µN  at {:.3f} s after motion onset\n", c.stiction_peak_un(),
+                              c.stiction_time_s())
+                : "    stiction peak  none (the friction never rose above its steady mean)\n";
+    text += fmt::format("    steady lag     {:9.4f} µm  (commanded minus measured position)\n", c.steady_lag_um());
+  }
+  for (const auto& o : s.oscillations()) {
+    text += fmt::format("  {}: oscillation {:.3g} Hz x {:.0f} cycles at {:.1f} µN normal force\n",
+                        segment_label(o.segment(), s.segment_count(), o.segment_name()), o.frequency_hz(), o.cycles(),
+                        o.normal_force_un());
+    text += fmt::format("    position       {:9.4f} µm amplitude ({:.4f} µm commanded), phase {:+.1f}° to the setpoint\n",
+                        o.position_amplitude_um(), o.setpoint_amplitude_um(), o.position_phase_deg());
+    text += fmt::format("    lateral force  {:9.2f} µN amplitude, phase {:+.1f}° to the position\n",
+                        o.force_amplitude_un(), o.force_phase_deg());
   }
   if (!s.saved_to().empty()) text += "  saved to   " + s.saved_to() + "\n";
   return text;

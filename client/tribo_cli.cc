@@ -1,76 +1,57 @@
-// tribo: the command-line client of tribod. See kUsageText for commands,
-// options and exit codes.
+// tribo: the command-line client of tribod. `tribo --help` lists the
+// commands, `tribo COMMAND --help` each command's options (asking for help
+// never talks to the daemon); docs/cli.md has the exit codes and examples.
+#include <poll.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <map>
 #include <optional>
-#include <set>
 #include <string>
 #include <variant>
 #include <vector>
 
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
 #include <google/protobuf/util/json_util.h>
 
+#include "client/annotated_run.h"
 #include "client/control_loops.h"
+#include "client/hdf5_export.h"
+#include "client/protocol_check.h"
 #include "client/run_progress.h"
 #include "client/run_summary.h"
 #include "client/tribo_client.h"
+#include "client/user_messages.h"
+#include "daemon/daemon_config.h"
 #include "proto/run_files.h"
 #include "proto/sample_record.h"
 #include "proto/text_format_file.h"
 #include "tribo/v1/protocol.pb.h"
+#include "tribo/version.h"
 
 namespace {
 
-constexpr const char* kUsageText =
-    "usage: tribo COMMAND [ARGS] [--json] [--address HOST:PORT] [--token TOKEN]\n"
-    "commands:\n"
-    "  run PROTOCOL.textproto [--out DIR] [--seed N] [--progress|--no-progress]\n"
-    "              load the protocol, run it, stream the samples with a live progress\n"
-    "              line (on a terminal), print the summary (friction in µN, mu,\n"
-    "              stiction peak, lag in µm); --out also saves the run there\n"
-    "  status      the daemon's state, the current run, recording and backend health\n"
-    "  abort [--reason TEXT]\n"
-    "              stop the running protocol (safe unload)\n"
-    "  list [--max N]\n"
-    "              the recorded runs, newest first\n"
-    "  fetch RUN_ID [--out DIR]\n"
-    "              copy a recorded run (metadata.json, samples.csv) to DIR (default ./RUN_ID)\n"
-    "  export RUN_ID [--out FILE]\n"
-    "              the run's samples.csv as recorded, to FILE or stdout\n"
-    "  gains [--loop LOOP]\n"
-    "              every loop's PID gains (or LOOP's), SI units: the output is a drive\n"
-    "              force in N; kp N/m, ki N/(m s), kd N s/m for the displacement loops,\n"
-    "              kp N/N, ki 1/s, kd s for the force loops\n"
-    "  set-gains --loop LOOP [--kp X] [--ki X] [--kd X] [--setpoint-weight-p X]\n"
-    "            [--setpoint-weight-d X] [--derivative-filter-hz X] [--output-min N]\n"
-    "            [--output-max N] [--tracking-time-s X] [--feedforward-gain X]\n"
-    "            [--anti-windup anti-windup-none|back-calculation|conditional-integration]\n"
-    "              change only the given gains of LOOP (SI units, as for gains), also\n"
-    "              for a running run (bumplessly); prints what the daemon applied\n"
-    "  rearm       leave FAULTED after a safety trip or an emergency stop\n"
-    "  estop [--reason TEXT]\n"
-    "              emergency stop: safe stop sequence, then FAULTED until rearm (any\n"
-    "              client may; no control needed)\n"
-    "  autotune [--relay-amplitude-n N] [--hysteresis-m M] [--apply]\n"
-    "              relay autotune of the lateral displacement loop (not during a run):\n"
-    "              ultimate gain and period, proposed gains; --apply applies them\n"
-    "LOOP: lateral-displacement, lateral-force, normal-force, normal-displacement\n"
-    "options:\n"
-    "  --json      print JSON for scripts (protobuf field names; see README)\n"
-    "  --address   tribod's address (default $TRIBO_ADDRESS or 127.0.0.1:7460)\n"
-    "  --token     the daemon's control token for run, abort, set-gains, rearm and\n"
-    "              autotune (default $TRIBO_TOKEN)\n"
+constexpr const char* kDescription =
+    "tribo: the command-line client of tribod, the friction instrument's daemon.\n"
+    "Friction in µN, positions in µm, SI in --json gains. `tribo COMMAND --help` shows\n"
+    "a command's options; asking for help never talks to the daemon.";
+
+constexpr const char* kExitCodes =
+    "every command also takes --json, --address HOST:PORT and --token TOKEN (tribo --help)\n"
     "exit codes: 0 success; 1 the run ended in ABORT or FAULT; 2 bad usage, an invalid\n"
     "  protocol or argument; 3 daemon unreachable or connection lost; 4 not allowed\n"
     "  (wrong token, or another client holds control); 5 wrong state (e.g. abort\n"
-    "  without a run); 6 no such run; 7 the daemon or the file system failed\n";
+    "  without a run); 6 no such run; 7 the daemon or the file system failed;\n"
+    "  130 interrupted (Ctrl-C) during a run\n";
 
 enum ExitCode {
   kOk = 0,
@@ -81,15 +62,19 @@ enum ExitCode {
   kWrongState = 5,
   kNotFound = 6,
   kFailed = 7,
+  kInterrupted = 130,
 };
 
 struct Options {
   std::string command;
-  std::vector<std::string> args;  // positional
+  std::string positional;  // PROTOCOL or RUN_ID
   std::map<std::string, std::string> values;
+  std::vector<std::string> meta;  // --meta KEY=VALUE, in order
   bool json = false;
   bool apply = false;  // autotune: apply the proposed gains
+  bool force = false;  // run --out, fetch, export --out: replace what is there
   std::optional<bool> progress;
+  std::string address_text;
   tribo::client::Address address = tribo::client::default_address();
   std::string token = tribo::client::default_token();
 
@@ -98,53 +83,6 @@ struct Options {
     return it == values.end() ? std::nullopt : std::optional(it->second);
   }
 };
-
-bool takes_value(const std::string& name) {
-  static const std::set<std::string> names = [] {
-    std::set<std::string> n{"out", "seed", "reason", "max", "loop", "anti-windup", "relay-amplitude-n",
-                            "hysteresis-m"};
-    for (std::string field : tribo::client::gain_fields()) {
-      std::replace(field.begin(), field.end(), '_', '-');
-      n.insert(field);
-    }
-    return n;
-  }();
-  return names.contains(name);
-}
-
-// The options, or a message naming what is wrong with them.
-std::variant<Options, std::string> parse_options(int argc, char** argv) {
-  if (argc < 2) return std::string("no command given");
-  Options o;
-  o.command = argv[1];
-  for (int i = 2; i < argc; ++i) {
-    const std::string arg = argv[i];
-    // An option's value never starts with "--" (negative numbers have one dash).
-    const bool has_value = i + 1 < argc && !std::string(argv[i + 1]).starts_with("--");
-    if (arg == "--json") {
-      o.json = true;
-    } else if (arg == "--apply") {
-      o.apply = true;
-    } else if (arg == "--progress" || arg == "--no-progress") {
-      o.progress = arg == "--progress";
-    } else if (!arg.starts_with("--")) {
-      o.args.push_back(arg);
-    } else if (arg != "--address" && arg != "--token" && !takes_value(arg.substr(2))) {
-      return "unknown option " + arg;
-    } else if (!has_value) {
-      return "option " + arg + " needs a value";
-    } else if (arg == "--address") {
-      const auto address = tribo::client::parse_address(argv[++i]);
-      if (!address) return "--address " + std::string(argv[i]) + " is not HOST:PORT";
-      o.address = *address;
-    } else if (arg == "--token") {
-      o.token = argv[++i];
-    } else {
-      o.values[arg.substr(2)] = argv[++i];
-    }
-  }
-  return o;
-}
 
 std::optional<std::uint64_t> parse_uint(const std::string& text) {
   char* end = nullptr;
@@ -182,16 +120,36 @@ int exit_code_of(const tribo::client::ClientError& e) {
   }
 }
 
+// The error code a failure of the CLI itself carries in --json: usage errors
+// are INVALID_ARGUMENT, not INTERNAL.
+tribo::v1::ErrorCode error_code_of(int exit_code) {
+  switch (exit_code) {
+    case kUsage:
+      return tribo::v1::INVALID_ARGUMENT;
+    case kWrongState:
+      return tribo::v1::WRONG_STATE;
+    case kNotFound:
+      return tribo::v1::NOT_FOUND;
+    case kNotAllowed:
+      return tribo::v1::PERMISSION_DENIED;
+    default:
+      return tribo::v1::INTERNAL;
+  }
+}
+
 // Reports a failure on stderr, and as {"error": ...} on stdout with --json.
-int fail(const Options& o, const tribo::v1::Error& error, int code) {
+int fail(bool json, tribo::v1::Error error, int code) {
+  error.set_message(tribo::client::explain_missing_duration(tribo::client::collapse_repeated_lines(error.message())));
   std::cerr << "tribo: " << (error.field().empty() ? "" : error.field() + ": ") << error.message() << "\n";
-  if (o.json) std::cout << "{\"error\": " << to_json(error) << ", \"exit_code\": " << code << "}\n";
+  if (json) std::cout << "{\"error\": " << to_json(error) << ", \"exit_code\": " << code << "}\n";
   return code;
 }
 
+int fail(const Options& o, const tribo::v1::Error& error, int code) { return fail(o.json, error, code); }
+
 int fail(const Options& o, const std::string& message, int code) {
   tribo::v1::Error error;
-  error.set_code(tribo::v1::INTERNAL);
+  error.set_code(error_code_of(code));
   error.set_message(message);
   return fail(o, error, code);
 }
@@ -204,25 +162,88 @@ tribo::client::SessionOptions session(const Options& o, tribo::v1::Role role) {
   return s;
 }
 
+// A directory or file that is there already, unless --force: runs are not
+// overwritten by accident.
+std::optional<std::string> refuse_overwrite(const Options& o, const std::string& path) {
+  std::error_code ec;
+  if (o.force || !std::filesystem::exists(path, ec)) return std::nullopt;
+  return path + " exists already; choose another --out or add --force to replace it";
+}
+
+// The protocol file, or the loader's message with a hint for the syntax
+// errors protobuf reports tersely.
+std::variant<tribo::v1::Protocol, std::string> load_protocol(const std::string& path) {
+  tribo::v1::Protocol protocol;
+  if (auto error = tribo::wire::load_text_proto_file(path, protocol)) {
+    return tribo::client::with_syntax_hint(*error);
+  }
+  return protocol;
+}
+
+// Ctrl-C during `tribo run`: the first asks the daemon to abort the run (safe
+// unload) and lets the summary say what happened; a second one leaves at once.
+std::atomic<int> g_interrupts{0};
+
+extern "C" void on_interrupt(int) {
+  if (g_interrupts.fetch_add(1) >= 1) {
+    constexpr char kMessage[] = "\ntribo: interrupted again; leaving without waiting for the run to stop\n";
+    (void)!write(STDERR_FILENO, kMessage, sizeof kMessage - 1);
+    _exit(kInterrupted);
+  }
+}
+
 int run_command(const Options& o) {
-  if (o.args.size() != 1) return fail(o, "run needs one PROTOCOL file", kUsage);
   std::optional<std::uint64_t> seed;
   if (const auto text = o.value("seed")) {
     seed = parse_uint(*text);
     if (!seed) return fail(o, "--seed " + *text + " is not a number", kUsage);
   }
-  tribo::v1::Protocol protocol;
-  if (auto error = tribo::wire::load_text_proto_file(o.args[0], protocol)) return fail(o, *error, kUsage);
+  const auto loaded = load_protocol(o.positional);
+  if (const auto* error = std::get_if<std::string>(&loaded)) return fail(o, *error, kUsage);
+  const auto& protocol = std::get<tribo::v1::Protocol>(loaded);
+  const auto out = o.value("out");
+  if (out) {
+    if (auto refusal = refuse_overwrite(o, *out)) return fail(o, *refusal, kUsage);
+  }
+  tribo::v1::StartRun start;
+  if (seed) start.set_seed(*seed);
+  tribo::v1::RunAnnotations& notes = *start.mutable_annotations();
+  notes.set_sample(o.value("sample").value_or(""));
+  notes.set_tip(o.value("tip").value_or(""));
+  notes.set_operator_name(o.value("operator").value_or(""));
+  notes.set_note(o.value("note").value_or(""));
+  for (const auto& kv : o.meta) {
+    if (auto error = tribo::client::add_annotation(notes, kv); !error.empty()) return fail(o, error, kUsage);
+  }
 
   const bool progress = o.progress.value_or(isatty(STDERR_FILENO) == 1);
   tribo::client::RunProgress line(stderr);
   tribo::client::RunResult run;
+  std::string interrupt_note;
+  struct sigaction action {}, previous {};
+  action.sa_handler = on_interrupt;
+  action.sa_flags = SA_RESTART;  // a blocking read goes on; the next document sends the abort
+  sigaction(SIGINT, &action, &previous);
   {
     tribo::client::TriboClient client(o.address, session(o, tribo::v1::CONTROLLER));
-    run = tribo::client::run_protocol(client, protocol, seed, [&](const tribo::v1::ServerMessage& d) {
+    bool abort_sent = false;
+    run = tribo::client::run_protocol_with(client, protocol, start, [&](const tribo::v1::ServerMessage& d) {
       if (progress) line.on_document(d);
+      if (g_interrupts.load() == 0 || abort_sent || d.has_run_stop()) return;
+      abort_sent = true;
+      tribo::v1::ClientMessage abort;
+      abort.mutable_abort_run()->set_reason("interrupted (Ctrl-C) in tribo run");
+      try {
+        client.request(abort);
+        interrupt_note = "interrupted (Ctrl-C): the run was aborted with a safe unload";
+      } catch (const tribo::client::ClientError& e) {
+        interrupt_note = "interrupted (Ctrl-C), but the abort failed: " + e.error().message();
+      }
+      if (progress) line.finish();
+      std::cerr << "tribo: " << interrupt_note << "; waiting for the run to stop (Ctrl-C again to leave)\n";
     });
   }
+  sigaction(SIGINT, &previous, nullptr);
   line.finish();
   for (const auto& warning : run.loaded.warnings()) std::cerr << "tribo: warning: " << warning << "\n";
   if (run.fetched_samples > 0) {
@@ -233,7 +254,7 @@ int run_command(const Options& o) {
     std::cerr << "tribo: " << run.missing_samples << " samples are missing from the recording\n";
   }
   tribo::v1::RunSummary summary = tribo::client::summarize_run(run);
-  if (const auto out = o.value("out")) {
+  if (out) {
     tribo::v1::RunMetadata metadata;
     *metadata.mutable_start() = run.start;
     *metadata.mutable_stop() = run.stop;
@@ -245,26 +266,29 @@ int run_command(const Options& o) {
     summary.set_saved_to(*out);
   }
   std::cout << (o.json ? tribo::client::summary_json(summary) + "\n" : tribo::client::summary_text(summary));
+  if (g_interrupts.load() > 0) {
+    std::cerr << "tribo: " << (interrupt_note.empty() ? "interrupted (Ctrl-C)" : interrupt_note) << "\n";
+    return kInterrupted;
+  }
   return run.stop.exit_status() == tribo::v1::SUCCESS ? kOk : kRunFailed;
 }
 
 std::string status_text(const tribo::v1::StatusReply& s) {
-  char buf[512];
   std::string text = "state      " + tribo::v1::DaemonState_Name(s.state()) + "\n";
   if (!s.loaded_protocol().empty()) text += "protocol   " + s.loaded_protocol() + "\n";
   if (!s.run_id().empty()) {
-    std::snprintf(buf, sizeof buf, "run        %s: %.1f of %.1f s, %llu samples recorded, %llu dropped\n",
-                  s.run_id().c_str(), s.run_time_s(), s.run_duration_s(),
-                  static_cast<unsigned long long>(s.samples_recorded()),
-                  static_cast<unsigned long long>(s.samples_dropped()));
-    text += buf;
+    text += fmt::format("run        {}: {:.1f} of {:.1f} s, {} samples recorded, {} dropped\n", s.run_id(),
+                        s.run_time_s(), s.run_duration_s(), s.samples_recorded(), s.samples_dropped());
+  }
+  if (s.tripped() || !s.trip_reason().empty()) {
+    text += fmt::format("trip       {}{} (at {:.3f} s of the run){}\n", s.tripped() ? "" : "last: ", s.trip_reason(),
+                        s.trip_time_s(), s.tripped() ? "; `tribo rearm` after checking the instrument" : "");
   }
   text += "backend    " + s.backend_health().backend() + ": " +
           (s.backend_health().healthy() ? "healthy" : "UNHEALTHY") + " (" + s.backend_health().detail() + ")\n";
-  std::snprintf(buf, sizeof buf, "clients    %s, %u observer(s); %llu gap notice(s) sent\n",
-                s.controller_connected() ? "a controller" : "no controller", s.observers(),
-                static_cast<unsigned long long>(s.gap_notices()));
-  return text + buf;
+  text += fmt::format("clients    {}, {} observer(s); {} gap notice(s) sent\n",
+                      s.controller_connected() ? "a controller" : "no controller", s.observers(), s.gap_notices());
+  return text;
 }
 
 int status_command(const Options& o) {
@@ -277,12 +301,32 @@ int status_command(const Options& o) {
 }
 
 int abort_command(const Options& o) {
-  tribo::client::TriboClient client(o.address, session(o, tribo::v1::CONTROLLER));
   tribo::v1::ClientMessage request;
   request.mutable_abort_run()->set_reason(o.value("reason").value_or("aborted from the tribo CLI"));
-  const tribo::v1::AbortRunReply reply = client.request(request).abort_run();
+  tribo::v1::AbortRunReply reply;
+  try {
+    tribo::client::TriboClient client(o.address, session(o, tribo::v1::CONTROLLER));
+    reply = client.request(request).abort_run();
+  } catch (const tribo::client::ClientError& e) {
+    // Another client (e.g. `tribo run` in another terminal) holds control:
+    // present the token as an observer, which the daemon accepts for an abort.
+    if (e.error().code() != tribo::v1::PERMISSION_DENIED) throw;
+    tribo::client::TriboClient client(o.address, session(o, tribo::v1::OBSERVER));
+    reply = client.request(request).abort_run();
+  }
   std::cout << (o.json ? to_json(reply) + "\n" : "aborting run " + reply.run_id() + " (safe unload)\n");
   return kOk;
+}
+
+std::string annotations_text(const tribo::v1::RunAnnotations& a) {
+  std::vector<std::string> parts;
+  if (!a.sample().empty()) parts.push_back("sample=" + a.sample());
+  if (!a.tip().empty()) parts.push_back("tip=" + a.tip());
+  if (!a.operator_name().empty()) parts.push_back("operator=" + a.operator_name());
+  std::map<std::string, std::string> extra(a.extra().begin(), a.extra().end());  // sorted
+  for (const auto& [k, v] : extra) parts.push_back(k + "=" + v);
+  if (!a.note().empty()) parts.push_back("note: " + a.note());
+  return fmt::format("{}", fmt::join(parts, "  "));
 }
 
 int list_command(const Options& o) {
@@ -301,12 +345,12 @@ int list_command(const Options& o) {
     return kOk;
   }
   for (const auto& r : reply.runs()) {
-    char line[512];
-    std::snprintf(line, sizeof line, "%-22s %-10s %9llu samples  %-20s %s\n", r.run_id().c_str(),
-                  r.finalized() ? tribo::v1::ExitStatus_Name(r.exit_status()).c_str() : "INCOMPLETE",
-                  static_cast<unsigned long long>(r.sample_count()), r.start_time_utc().c_str(),
-                  r.protocol_name().c_str());
-    std::cout << line;
+    std::cout << fmt::format("{:<22} {:<10} {:>9} samples  {:<20} {}\n", r.run_id(),
+                             r.finalized() ? tribo::v1::ExitStatus_Name(r.exit_status()) : "INCOMPLETE",
+                             r.sample_count(), r.start_time_utc(), r.protocol_name());
+    if (const std::string notes = annotations_text(r.annotations()); !notes.empty()) {
+      std::cout << "    " << notes << "\n";
+    }
   }
   return kOk;
 }
@@ -321,10 +365,10 @@ tribo::v1::SavedRun saved_run(const tribo::v1::RunMetadata& metadata, const std:
 }
 
 int fetch_command(const Options& o) {
-  if (o.args.size() != 1) return fail(o, "fetch needs one RUN_ID", kUsage);
-  const std::string out = o.value("out").value_or(o.args[0]);
+  const std::string out = o.value("out").value_or(o.positional);
+  if (auto refusal = refuse_overwrite(o, out)) return fail(o, *refusal, kUsage);
   tribo::client::TriboClient client(o.address, session(o, tribo::v1::OBSERVER));
-  const tribo::wire::RecordedRun run = tribo::client::fetch_run(client, o.args[0]);
+  const tribo::wire::RecordedRun run = tribo::client::fetch_run(client, o.positional);
   std::string error;
   if (!tribo::wire::write_run_directory(out, run.metadata, run.samples, error)) return fail(o, error, kFailed);
   const auto saved = saved_run(run.metadata, out, static_cast<std::uint64_t>(tribo::sample_count(run.samples)));
@@ -334,13 +378,31 @@ int fetch_command(const Options& o) {
   return kOk;
 }
 
+int export_hdf5(const Options& o, const std::string& out) {
+  tribo::client::TriboClient client(o.address, session(o, tribo::v1::OBSERVER));
+  const tribo::wire::RecordedRun run = tribo::client::fetch_run(client, o.positional);
+  std::string error;
+  if (!tribo::client::write_run_hdf5(out, run, error)) return fail(o, error, kFailed);
+  const auto saved = saved_run(run.metadata, out, static_cast<std::uint64_t>(tribo::sample_count(run.samples)));
+  std::cout << (o.json ? to_json(saved) + "\n"
+                       : std::to_string(saved.sample_count()) + " samples written to " + out + " (HDF5)\n");
+  return kOk;
+}
+
 int export_command(const Options& o) {
-  if (o.args.size() != 1) return fail(o, "export needs one RUN_ID", kUsage);
   const auto out = o.value("out");
+  const std::string format = o.value("format").value_or("csv");
+  if (out) {
+    if (auto refusal = refuse_overwrite(o, *out)) return fail(o, *refusal, kUsage);
+  }
+  if (format == "hdf5") {
+    if (!out) return fail(o, "export --format hdf5 needs --out FILE.h5", kUsage);
+    return export_hdf5(o, *out);
+  }
   if (o.json && !out) return fail(o, "export --json needs --out FILE (stdout carries the CSV otherwise)", kUsage);
   tribo::client::TriboClient client(o.address, session(o, tribo::v1::OBSERVER));
   tribo::v1::ClientMessage request;
-  request.mutable_get_run()->set_run_id(o.args[0]);
+  request.mutable_get_run()->set_run_id(o.positional);
   const tribo::v1::RunMetadata metadata = client.request(request).get_run().metadata();
   std::ofstream file;
   if (out) {
@@ -348,13 +410,52 @@ int export_command(const Options& o) {
     if (!file) return fail(o, "cannot write " + *out, kFailed);
   }
   std::ostream& stream = out ? static_cast<std::ostream&>(file) : std::cout;
-  const std::uint64_t rows = tribo::client::export_csv(client, o.args[0], stream);
+  const std::uint64_t rows = tribo::client::export_csv(client, o.positional, stream);
   stream.flush();
   if (!stream) return fail(o, "writing the CSV failed", kFailed);
   if (out) {
     const auto saved = saved_run(metadata, *out, rows);
     std::cout << (o.json ? to_json(saved) + "\n" : std::to_string(rows) + " samples written to " + *out + "\n");
   }
+  return kOk;
+}
+
+int check_command(const Options& o) {
+  const auto loaded = load_protocol(o.positional);
+  if (const auto* error = std::get_if<std::string>(&loaded)) return fail(o, *error, kUsage);
+  const auto& protocol = std::get<tribo::v1::Protocol>(loaded);
+  // The daemon's dry run: it validates against its own config and limits and
+  // arms (nothing moves until a start).
+  tribo::client::TriboClient client(o.address, session(o, tribo::v1::CONTROLLER));
+  tribo::v1::ClientMessage load;
+  *load.mutable_load_protocol()->mutable_protocol() = protocol;
+  const tribo::v1::LoadProtocolReply reply = client.request(load).load_protocol();
+  std::string plotted;
+  if (const auto plot = o.value("plot")) {
+    if (auto refusal = refuse_overwrite(o, *plot)) return fail(o, *refusal, kUsage);
+    tribo::v1::DaemonConfig config;
+    const std::string config_path = o.value("config").value_or("config/tribod.textproto");
+    if (auto error = tribo::daemon::load_daemon_config(config_path, config)) {
+      return fail(o, "--plot needs the daemon's config for the loop rate: " + *error + " (give --config FILE)", kUsage);
+    }
+    std::string error;
+    if (!tribo::client::plot_planned_setpoints(protocol, config, *plot, error)) return fail(o, error, kFailed);
+    plotted = *plot;
+  }
+  if (o.json) {
+    std::cout << to_json(reply) << "\n";
+    return kOk;
+  }
+  std::cout << fmt::format("protocol {} is valid: {:.3f} s, {} samples expected\n", reply.protocol_name(),
+                           reply.duration_s(), reply.expected_samples());
+  // The description says what the protocol needs (e.g. a gain change first).
+  if (!protocol.description().empty()) std::cout << "description: " << protocol.description() << "\n";
+  for (const auto& w : tribo::client::collapse_repeated(
+           std::vector<std::string>(reply.warnings().begin(), reply.warnings().end()))) {
+    std::cout << "warning: " << w << "\n";
+  }
+  if (reply.warnings().empty()) std::cout << "no warnings\n";
+  if (!plotted.empty()) std::cout << "planned setpoints plotted to " << plotted << "\n";
   return kOk;
 }
 
@@ -457,13 +558,11 @@ int rearm_command(const Options& o) {
     std::cout << to_json(r) << "\n";
     return kOk;
   }
-  char text[256];
-  std::snprintf(text, sizeof text,
-                "re-armed; setpoints re-synced to the instrument: lateral position %.4f µm, "
-                "normal force %.2f µN, normal displacement %.4f µm (lateral force %.2f µN)\n",
-                r.lateral_position_m() * 1e6, r.normal_force_n() * 1e6, r.normal_displacement_m() * 1e6,
-                r.lateral_force_n() * 1e6);
-  std::cout << text;
+  std::cout << fmt::format(
+      "re-armed; setpoints re-synced to the instrument: lateral position {:.4f} µm, "
+      "normal force {:.2f} µN, normal displacement {:.4f} µm (lateral force {:.2f} µN)\n",
+      r.lateral_position_m() * 1e6, r.normal_force_n() * 1e6, r.normal_displacement_m() * 1e6,
+      r.lateral_force_n() * 1e6);
   return kOk;
 }
 
@@ -481,15 +580,14 @@ int estop_command(const Options& o) {
 }
 
 std::string autotune_text(const tribo::v1::AutotuneReply& r) {
-  char text[512];
-  std::snprintf(text, sizeof text,
-                "relay autotune of lateral-displacement: %u cycles, amplitude %.4f µm\n"
-                "  ultimate gain Ku     %g N/m\n"
-                "  ultimate period Pu   %g s\n"
-                "  proposed (%s), %s:\n",
-                r.cycles(), r.oscillation_amplitude_m() * 1e6, r.ultimate_gain_n_per_m(), r.ultimate_period_s(),
-                r.rule().c_str(), r.applied() ? "applied" : "not applied (--apply applies them)");
-  return text + tribo::client::gains_text(tribo::v1::LOOP_LATERAL_DISPLACEMENT, r.proposed(), "    ");
+  return fmt::format(
+             "relay autotune of lateral-displacement: {} cycles, amplitude {:.4f} µm\n"
+             "  ultimate gain Ku     {:g} N/m\n"
+             "  ultimate period Pu   {:g} s\n"
+             "  proposed ({}), {}:\n",
+             r.cycles(), r.oscillation_amplitude_m() * 1e6, r.ultimate_gain_n_per_m(), r.ultimate_period_s(),
+             r.rule(), r.applied() ? "applied" : "not applied (--apply applies them)") +
+         tribo::client::gains_text(tribo::v1::LOOP_LATERAL_DISPLACEMENT, r.proposed(), "    ");
 }
 
 int autotune_command(const Options& o) {
@@ -510,31 +608,150 @@ int autotune_command(const Options& o) {
   return kOk;
 }
 
+using Command = int (*)(const Options&);
+
+// An option whose text goes into o.values[name]; the command checks it.
+CLI::Option* value_option(CLI::App* app, Options& o, const std::string& name, const std::string& help) {
+  return app->add_option_function<std::string>(
+      "--" + name, [&o, name](const std::string& v) { o.values[name] = v; }, help);
+}
+
+// The command line's grammar: every command with its own options and --help.
+void define_commands(CLI::App& app, Options& o, std::map<CLI::App*, Command>& commands) {
+  app.add_flag("--json", o.json, "print JSON for scripts (protobuf field names; docs/cli.md)");
+  app.add_option("--address", o.address_text,
+                 "tribod's address HOST:PORT (default $TRIBO_ADDRESS or 127.0.0.1:7460)");
+  app.add_option("--token", o.token,
+                 "the daemon's control token for run, check, abort, set-gains, rearm and autotune "
+                 "(default $TRIBO_TOKEN)");
+  auto add = [&](const std::string& name, const std::string& help, Command command) {
+    CLI::App* sub = app.add_subcommand(name, help);
+    commands[sub] = command;
+    return sub;
+  };
+
+  CLI::App* run = add("run",
+                      "load the protocol, run it, stream the samples with a live progress line (on a "
+                      "terminal), print the summary (friction in µN, mu, stiction peak, lag in µm)",
+                      run_command);
+  run->add_option("PROTOCOL", o.positional, "protocol file (protobuf text format)")->required();
+  value_option(run, o, "out", "also save the run to this directory (refused if it exists, unless --force)");
+  value_option(run, o, "seed", "noise seed of the simulated instrument");
+  run->add_flag("--progress,!--no-progress", o.progress, "draw the live progress line (default: on a terminal)");
+  run->add_flag("--force", o.force, "replace an existing --out directory");
+  value_option(run, o, "sample", "the sample, recorded with the run (shown by `tribo list`)");
+  value_option(run, o, "tip", "the tip, recorded with the run");
+  value_option(run, o, "operator", "who ran it, recorded with the run");
+  value_option(run, o, "note", "a free-text note, recorded with the run");
+  run->add_option("--meta", o.meta, "KEY=VALUE recorded with the run (repeatable)");
+  run->footer("Ctrl-C aborts the run (safe unload), prints the summary and exits 130.");
+
+  CLI::App* check = add("check",
+                        "the daemon's dry run of a protocol: validation against its limits and every "
+                        "warning, before anything moves (the protocol stays loaded)",
+                        check_command);
+  check->add_option("PROTOCOL", o.positional, "protocol file (protobuf text format)")->required();
+  value_option(check, o, "plot", "also plot the planned normal and lateral setpoints to this PNG");
+  check->add_flag("--force", o.force, "replace an existing --plot file");
+  value_option(check, o, "config", "the daemon's config, for the plot's loop rate (default config/tribod.textproto)");
+
+  add("status", "the daemon's state, the current run, a safety trip's reason, recording and backend health",
+      status_command);
+  CLI::App* abort = add("abort",
+                        "stop the running protocol (safe unload); works from another terminal while "
+                        "`tribo run` holds control, given the token",
+                        abort_command);
+  value_option(abort, o, "reason", "why (recorded in the run's stop document)");
+  CLI::App* list = add("list", "the recorded runs, newest first, with their sample, tip, operator and notes",
+                       list_command);
+  value_option(list, o, "max", "at most this many runs");
+  CLI::App* fetch = add("fetch", "copy a recorded run (metadata.json, samples.csv) to a directory", fetch_command);
+  fetch->add_option("RUN_ID", o.positional, "the run (see `tribo list`)")->required();
+  value_option(fetch, o, "out", "the directory (default ./RUN_ID; refused if it exists, unless --force)");
+  fetch->add_flag("--force", o.force, "replace an existing directory");
+  CLI::App* exp = add("export", "a recorded run's samples as CSV (as recorded) or HDF5", export_command);
+  exp->add_option("RUN_ID", o.positional, "the run (see `tribo list`)")->required();
+  value_option(exp, o, "out", "the file (CSV default: stdout; refused if it exists, unless --force)");
+  value_option(exp, o, "format", "csv (default) or hdf5 (channels as datasets with units, run documents as groups)")
+      ->check(CLI::IsMember({"csv", "hdf5"}));
+  exp->add_flag("--force", o.force, "replace an existing file");
+
+  CLI::App* gains = add("gains",
+                        "every loop's PID gains, SI units: the output is a drive force in N; kp N/m, ki N/(m s), "
+                        "kd N s/m for the displacement loops, kp N/N, ki 1/s, kd s for the force loops",
+                        gains_command);
+  value_option(gains, o, "loop", "only this loop: " + tribo::client::loop_names());
+  CLI::App* set_gains = add("set-gains",
+                            "change only the given gains of LOOP (SI units, as for gains), also for a running "
+                            "run (bumplessly); prints what the daemon applied",
+                            set_gains_command);
+  value_option(set_gains, o, "loop", "the loop: " + tribo::client::loop_names());
+  for (std::string field : tribo::client::gain_fields()) {
+    std::replace(field.begin(), field.end(), '_', '-');
+    value_option(set_gains, o, field, "new value (SI)");
+  }
+  value_option(set_gains, o, "anti-windup", "anti-windup-none, back-calculation or conditional-integration");
+  add("rearm", "leave FAULTED after a safety trip or an emergency stop", rearm_command);
+  CLI::App* estop = add("estop",
+                        "emergency stop: safe stop sequence, then FAULTED until rearm (any client may; "
+                        "no control needed)",
+                        estop_command);
+  value_option(estop, o, "reason", "why (recorded with the fault)");
+  CLI::App* autotune = add("autotune",
+                           "relay autotune of the lateral displacement loop (not during a run): ultimate gain "
+                           "and period, proposed gains",
+                           autotune_command);
+  value_option(autotune, o, "relay-amplitude-n", "relay amplitude, N");
+  value_option(autotune, o, "hysteresis-m", "relay hysteresis, m");
+  autotune->add_flag("--apply", o.apply, "apply the proposed gains");
+}
+
+bool wants_json(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i) {
+    if (std::string(argv[i]) == "--json") return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc >= 2 && (std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h")) {
-    std::cout << kUsageText;
-    return kOk;
-  }
-  auto parsed = parse_options(argc, argv);
-  if (const auto* error = std::get_if<std::string>(&parsed)) {
-    std::cerr << "tribo: " << *error << "\n" << kUsageText;
-    return kUsage;
-  }
-  const Options& options = std::get<Options>(parsed);
-  const std::map<std::string, int (*)(const Options&)> commands{
-      {"run", run_command},     {"status", status_command},     {"abort", abort_command},
-      {"list", list_command},   {"fetch", fetch_command},       {"export", export_command},
-      {"gains", gains_command}, {"set-gains", set_gains_command}, {"rearm", rearm_command},
-      {"estop", estop_command}, {"autotune", autotune_command}};
-  const auto command = commands.find(options.command);
-  if (command == commands.end()) {
-    std::cerr << "tribo: unknown command " << options.command << "\n" << kUsageText;
-    return kUsage;
-  }
+  CLI::App app{kDescription, "tribo"};
+  app.set_version_flag("--version", std::string("tribo ") + tribo::kSoftwareVersion);
+  app.footer(kExitCodes);
+  app.require_subcommand(1);
+  app.fallthrough();  // --json, --address, --token also after the command
+  Options options;
+  std::map<CLI::App*, Command> commands;
+  define_commands(app, options, commands);
   try {
-    return command->second(options);
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    tribo::v1::Error error;
+    error.set_code(tribo::v1::INVALID_ARGUMENT);
+    error.set_message(std::string(e.what()) + " (see tribo --help)");
+    return fail(wants_json(argc, argv), error, kUsage);
+  }
+  if (!options.address_text.empty()) {
+    const auto address = tribo::client::parse_address(options.address_text);
+    if (!address) {
+      tribo::v1::Error error;
+      error.set_code(tribo::v1::INVALID_ARGUMENT);
+      error.set_message("--address " + options.address_text + " is not HOST:PORT");
+      return fail(options.json, error, kUsage);
+    }
+    options.address = *address;
+  }
+  CLI::App* chosen = app.get_subcommands().front();
+  options.command = chosen->get_name();
+  try {
+    return commands.at(chosen)(options);
   } catch (const tribo::client::ClientError& e) {
     return fail(options, e.error(), exit_code_of(e));
   }

@@ -1,5 +1,5 @@
 // The nominal electrostatic drive of a three-plate capacitive transducer axis
-// (physics.md §2): which plate voltages produce a drive force at the present
+// (dissertation §5.1.1, eqs. 16-19): which plate voltages produce a drive force at the present
 // position, the negative stiffness they add, and how close the plate is to
 // snap-down (pull-in). The supervisor and the validator use it with the
 // config's nominal constants (tribo.v1.TransducerConstants), never with the

@@ -8,11 +8,16 @@
 #include <filesystem>
 #include <cstdio>
 #include <cstdlib>
+#include <memory>
+#include <optional>
 #include <iostream>
 #include <string>
 #include <thread>
+#include <vector>
 
+#include <CLI/CLI.hpp>
 #include <asio.hpp>
+#include <spdlog/sinks/basic_file_sink.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
@@ -24,59 +29,65 @@
 
 namespace {
 
-constexpr const char* kUsage =
-    "usage: tribod [--config FILE] [--port N] [--bind ADDRESS] [--data-dir DIR]\n"
-    "  --config FILE    daemon config, protobuf text format (default config/tribod.textproto)\n"
-    "  --port N         TCP port to listen on; 0 picks a free one (overrides server.port)\n"
-    "  --bind ADDRESS   address to listen on (overrides server.bind_address)\n"
-    "  --data-dir DIR   where runs are recorded (overrides recorder.data_dir)\n"
+constexpr const char* kFooter =
     "The control token comes from $TRIBOD_CONTROL_TOKEN (or the variable named by\n"
     "server.control_token_env), else server.control_token. Binding an address\n"
     "outside 127.0.0.0/8 needs a token. Exit codes: 0 stopped by a signal,\n"
     "1 cannot listen, 2 bad usage, config or bind policy.\n"
-    "On start it prints 'tribod listening on ADDRESS:PORT' on stdout.\n";
+    "On start it prints 'tribod listening on ADDRESS:PORT' on stdout; logs go to\n"
+    "stderr (and --log-file), times in UTC.\n";
 
 struct Options {
   std::string config_path = "config/tribod.textproto";
-  std::optional<unsigned long> port;
+  std::optional<std::uint16_t> port;
   std::optional<std::string> bind;
   std::optional<std::string> data_dir;
+  std::string log_level = "info";
+  std::optional<std::string> log_file;
 };
 
-bool parse_args(int argc, char** argv, Options& o) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    const bool has_value = i + 1 < argc;
-    if (arg == "--help" || arg == "-h") {
-      std::cout << kUsage;
-      std::exit(0);
-    } else if (arg == "--config" && has_value) {
-      o.config_path = argv[++i];
-    } else if (arg == "--port" && has_value) {
-      char* end = nullptr;
-      o.port = std::strtoul(argv[++i], &end, 10);
-      if (*end != '\0' || *o.port > 65535) return false;
-    } else if (arg == "--bind" && has_value) {
-      o.bind = argv[++i];
-    } else if (arg == "--data-dir" && has_value) {
-      o.data_dir = argv[++i];
-    } else {
-      return false;
+// Logs to stderr (and a file), UTC times with their zone, at the given level.
+std::optional<std::string> set_up_logging(const Options& o) {
+  std::vector<spdlog::sink_ptr> sinks{std::make_shared<spdlog::sinks::stderr_color_sink_mt>()};
+  if (o.log_file) {
+    try {
+      sinks.push_back(std::make_shared<spdlog::sinks::basic_file_sink_mt>(*o.log_file));
+    } catch (const spdlog::spdlog_ex& e) {
+      return "--log-file " + *o.log_file + ": " + e.what();
     }
   }
-  return true;
+  auto logger = std::make_shared<spdlog::logger>("tribod", sinks.begin(), sinks.end());
+  logger->set_level(spdlog::level::from_str(o.log_level));
+  spdlog::set_default_logger(logger);
+  spdlog::set_pattern("[%Y-%m-%dT%H:%M:%S.%eZ] [%n] [%l] %v", spdlog::pattern_time_type::utc);
+  return std::nullopt;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  // Logs go to stderr; stdout carries only the "listening" line.
-  spdlog::set_default_logger(spdlog::stderr_color_mt("tribod"));
   std::signal(SIGPIPE, SIG_IGN);  // a vanished reader must not kill the daemon
-  spdlog::set_pattern("[%Y-%m-%dT%H:%M:%S.%e] [%n] [%l] %v");
   Options options;
-  if (!parse_args(argc, argv, options)) {
-    std::cerr << kUsage;
+  CLI::App app{"tribod: the tribo daemon; serves the socket API and runs protocols", "tribod"};
+  app.set_version_flag("--version", std::string("tribod ") + tribo::kSoftwareVersion);
+  app.footer(kFooter);
+  app.add_option("--config", options.config_path, "daemon config, protobuf text format")->capture_default_str();
+  app.add_option("--port", options.port, "TCP port to listen on; 0 picks a free one (overrides server.port)");
+  app.add_option("--bind", options.bind, "address to listen on (overrides server.bind_address)");
+  app.add_option("--data-dir", options.data_dir, "where runs are recorded (overrides recorder.data_dir)");
+  app.add_option("--log-level", options.log_level, "trace, debug, info, warn, error, critical or off")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}))
+      ->capture_default_str();
+  app.add_option("--log-file", options.log_file, "also write the log to this file (appended)");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : 2;
+  }
+  // Logs go to stderr; stdout carries only the "listening" line.
+  if (auto error = set_up_logging(options)) {
+    std::cerr << "tribod: " << *error << "\n";
     return 2;
   }
   tribo::v1::DaemonConfig config;

@@ -1,6 +1,6 @@
 // tribo-bench: the simulated instrument behind the Modbus register map, for
 // hardware-in-the-loop runs of tribod without hardware and for the tests of
-// the Modbus backend. README.md "The bench emulator" says how to use it.
+// the Modbus backend. docs/modbus.md ("The bench emulator") says how to use it.
 #include <atomic>
 #include <csignal>
 #include <cstdio>
@@ -10,20 +10,16 @@
 #include <optional>
 #include <string>
 
+#include <CLI/CLI.hpp>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include "emulator/bench_config.h"
 #include "emulator/bench_server.h"
+#include "tribo/version.h"
 
 namespace {
 
-constexpr const char* kUsage =
-    "usage: tribo-bench [--config FILE] [--port N] [--bind ADDRESS]\n"
-    "  --config FILE    tribo.v1.BenchConfig, protobuf text format (default config/tribo-bench.textproto)\n"
-    "  --port N         Modbus TCP port; 0 picks a free one (overrides port)\n"
-    "  --bind ADDRESS   address to listen on (overrides bind_address)\n"
-    "On start it prints 'tribo-bench listening on ADDRESS:PORT' (or the RTU device) on stdout.\n";
 
 std::atomic<bool> g_stop{false};
 
@@ -33,31 +29,21 @@ extern "C" void on_signal(int) { g_stop.store(true); }
 
 int main(int argc, char** argv) {
   spdlog::set_default_logger(spdlog::stderr_color_mt("tribo-bench"));
-  spdlog::set_pattern("[%Y-%m-%dT%H:%M:%S.%e] [%n] [%l] %v");
+  spdlog::set_pattern("[%Y-%m-%dT%H:%M:%S.%eZ] [%n] [%l] %v", spdlog::pattern_time_type::utc);
   std::string config_path = "config/tribo-bench.textproto";
-  std::optional<unsigned long> port;
+  std::optional<std::uint16_t> port;
   std::optional<std::string> bind;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    const bool has_value = i + 1 < argc;
-    if (arg == "--help" || arg == "-h") {
-      std::cout << kUsage;
-      return 0;
-    } else if (arg == "--config" && has_value) {
-      config_path = argv[++i];
-    } else if (arg == "--port" && has_value) {
-      char* end = nullptr;
-      port = std::strtoul(argv[++i], &end, 10);
-      if (*end != '\0' || *port > 65535) {
-        std::cerr << kUsage;
-        return 2;
-      }
-    } else if (arg == "--bind" && has_value) {
-      bind = argv[++i];
-    } else {
-      std::cerr << kUsage;
-      return 2;
-    }
+  CLI::App app{"tribo-bench: the simulated instrument behind the Modbus register map", "tribo-bench"};
+  app.set_version_flag("--version", std::string("tribo-bench ") + tribo::kSoftwareVersion);
+  app.footer("On start it prints 'tribo-bench listening on ADDRESS:PORT' (or the RTU device) on stdout.");
+  app.add_option("--config", config_path, "tribo.v1.BenchConfig, protobuf text format")->capture_default_str();
+  app.add_option("--port", port, "Modbus TCP port; 0 picks a free one (overrides port)");
+  app.add_option("--bind", bind, "address to listen on (overrides bind_address)");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : 2;
   }
   tribo::bench::BenchSetup setup;
   if (auto error = tribo::bench::load_bench_setup(config_path, setup)) {

@@ -96,7 +96,7 @@ double sensor_volts(const SensorChannelMap& channel, double si);
 double sensor_si(const SensorChannelMap& channel, double volts);
 
 // The quantisation step the register adds at an SI value (metres or newtons
-// per count): part of the quantisation budget in README.md.
+// per count): part of the quantisation budget in docs/modbus.md.
 double sensor_resolution(const SensorChannelMap& channel, double si);
 
 }  // namespace tribo::hal

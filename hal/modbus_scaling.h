@@ -1,5 +1,5 @@
 // The numbers of the Modbus register map: registers <-> counts, counts <->
-// volts, and the transducer physics between volts and SI (physics.md §2, §3).
+// volts, and the transducer physics between volts and SI (dissertation §5.1.1-5.1.2, eqs. 16-25).
 // Pure functions shared by the backend (hal/modbus_transducer.h) and the
 // emulator (emulator/), so both sides of the map use one implementation.
 #pragma once
@@ -35,7 +35,7 @@ void uint32_to_registers(std::uint32_t value, bool low_word_first, std::uint16_t
 std::uint64_t uint64_from_registers(const std::uint16_t* regs, bool low_word_first);
 void uint64_to_registers(std::uint64_t value, bool low_word_first, std::uint16_t* regs);
 
-// Differential capacitive sensor, physics.md §3:
+// Differential capacitive sensor, dissertation §5.1.2, eqs. 22-25:
 //   dC = 2 eps A x / (d^2 - x^2),  dV = (V0 / Cf) dC.
 struct CapacitiveSensorParams {
   double permittivity_f_per_m = 0;
@@ -50,7 +50,7 @@ double capacitive_sense_voltage(const CapacitiveSensorParams& p, double position
 // dC x^2 + 2 eps A x - dC d^2 = 0 with |x| < d, written without cancellation.
 double capacitive_position(const CapacitiveSensorParams& p, double sense_voltage_v);
 
-// Electrostatic actuator, physics.md §2: F = eps A V^2 / (2 g^2), pulling
+// Electrostatic actuator, dissertation §5.1.1, eqs. 16-19: F = eps A V^2 / (2 g^2), pulling
 // towards the plate on the force's side (g = d - x for F > 0, d + x for F < 0).
 // The sign of V selects the plate.
 struct ElectrostaticParams {

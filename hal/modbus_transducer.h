@@ -2,7 +2,7 @@
 // Each tick reads the sensor block in one transaction and writes the drive
 // block in one; wait_next_tick() sleeps to the next absolute deadline.
 //
-// Lock-step handshake (README.md "The Modbus backend"): the sensor block
+// Lock-step handshake (docs/modbus.md): the sensor block
 // carries the instrument's sample sequence number, the drive block the
 // sequence it answers plus one. A frame is used only if its sequence is newer
 // than the last one used, so a missed step, a late or replayed answer is never

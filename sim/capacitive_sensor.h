@@ -1,4 +1,4 @@
-// Differential capacitive sensing of the lateral position (physics.md §3,
+// Differential capacitive sensing of the lateral position (Srivastava 2006,
 // dissertation §5.1.2, eqs. 22-25):
 //
 //   C+ = eps0 A / (d+ - x),  C- = eps0 A / (d- + x)

@@ -1,4 +1,4 @@
-// The lateral axis's electrostatic drive (physics.md §2, dissertation §3.2.5,
+// The lateral axis's electrostatic drive (dissertation §3.2.5,
 // §5.1.1). The controller commands a force in newtons; the drive electronics
 // turn it into plate voltages with their calibration, and the plates pull
 // with the true law, which the plant feels at its true position:

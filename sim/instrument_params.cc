@@ -166,7 +166,7 @@ std::optional<std::string> validate_lateral(const v1::LateralTransducerParams& l
     return e;
   }
   // The biased plates alone must leave the centre plate stable at rest:
-  // k - eps0 A Vb^2 (1/d+^3 + 1/d-^3) > 0 (physics.md §2).
+  // k - eps0 A Vb^2 (1/d+^3 + 1/d-^3) > 0 (dissertation §5.1.1, eqs. 16-19).
   const PlateGeometry g{l.plate_area_m2(), l.gap_positive_m(), l.gap_negative_m()};
   const double k_bias = electrostatic_stiffness_n_per_m(g, {d.bias_voltage_v(), d.bias_voltage_v()}, 0.0);
   if (!(k_bias < l.spring_stiffness_n_per_m())) {

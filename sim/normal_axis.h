@@ -1,5 +1,5 @@
-// Normal (Z) axis, open loop and quasi-static (dissertation §5.4, physics.md
-// §1, §7). The controller commands a force; the electronics turn it into a
+// Normal (Z) axis, open loop and quasi-static (dissertation §5.4,
+// §3, §4.4). The controller commands a force; the electronics turn it into a
 // plate voltage with their calibration at the measured plate displacement,
 // and the plate pulls with the true law at the true displacement:
 //

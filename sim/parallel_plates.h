@@ -1,4 +1,4 @@
-// The three-plate capacitor of a Hysitron transducer axis (physics.md §2-3):
+// The three-plate capacitor of a Hysitron transducer axis (dissertation §5.1.1-5.1.2):
 // the centre plate at x sits between a "+" plate at gap gap_positive - x and a
 // "-" plate at gap gap_negative + x. The same plates drive (electrostatic
 // attraction) and sense (differential capacitance).

@@ -1,5 +1,5 @@
 // The diagnosis on runs of tribo's simulated instrument (sim/, the effects of
-// README "Simulated instrument physics"): the identification protocol
+// docs/physics_and_sources.md): the identification protocol
 // (config/protocols/identification.textproto) in the closed loop, one effect
 // switched on in the sim config and not declared to the analysis. The
 // diagnosis must name that effect first and lower the held-out error; a clean
@@ -119,7 +119,7 @@ ConfigEdit dwell_stiction() {
   };
 }
 
-// Each at the config's documented strength (README "Simulated instrument
+// Each at the config's documented strength (docs/physics_and_sources.md "Simulated instrument
 // physics"): lag 5 ms (Hess and Soom), log-velocity coefficient 0.002 per
 // e-fold above 0.1 um/s (Fig. 4.17: +9 % of mu over 0.4-40 um/s), friction
 // ~ N^(2/3) (Hertz area), 10 % over 0.5 um, 5 % direction asymmetry, tilt

@@ -5,7 +5,7 @@
 // analysis's own candidate models (its own integrator and effect forms).
 // tests/analysis/diagnosis_sim_test.cc runs the same checks on tribo's
 // simulated instrument; kept until every effect is identified there (three
-// of ten so far, README "Simulated tests").
+// of ten so far, docs/identification.md "Simulated tests").
 #include <cmath>
 #include <optional>
 

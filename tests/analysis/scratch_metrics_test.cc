@@ -9,7 +9,7 @@
 namespace tribo::analysis {
 namespace {
 
-// Table 5.1 (physics.md §5): load, v0 (µm/s), ts (s), ds (µm), Fs (µN), mki, dl (µm), mk.
+// Table 5.1 of the dissertation (§5.3): load, v0 (µm/s), ts (s), ds (µm), Fs (µN), mki, dl (µm), mk.
 struct Row {
   double v0, ts, ds, fs, mki, dl, mk;
 };

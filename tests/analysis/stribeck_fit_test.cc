@@ -8,7 +8,7 @@
 namespace tribo::analysis {
 namespace {
 
-// Table 6.2 (physics.md §4), 5 N: mu = p1 + p2 exp(-p3 x) + p4 x against the Gumbel number.
+// Table 6.2 of the dissertation, 5 N: mu = p1 + p2 exp(-p3 x) + p4 x against the Gumbel number.
 constexpr double kP1 = 0.0159, kP2 = 0.0937, kP3 = 3.07e5, kP4 = 388.9;
 
 std::vector<CurvePoint> eq44_points(unsigned seed, bool outliers) {
@@ -47,7 +47,7 @@ TEST(StribeckFit, Eq44DownweightsEndOutliersInsteadOfDroppingThem) {
 }
 
 TEST(StribeckFit, LugreSteadyStateRecoversStribeckVelocityAndOffset) {
-  // physics.md §4 steady state with the dissertation's exponential shape.
+  // LuGre steady state (dissertation §2, eqs. 9-13) with its exponential shape.
   const double fc = 100e-6, fs = 143e-6, vs = 1.2e-6, fv = 0.5, offset = 3e-6;
   std::mt19937 rng(3);
   std::normal_distribution<double> noise(0.0, 0.5e-6);

@@ -13,7 +13,7 @@ using testing::mean_between;
 using testing::parse_protocol;
 using testing::run_in_loop;
 
-// Open loop, the normal springs absorb part of the command (physics.md §1);
+// Open loop, the normal springs absorb part of the command (dissertation §3);
 // closed loop holds the measured contact force itself.
 TEST(Controller, ClosedLoopNormalForceHoldsTheLoadThatOpenLoopMisses) {
   const v1::DaemonConfig config = tribo::testing::default_config();

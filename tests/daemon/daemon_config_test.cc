@@ -11,7 +11,7 @@ TEST(DaemonConfig, TheShippedConfigIsValid) {
   EXPECT_FALSE(validate_daemon_config(tribo::testing::default_config()));
 }
 
-// physics.md §2: a 600 V bias on both plates of A = 1 cm^2 at 85 µm adds
+// Dissertation §5.1.1 (eqs. 16-19): a 600 V bias on both plates of A = 1 cm^2 at 85 µm adds
 // 2 x 519 N/m of negative stiffness against the 100 N/m spring.
 TEST(DaemonConfig, ABiasThatWouldSnapThePlateDownAtRestIsRejected) {
   v1::DaemonConfig c = tribo::testing::default_config();

@@ -74,7 +74,7 @@ TEST(TribodEndToEnd, StandardScratchGivesTheModelsSteadyFriction) {
 
   // Steady part of the scratch (second half, 16..24 s): mean friction against
   // F_ss = Fc + (Fs - Fc) exp(-v/vs) + s2 v at the measured normal load
-  // (physics.md §4), plus the transducer damping c v that the lateral force
+  // (dissertation §2, eqs. 9-13), plus the transducer damping c v that the lateral force
   // channel also carries, minus the tip tilt's N tan(theta) (§5.2: it pushes
   // the tip towards +x, the direction of this scratch).
   const v1::DaemonConfig config = testing::default_config();

@@ -193,7 +193,7 @@ void PrintTo(const FaultCase& c, std::ostream* os) { *os << c.name; }
 class ModbusFault : public ::testing::TestWithParam<FaultCase> {};
 
 // Each fault trips the safety supervisor at the failed transaction, and the
-// run ends in the documented safe sequence (README "Control and safety",
+// run ends in the documented safe sequence (docs/control.md,
 // daemon/stop_sequence.h): the normal drive ramps to zero at the unload rate
 // while the lateral axis holds its setpoint, then the lateral axis retracts
 // to the neutral point; FAULT with the trip and the backend's cause as the

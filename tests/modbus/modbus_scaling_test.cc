@@ -1,5 +1,5 @@
 // The numbers of the register map: register formats, the capacitive sensor's
-// linearisation and the electrostatic drive (physics.md §2, §3), the checksum.
+// linearisation and the electrostatic drive (dissertation §5.1.1-5.1.2), the checksum.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -10,7 +10,7 @@
 namespace tribo::hal {
 namespace {
 
-// physics.md §5.1.1: d = 85 µm, A = 1 cm^2; V0 / Cf = 2.5 V / 1 pF.
+// Dissertation §5.1.1: d = 85 µm, A = 1 cm^2; V0 / Cf = 2.5 V / 1 pF.
 const CapacitiveSensorParams kSensor{8.854e-12, 1e-4, 85e-6, 2.5, 1e-12};
 const ElectrostaticParams kActuator{8.854e-12, 1e-4, 85e-6};
 
@@ -57,7 +57,7 @@ TEST(ElectrostaticDrive, ForceIsPhysicsEquationAndVoltageInvertsIt) {
       EXPECT_NEAR(electrostatic_force(kActuator, v, x), f, 1e-15 + 1e-13 * std::fabs(f)) << f << " " << x;
     }
   }
-  // physics.md §2: 1 mN at x = 0 takes about 128 V; a closer plate needs less.
+  // Dissertation §5.1.1 (eqs. 16-19): 1 mN at x = 0 takes about 128 V; a closer plate needs less.
   EXPECT_NEAR(electrostatic_voltage(kActuator, 1e-3, 0), 127.8, 0.1);
   EXPECT_LT(electrostatic_voltage(kActuator, 1e-3, 10e-6), electrostatic_voltage(kActuator, 1e-3, 0));
 }

@@ -185,7 +185,7 @@ TEST(RegisterMapBlocks, DriveRoundTripsAsForceSetpoints) {
 }
 
 // The map can also describe an instrument whose drive register is the
-// voltage of the pulling plate of an unbiased drive (physics.md §2): then
+// voltage of the pulling plate of an unbiased drive (dissertation §5.1.1): then
 // the backend solves the law at its measured position, the plate feels it at
 // the true one, and a position error dx changes the force by 2 dx / gap.
 TEST(RegisterMapBlocks, AnElectrostaticDriveChannelRoundTripsThroughThePlateLaw) {

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Reads tribo-bench with pymodbus, a Modbus client not written here, using
-only the register map as README.md documents it ("The Modbus backend"), and
+only the register map as docs/modbus.md documents it, and
 prints what it finds as JSON for tests/modbus/third_party_client_test.cc.
 
 usage: third_party_client.py PORT
@@ -16,7 +16,7 @@ from pymodbus.utilities import computeCRC
 UNIT = 1
 VOLTS_PER_COUNT = 10.24 / 2**31          # sensor ADC and drive DAC: 32-bit counts over +-10.24 V
 LATERAL_DRIVE_N_PER_V = 1e-3             # the drive block carries force setpoints: 1 mN/V lateral
-EPS, AREA, GAP = 8.854e-12, 1e-4, 85e-6  # physics.md §2-3, §5.1.1
+EPS, AREA, GAP = 8.854e-12, 1e-4, 85e-6  # dissertation §5.1.1-5.1.2
 
 
 def int32(hi, lo):

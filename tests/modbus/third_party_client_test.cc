@@ -1,4 +1,4 @@
-// Clients not written here read tribo-bench's registers as README.md documents
+// Clients not written here read tribo-bench's registers as docs/modbus.md documents
 // the map: Debian's python3-pymodbus (tests/modbus/third_party_client.py,
 // which decodes the values with its own implementation of the documented
 // scaling and pymodbus's CRC) and mbpoll.

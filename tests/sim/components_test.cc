@@ -79,7 +79,7 @@ TEST(ElectrostaticDrive, HandoverLeavesOnlyTheBiasForTheHandoverTimeAtEveryLoopR
   }
 }
 
-// physics.md §2: one plate at voltage V, no contact. The plate is stable while
+// Dissertation §5.1.1 (eqs. 16-19): one plate at voltage V, no contact. The plate is stable while
 // k - eps0 A V^2 / (d - x)^3 > 0, which fails at x = d/3, reached at
 // V_pi = sqrt(8 k d^3 / (27 eps0 A)). Ramping V slowly, the plate follows the
 // static equilibrium x (d - x)^2 = eps0 A V^2 / (2 k) and snaps onto its stop

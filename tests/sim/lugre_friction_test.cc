@@ -14,7 +14,7 @@ namespace {
 
 using testing::default_config;
 
-// physics.md §4, written out here independently of sim/: the dissertation's
+// Dissertation §2 (eqs. 9-13), written out here independently of sim/: the dissertation's
 // modified LuGre in steady sliding, F = Fc + (Fs - Fc) exp(-|v|/vs) + s2 v.
 double stribeck_formula_n(const v1::FrictionParams& f, double load_n, double v) {
   const double fs = f.static_coeff() * load_n;

@@ -1,9 +1,9 @@
-// The dissertation's observations (physics.md §5-7) reproduced by the
+// The dissertation's observations (§3.3.1, §4.4, §5.3) reproduced by the
 // simulated instrument with its default config -- sensor noise, tilt,
 // electrostatic drive and all -- through the controller, as an experiment
 // would see them. Each test states its tolerance and why. Where the physics
 // does not reproduce an observation the test prints the numbers and asserts
-// only what holds; README.md ("Simulated instrument physics") lists those.
+// only what holds; docs/physics_and_sources.md lists those.
 #include <gtest/gtest.h>
 
 #include <algorithm>
