@@ -824,7 +824,8 @@ Signature rate_state(const Context& c) {
   std::vector<Step> steps;
   double longest = 0;
   for (const Pass& p : c.m.passes) {
-    if (!c.pass_in_fit(p)) continue;
+    // Steps anywhere (a single velocity-step record is one pass split into
+    // time chunks); only fit samples enter the regression below.
     const std::size_t count = p.last - p.first + 1;
     const std::size_t chunk = std::max<std::size_t>(10, count / 40);
     if (count < 4 * chunk) continue;
@@ -896,7 +897,9 @@ Signature rate_state(const Context& c) {
   double mean_log_ratio = 0;
   for (const Step& st : steps) mean_log_ratio += std::fabs(st.log_ratio);
   mean_log_ratio /= static_cast<double>(steps.size());
-  sig.strength = best_t / kScreenT;
+  // A speed step within sliding is rare and specific (a velocity-step
+  // test): the extension is always fitted there, and the held-out test decides.
+  sig.strength = std::max(best_t / kScreenT, 1.0);
   const double a0 = best_coef > 0 ? best_coef / std::max(mean_log_ratio, 1e-3) : 1e-3 * c.in.data.mu_scale;
   sig.initial_values = {a0, a0, best_d > 0 ? best_d : 1e-5};
   sig.plot = binned(best_x, best_y, 40, "slip since the speed step (m)", "direction-signed residual / level factor");
