@@ -7,7 +7,8 @@ accepted, the unexplained residual, and whether the 95 % intervals of the
 base parameters (value +- 1.96 std_error) cover the truth. Files for which
 the model form matches the truth (clean files) enter the coverage count.
 
-usage: score_tribo_fit.py TRIBO_FIT OUT_DIR [--effects a,b] [--seeds 1,2,3] [--jobs 2] [--extra "ARGS"]
+usage: score_tribo_fit.py TRIBO_FIT OUT_DIR [--effects a,b] [--seeds 1,2,3] [--jobs 2] [--extra "ARGS"] [--reuse]
+(--reuse: take reports already in OUT_DIR instead of running again)
 """
 import concurrent.futures as cf
 import json
@@ -23,7 +24,10 @@ VOCABULARY = ["dwell_stiction", "frictional_lag", "velocity_strengthening", "loa
               "presliding_hysteresis", "backlash", "rate_state"]
 
 
-def run_one(tribo_fit, out_dir, effect, seed, extra):
+def run_one(tribo_fit, out_dir, effect, seed, extra, reuse=False):
+    stem = os.path.join(out_dir, f"{effect}_seed{seed}")
+    if reuse and os.path.exists(stem + ".report.json"):
+        return effect, seed, json.load(open(stem + ".json")), json.load(open(stem + ".report.json")), ""
     csv = transducer_sim.write(out_dir, effect, seed)
     truth = json.load(open(csv[:-4] + ".json"))
     cmd = [tribo_fit, "diagnose", csv, "--time", "t_s", "--position", "x_m", "--force", "force_N",
@@ -59,6 +63,9 @@ def coverage(report, truth):
 def main():
     args = sys.argv[1:]
     opts = {"--effects": ",".join(transducer_sim.EFFECTS), "--seeds": "3,17,41", "--jobs": "2", "--extra": ""}
+    reuse = "--reuse" in args
+    if reuse:
+        args.remove("--reuse")
     for k in list(opts):
         if k in args:
             i = args.index(k)
@@ -72,7 +79,7 @@ def main():
     with cf.ThreadPoolExecutor(int(opts["--jobs"])) as pool:
         for e in effects:
             for s in seeds:
-                jobs.append(pool.submit(run_one, tribo_fit, out_dir, e, s, extra))
+                jobs.append(pool.submit(run_one, tribo_fit, out_dir, e, s, extra, reuse))
     right_first = {e: 0 for e in effects}
     cov_ok = cov_n = 0
     for job in jobs:
