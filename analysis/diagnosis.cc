@@ -259,7 +259,15 @@ std::string out_of_bounds(const ModelData& data, const FitResult& fit, Effect ef
     case Effect::kDirectionAsymmetry: {
       const double a = p.value("asym_levels"), b = p.value("asym_viscous");
       if (std::fabs(a) >= 0.9) return fmt("fitted asym_levels %.3g: a level near zero in one direction is past the physical bound", a);
-      if (std::fabs(b) >= 1) return fmt("fitted asym_viscous %.3g: a negative viscous term in one direction", b);
+      // A negative viscous term in one direction is impossible, but with a
+      // small Fv the product carries no force: judged like the base model's
+      // Fv, against 5 % of the level at the median speed.
+      const double fv = p.value("Fv"), level = (mu ? p.value("mu_c") * data.normal_ref : p.value("Fc"));
+      const double worst = std::min(fv * (1 + b), fv * (1 - b)) * data.speed_ref;
+      if (worst < 0 && -worst > 0.05 * level) {
+        return fmt("fitted asym_viscous %.3g makes the viscous force negative in one direction (%.3g at the median speed, level %.3g)", b,
+                   worst, level);
+      }
       return {};
     }
     case Effect::kTiltOffset: {
