@@ -41,9 +41,10 @@ diagnose fits the LuGre friction model to a measured run (driven by the measured
 motion), traces what it gets wrong to an effect of the vocabulary
   dwell_stiction frictional_lag velocity_strengthening load_dependence
   position_periodic direction_asymmetry tilt_offset drift presliding_hysteresis
-  backlash
-adds an effect only if it clearly lowers the error on held-out passes, and
-reports the error before and after.
+  backlash rate_state
+adds an effect only if it clearly lowers the error on held-out passes and its
+fitted values lie within physical bounds, and reports the error before and
+after (every warning, and the final model, in the text report as in the JSON).
 INPUT is a CSV file with a header line (name the columns), or a tribo run
 directory (samples.csv + metadata.json; its columns are known). All columns
 are in SI units. Without --velocity the motion (velocity, acceleration) is
