@@ -44,7 +44,7 @@ Current evaluate(const ModelData& data, FitResult fit) {
 
 bool is_scale_parameter(const ParamSpec& s) {
   return s.transform == Transform::kLog && (s.name == "lag_time" || s.name == "dwell_time" || s.name == "dwell_memory" ||
-                                          s.name == "backlash_gap");
+                                          s.name == "backlash_gap" || s.name == "rs_dc");
 }
 
 // The extension switched on at the signature's initial values, with its
@@ -107,14 +107,32 @@ std::vector<std::string> coupled_base_parameters(Effect effect) {
     case Effect::kLoadDependence: return {"mu_c", "mu_s", "offset"};
     case Effect::kPreslidingHysteresis: return {"sigma0", "sigma1", "offset"};
     case Effect::kBacklash: return {"sigma0", "offset"};
+    case Effect::kRateState: return {"Fc", "mu_c", "Fs", "mu_s", "vs", "Fv", "offset"};
     default: return {"offset"};
   }
 }
 
 // Fits the extension: its own parameters first (base fixed; a few starts for
 // time/length scales), then everything together from the best start.
+FitResult fit_extension_once(const ModelData& data, const ModelParams& current, Effect effect, const Signature& sig,
+                             const std::vector<char>& in_fit, const DiagnosisOptions& options);
+
+// rate_state is fitted with both evolution laws (Dieterich's ageing law,
+// Ruina's slip law); the data choose the one with the lower fit error (same
+// parameter count).
 FitResult fit_extension(const ModelData& data, const ModelParams& current, Effect effect, const Signature& sig,
                         const std::vector<char>& in_fit, const DiagnosisOptions& options) {
+  if (effect != Effect::kRateState) return fit_extension_once(data, current, effect, sig, in_fit, options);
+  ModelParams ageing = current, slip = current;
+  ageing.structure.rate_state_slip_law = false;
+  slip.structure.rate_state_slip_law = true;
+  FitResult a = fit_extension_once(data, ageing, effect, sig, in_fit, options);
+  FitResult b = fit_extension_once(data, slip, effect, sig, in_fit, options);
+  return b.rss < a.rss ? b : a;
+}
+
+FitResult fit_extension_once(const ModelData& data, const ModelParams& current, Effect effect, const Signature& sig,
+                             const std::vector<char>& in_fit, const DiagnosisOptions& options) {
   const ModelParams start = extended_start(data, current, effect, sig);
   ModelParams own = start;
   const std::vector<std::string> coupled = coupled_base_parameters(effect);
@@ -160,28 +178,157 @@ std::vector<ParamEstimate> parameters_of(const FitResult& fit, Effect effect) {
   return out;
 }
 
+// The smallest length these data resolve: the position's resolution or its
+// noise floor, whichever is larger (never zero).
+double resolved_length_m(const MeasuredSeries& s) {
+  return std::max({s.position_resolution_m, s.position_noise_m, 1e-15});
+}
+
+double median_sample_interval_s(const MeasuredSeries& s) {
+  std::vector<double> dt;
+  for (std::size_t i = 1; i < s.size(); ++i) dt.push_back(s.time_s[i] - s.time_s[i - 1]);
+  if (dt.empty()) return 0;
+  std::nth_element(dt.begin(), dt.begin() + static_cast<std::ptrdiff_t>(dt.size() / 2), dt.end());
+  return dt[dt.size() / 2];
+}
+
+double longest_pass_m(const MeasuredSeries& s, const MotionSegmentation& m) {
+  double longest = 0;
+  for (const Pass& p : m.passes) longest = std::max(longest, std::fabs(s.position_m[p.last] - s.position_m[p.first]));
+  return longest;
+}
+
+}  // namespace
+
 // Why a fitted extension is not the physical effect it is named after, or
-// empty. Dwell stiction is contact ageing: static friction grows with rest,
-// and the age relaxes over a slip distance. A negative dwell_dFs is some
-// onset transient the extension's shape happens to fit (on clean sim runs:
-// -0.026 with a 28 nm memory), and a memory within the presliding
+// empty: each parameter against its physical bounds and against what the
+// data can resolve (a fit at or past a bound is a rejection, with the
+// reason). Dwell stiction is contact ageing: static friction grows with
+// rest, and the age relaxes over a slip distance. A negative dwell_dFs is
+// some onset transient the extension's shape happens to fit (on clean sim
+// runs: -0.026 with a 28 nm memory), and a memory within the presliding
 // deflection (Fs / sigma0 at the median load) cannot be told from the
 // bristle the base model already has (on the presliding-hysteresis run:
 // +0.072 with 42 nm against a deflection of 126 nm).
-std::string unphysical(const ModelData& data, const FitResult& fit, Effect effect) {
-  if (effect != Effect::kDwellStiction) return {};
+std::string out_of_bounds(const ModelData& data, const FitResult& fit, Effect effect) {
   const ModelParams& p = fit.params;
-  const double dfs = p.value("dwell_dFs"), memory = p.value("dwell_memory");
-  if (dfs <= 0) return fmt("fitted dwell_dFs %.3g <= 0: friction falls with rest, the opposite of contact ageing", dfs);
-  const bool mu = p.structure.load_scaled && data.series.has_normal();
-  const double static_level = mu ? p.value("mu_s") * data.normal_ref : p.value("Fs");
-  const double presliding_m = static_level / p.value("sigma0");
-  if (memory < presliding_m) {
-    return fmt("fitted dwell_memory %.3g m is within the presliding deflection (%.3g m): not told from the bristle", memory,
-               presliding_m);
+  const MeasuredSeries& s = data.series;
+  const double resolved = resolved_length_m(s);
+  const double dt = median_sample_interval_s(s);
+  const double longest = longest_pass_m(s, data.motion);
+  const double duration = s.time_s.back() - s.time_s.front();
+  const bool mu = p.structure.load_scaled && s.has_normal();
+  const double static_level = mu ? p.value("mu_s") : p.value("Fs");
+  switch (effect) {
+    case Effect::kDwellStiction: {
+      const double dfs = p.value("dwell_dFs"), memory = p.value("dwell_memory"), tau = p.value("dwell_time");
+      if (dfs <= 0) return fmt("fitted dwell_dFs %.3g <= 0: friction falls with rest, the opposite of contact ageing", dfs);
+      if (dfs > 2 * static_level) return fmt("fitted dwell_dFs %.3g is more than twice the static level %.3g: past the physical bound", dfs, static_level);
+      const double presliding_m = (mu ? static_level * data.normal_ref : static_level) / p.value("sigma0");
+      if (memory < presliding_m) {
+        return fmt("fitted dwell_memory %.3g m is within the presliding deflection (%.3g m): not told from the bristle", memory,
+                   presliding_m);
+      }
+      if (memory < 2 * resolved) return fmt("fitted dwell_memory %.3g m is below twice the resolved length %.3g m", memory, resolved);
+      if (tau < dt || tau > duration) return fmt("fitted dwell_time %.3g s outside [one sample interval %.3g s, the record %.3g s]", tau, dt, duration);
+      return {};
+    }
+    case Effect::kFrictionalLag: {
+      const double lag = p.value("lag_time");
+      if (lag < dt) return fmt("fitted lag_time %.3g s is below one sample interval (%.3g s): not resolved by these data", lag, dt);
+      if (lag > 1.0) return fmt("fitted lag_time %.3g s is above 1 s: past the physical bound (frictional lag is milliseconds)", lag);
+      return {};
+    }
+    case Effect::kVelocityStrengthening: {
+      const double c = p.value("log_velocity_coeff");
+      if (c <= 0) return fmt("fitted log_velocity_coeff %.3g <= 0: friction weakening with speed, not strengthening", c);
+      if (c > 0.5 * static_level) return fmt("fitted log_velocity_coeff %.3g is more than half the static level %.3g per e-fold: past the physical bound", c, static_level);
+      return {};
+    }
+    case Effect::kLoadDependence: {
+      const double k = p.value("load_exponent");
+      if (std::fabs(k) >= 1) return fmt("fitted load_exponent %.3g: friction falling with load or growing faster than N^2 is past the physical bound", k);
+      return {};
+    }
+    case Effect::kPositionPeriodic: {
+      const double length = p.value("periodic_length");
+      if (length < 4 * resolved) return fmt("fitted periodic_length %.3g m is below four resolved lengths (%.3g m)", length, 4 * resolved);
+      if (longest > 0 && length > 0.5 * longest) return fmt("fitted periodic_length %.3g m is more than half the longest pass (%.3g m): no period seen twice", length, longest);
+      return {};
+    }
+    case Effect::kDirectionAsymmetry: {
+      const double a = p.value("asym_levels"), b = p.value("asym_viscous");
+      if (std::fabs(a) >= 0.9) return fmt("fitted asym_levels %.3g: a level near zero in one direction is past the physical bound", a);
+      // A negative viscous term in one direction is impossible, but with a
+      // small Fv the product carries no force: judged like the base model's
+      // Fv, against 5 % of the level at the median speed.
+      const double fv = p.value("Fv"), level = (mu ? p.value("mu_c") * data.normal_ref : p.value("Fc"));
+      const double worst = std::min(fv * (1 + b), fv * (1 - b)) * data.speed_ref;
+      if (worst < 0 && -worst > 0.05 * level) {
+        return fmt("fitted asym_viscous %.3g makes the viscous force negative in one direction (%.3g at the median speed, level %.3g)", b,
+                   worst, level);
+      }
+      return {};
+    }
+    case Effect::kTiltOffset: {
+      const double t = p.value("tilt_tan");
+      if (std::fabs(t) >= 0.5) return fmt("fitted tilt_tan %.3g (%.0f deg) is past the physical bound of 0.5", t, std::atan(std::fabs(t)) * 180 / M_PI);
+      return {};
+    }
+    case Effect::kPreslidingHysteresis: {
+      const double r = p.value("breakaway_ratio");
+      if (r < 0.02 || r > 0.98) return fmt("fitted breakaway_ratio %.3g is at a bound of (0.02, 0.98): the elastic range is not determined", r);
+      return {};
+    }
+    case Effect::kRateState: {
+      const double a = p.value("rs_a"), b = p.value("rs_b"), dc = p.value("rs_dc");
+      if (a <= 0) return fmt("fitted rs_a %.3g <= 0: no positive direct effect, not rate-and-state friction", a);
+      if (b <= -a) return fmt("fitted rs_b %.3g <= -rs_a (%.3g): an evolution opposite to the direct effect is past the physical bound", b, -a);
+      if (a > 0.5 * static_level || b > 0.5 * static_level) {
+        return fmt("fitted rs_a %.3g, rs_b %.3g: above half the static level %.3g, past the physical bound", a, b, static_level);
+      }
+      if (dc < 2 * resolved) return fmt("fitted rs_dc %.3g m is below twice the resolved length %.3g m", dc, resolved);
+      double slid = 0;
+      for (std::size_t i = 1; i < s.size(); ++i) slid += std::fabs(s.position_m[i] - s.position_m[i - 1]);
+      if (dc > slid) return fmt("fitted rs_dc %.3g m is longer than the whole slip of the record (%.3g m)", dc, slid);
+      return {};
+    }
+    case Effect::kBacklash: {
+      const double gap = p.value("backlash_gap");
+      if (gap < 3 * resolved) return fmt("fitted backlash_gap %.3g m is below three resolved lengths (%.3g m): not resolved by these data", gap, 3 * resolved);
+      if (longest > 0 && gap > 0.5 * longest) return fmt("fitted backlash_gap %.3g m is more than half the longest pass (%.3g m)", gap, longest);
+      return {};
+    }
+    default: return {};
   }
-  return {};
 }
+
+// Physical bounds of the base model: warnings (the base fit cannot be
+// rejected, but an impossible value must be said, in text as in JSON).
+std::vector<std::string> base_bound_warnings(const ModelData& data, const FitResult& fit) {
+  std::vector<std::string> out;
+  const ModelParams& p = fit.params;
+  const MeasuredSeries& s = data.series;
+  const bool mu = p.structure.load_scaled && s.has_normal();
+  const double fc = p.value(mu ? "mu_c" : "Fc"), fs = p.value(mu ? "mu_s" : "Fs");
+  if (mu && (fc > 2 || fs > 2)) out.push_back(fmt("base model out of bounds: mu_c %.3g, mu_s %.3g (friction coefficients above 2 are not physical)", fc, fs));
+  if (fs > 5 * fc) out.push_back(fmt("base model out of bounds: static level %.3g is more than 5 times the Coulomb level %.3g", fs, fc));
+  if (fs < 0.2 * fc) out.push_back(fmt("base model out of bounds: static level %.3g is below a fifth of the Coulomb level %.3g", fs, fc));
+  const double fv = p.value("Fv");
+  const double level = mu ? fc * data.normal_ref : fc;
+  if (fv < 0 && std::fabs(fv) * data.speed_ref > 0.05 * level) {
+    out.push_back(fmt("base model out of bounds: negative viscous friction Fv = %.3g (%.3g at the median speed, against a Coulomb level %.3g)", fv,
+                      fv * data.speed_ref, level));
+  }
+  const double presliding = level / p.value("sigma0");
+  if (presliding < resolved_length_m(s)) {
+    out.push_back(fmt("the presliding deflection Fc/sigma0 = %.3g m is below the resolved length %.3g m: sigma0 is a lower bound only", presliding,
+                      resolved_length_m(s)));
+  }
+  return out;
+}
+
+namespace {
 
 // Per held-out block: did the candidate lower the block's squared error?
 double block_agreement(const MotionSegmentation& m, const std::vector<char>& heldout, const std::vector<double>& measured,
@@ -388,6 +535,7 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
   const std::vector<char> everything(series.size(), 1);
 
   out.base = fit_lugre(data, options.base, in_fit, options.lugre);
+  for (auto& w : base_bound_warnings(data, out.base.result)) out.base.result.warnings.push_back(w);
   Current current = evaluate(data, out.base.result);
   out.model_before = current.model;
   out.before = {error_stats(series.force_n, current.model, in_fit), error_stats(series.force_n, current.model, heldout),
@@ -458,12 +606,13 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
       trial.block_agreement = block_agreement(out.motion, heldout, series.force_n, current.model, model);
       trial.parameters = parameters_of(fit, e);
       trial.warnings = fit.warnings;
-      const std::string objection = unphysical(data, fit, e);
+      const std::string objection = out_of_bounds(data, fit, e);
       trial.passed = trial.heldout_gain >= options.min_heldout_gain && trial.block_agreement >= options.min_block_agreement &&
                      trial.delta_aicc <= options.max_delta_aicc && objection.empty();
       trial.verdict = fmt("held-out RMS %+.2f %%, %.0f %% of held-out samples in improved passes, dAICc = %.1f (%.1f with n_eff)",
                           -100 * trial.heldout_gain, 100 * trial.block_agreement, trial.delta_aicc, trial.delta_aicc_effective);
       if (!objection.empty()) trial.verdict += "; " + objection;
+      if (e == Effect::kRateState) trial.verdict += fit.params.structure.rate_state_slip_law ? "; slip law (Ruina)" : "; ageing law (Dieterich)";
       if (trial.passed && (!best || trial.heldout_gain > out.trials[*best].heldout_gain)) best = out.trials.size();
       out.trials.push_back(trial);
     }
@@ -499,6 +648,9 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
   for (std::size_t i = 0; i < series.size(); ++i) compared[i] = in_fit[i] || heldout[i];
   out.unexplained = describe_unexplained(data, residual, compared, out.noise_floor, out.rejected);
   out.warnings = out.final_fit.warnings;
+  for (auto& w : base_bound_warnings(data, out.final_fit)) {
+    if (std::find(out.warnings.begin(), out.warnings.end(), w) == out.warnings.end()) out.warnings.push_back(w);
+  }
   return out;
 }
 

@@ -120,6 +120,14 @@ struct Diagnosis {
 // series must have velocity and acceleration (derive_motion()).
 Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options = {});
 
+// Why a fitted extension is not the physical effect (a parameter at or past
+// its physical bound, or below what the data resolve), or empty.
+std::string out_of_bounds(const ModelData& data, const FitResult& fit, Effect effect);
+
+// The base model's values past physical bounds (negative viscous friction,
+// friction coefficients above 2, an unresolved presliding deflection), as warnings.
+std::vector<std::string> base_bound_warnings(const ModelData& data, const FitResult& fit);
+
 ErrorStats error_stats(const std::vector<double>& measured, const std::vector<double>& model,
                        const std::vector<char>& mask);
 

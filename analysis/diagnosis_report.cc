@@ -1,5 +1,6 @@
 #include "analysis/diagnosis_report.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -78,6 +79,10 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
   j.field("force_unit", s.force_unit).field("normal_channel", s.has_normal());
   j.field("velocity", s.velocity_measured ? "measured" : "derived from position");
   j.field("acceleration", s.acceleration_measured ? "measured" : "derived from velocity");
+  j.field("motion_estimator", s.motion_estimator);
+  j.field("position_noise_m", s.position_noise_m).field("position_resolution_m", s.position_resolution_m);
+  j.field("velocity_noise_m_per_s", s.velocity_noise_m_per_s);
+  j.field("loop_taps", s.loop_taps).field("loop_variance_explained", s.loop_variance_explained);
   j.field("command", info.command_line);
   j.end_object();
 
@@ -141,6 +146,9 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
   j.key("effects").begin_array();
   for (Effect e : d.final_fit.params.structure.effects) j.value(effect_name(e));
   j.end_array();
+  if (d.final_fit.params.structure.has(Effect::kRateState)) {
+    j.field("rate_state_law", d.final_fit.params.structure.rate_state_slip_law ? "slip (Ruina)" : "ageing (Dieterich)");
+  }
   j.key("parameters");
   write_parameters(j, d.final_fit.estimates);
   j.key("warnings");
@@ -151,6 +159,8 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
   if (d.unexplained) j.value(*d.unexplained);
   else j.null();
   j.field("noise_floor", d.noise_floor);
+  j.key("warnings");
+  write_strings(j, d.warnings);
   j.field("elapsed_s", info.elapsed_s);
   j.end_object();
   return j.str();
@@ -166,6 +176,13 @@ std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
   };
   line("%s: %zu samples, %zu passes, %zu holds; held out: %s", s.source.c_str(), s.size(), d.motion.passes.size(),
        d.motion.holds.size(), d.motion.heldout_scheme.c_str());
+  line("motion: velocity %s (estimator %s); position noise floor %.3g m, resolution %.3g m, velocity noise %.3g m/s",
+       s.velocity_measured ? "measured" : "derived", s.motion_estimator.c_str(), s.position_noise_m,
+       s.position_resolution_m, s.velocity_noise_m_per_s);
+  if (s.loop_taps > 0) {
+    line("  reference through the fitted loop response (%d taps; explains %.6f of the position's variance)", s.loop_taps,
+         s.loop_variance_explained);
+  }
   line("base model (LuGre):");
   for (const auto& p : d.base.result.estimates) {
     line("  %-20s %12.5g +- %-10.3g %s%s", p.name.c_str(), p.value, p.std_error, p.unit.c_str(), p.determined ? "" : "  (not determined)");
@@ -183,7 +200,20 @@ std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
   };
   err("before:", d.before);
   err("after: ", d.after);
+  line("final model (LuGre%s):", d.accepted.empty() ? ", no effect accepted" : " with the accepted effects");
+  for (const auto& p : d.final_fit.estimates) {
+    line("  %-20s %12.5g +- %-10.3g %s%s%s", p.name.c_str(), p.value, p.std_error, p.unit.c_str(), p.fixed ? "  (held)" : "",
+         p.determined || p.fixed ? "" : "  (not determined)");
+  }
   line("unexplained: %s", d.unexplained ? d.unexplained->c_str() : "none (residual at the white-noise floor)");
+  // Every warning, as in the JSON (base fit, final fit, diagnosis), once.
+  std::vector<std::string> warnings;
+  for (const auto* list : {&d.base.result.warnings, &d.final_fit.warnings, &d.warnings}) {
+    for (const auto& w : *list) {
+      if (std::find(warnings.begin(), warnings.end(), w) == warnings.end()) warnings.push_back(w);
+    }
+  }
+  for (const auto& w : warnings) out += "warning: " + w + "\n";
   return out;
 }
 

@@ -20,13 +20,14 @@ enum class Effect {
   kDrift,                  // a slow lateral-force drift in time
   kPreslidingHysteresis,   // elasto-plastic presliding (elastic unloading, breakaway)
   kBacklash,               // a dead zone after reversals (play in series)
+  kRateState,              // rate-and-state friction: direct effect a ln v, evolution b ln(v theta/Dc)
 };
 
-inline constexpr std::array<Effect, 10> kAllEffects = {
+inline constexpr std::array<Effect, 11> kAllEffects = {
     Effect::kDwellStiction,      Effect::kFrictionalLag,  Effect::kVelocityStrengthening,
     Effect::kLoadDependence,     Effect::kPositionPeriodic, Effect::kDirectionAsymmetry,
     Effect::kTiltOffset,         Effect::kDrift,          Effect::kPreslidingHysteresis,
-    Effect::kBacklash};
+    Effect::kBacklash,           Effect::kRateState};
 
 constexpr std::string_view effect_name(Effect e) {
   switch (e) {
@@ -40,6 +41,7 @@ constexpr std::string_view effect_name(Effect e) {
     case Effect::kDrift: return "drift";
     case Effect::kPreslidingHysteresis: return "presliding_hysteresis";
     case Effect::kBacklash: return "backlash";
+    case Effect::kRateState: return "rate_state";
   }
   return "";
 }

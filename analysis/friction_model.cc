@@ -56,6 +56,7 @@ struct Index {
   int dwell_dfs = -1, dwell_time = -1, dwell_memory = -1, lag = -1, logv = -1, load_exponent = -1;
   int per_cos = -1, per_sin = -1, per_length = -1, asym_levels = -1, asym_viscous = -1;
   int tilt = -1, breakaway = -1, gap = -1;
+  int rs_a = -1, rs_b = -1, rs_dc = -1;
   std::vector<int> drift;
 };
 
@@ -85,6 +86,9 @@ Index index_of(const ModelParams& p) {
   for (int j = 1; p.index("drift_" + std::to_string(j)) >= 0; ++j) k.drift.push_back(p.index("drift_" + std::to_string(j)));
   k.breakaway = p.index("breakaway_ratio");
   k.gap = p.index("backlash_gap");
+  k.rs_a = p.index("rs_a");
+  k.rs_b = p.index("rs_b");
+  k.rs_dc = p.index("rs_dc");
   if (k.fc < 0 || k.fs < 0 || k.vs < 0 || k.sigma0 < 0 || k.sigma1 < 0 || k.fv < 0 || k.offset < 0) {
     throw std::logic_error("friction model: base parameters missing");
   }
@@ -305,6 +309,10 @@ std::vector<ParamSpec> effect_parameters(Effect e, const ModelData& d, const Mod
       return {{"breakaway_ratio", "1", Transform::kLogit, 1.0, false, e}};
     case Effect::kBacklash:
       return {{"backlash_gap", "m", Transform::kLog, 1e-6, false, e}};
+    case Effect::kRateState:
+      return {{"rs_a", lu, Transform::kLinear, 0.01 * level, false, e},
+              {"rs_b", lu, Transform::kLinear, 0.01 * level, false, e},
+              {"rs_dc", "m", Transform::kLog, 1e-5, false, e}};
   }
   return {};
 }
@@ -359,6 +367,34 @@ std::vector<T> contact_age(const ModelData& d, const T& memory_m) {
   return age;
 }
 
+// Ruina's slip law along the measured motion, d theta/dt = -(|v| theta / D_c)
+// ln(|v| theta / D_c): phi = ln(|v| theta / D_c) decays as exp(-|v| t / D_c)
+// at constant speed, so each interval is exact in phi; at rest theta holds
+// (the slip law does not heal without slip). The speed used to carry theta
+// over a speed change is the interval's. First sample: steady sliding if
+// moving, else a state of D_c / v_ref.
+template <class T>
+std::vector<T> slip_law_state(const ModelData& d, const T& memory_m) {
+  using std::exp;
+  using std::log;
+  const MeasuredSeries& s = d.series;
+  const std::size_t n = s.size();
+  std::vector<T> state(n, T(0.0 * memory_m));
+  if (n == 0) return state;
+  const double v0 = std::fabs(d.drive_velocity[0]);
+  state[0] = memory_m / (v0 > 0 ? v0 : d.speed_ref);
+  for (std::size_t i = 1; i < n; ++i) {
+    const double h = s.time_s[i] - s.time_s[i - 1], speed = std::fabs(d.step_velocity[i]);
+    if (speed == 0.0) {
+      state[i] = state[i - 1];
+      continue;
+    }
+    const T phi = log(speed * state[i - 1] / memory_m);
+    state[i] = memory_m / speed * exp(phi * exp(-(speed * h) / memory_m));
+  }
+  return state;
+}
+
 template <class T>
 void simulate_generic(const ModelData& d, const ModelParams& p, const std::vector<T>& theta, std::vector<T>& force,
                       std::vector<T>* friction_out) {
@@ -378,7 +414,7 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
   const bool mass = k.mass >= 0, dwell = k.dwell_dfs >= 0, lag = k.lag >= 0, logv = k.logv >= 0;
   const bool load_dep = k.load_exponent >= 0 && s.has_normal(), periodic = k.per_length >= 0;
   const bool asym = k.asym_levels >= 0, tilt = k.tilt >= 0 && s.has_normal(), drift = !k.drift.empty();
-  const bool ep = k.breakaway >= 0, backlash = k.gap >= 0;
+  const bool ep = k.breakaway >= 0, backlash = k.gap >= 0, rate_state = k.rs_a >= 0;
   const bool load_scaled = st.load_scaled && s.has_normal();
   const T m = mass ? val(k.mass) : T(0.0);
   const T dwell_dfs = dwell ? val(k.dwell_dfs) : T(0.0), dwell_time = dwell ? val(k.dwell_time) : T(1.0);
@@ -392,6 +428,10 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
   const T tilt_tan = tilt ? val(k.tilt) : T(0.0);
   const T breakaway = ep ? val(k.breakaway) : T(0.0);
   const T gap = backlash ? val(k.gap) : T(0.0);
+  const T rs_a = rate_state ? val(k.rs_a) : T(0.0), rs_b = rate_state ? val(k.rs_b) : T(0.0);
+  const T rs_dc = rate_state ? val(k.rs_dc) : T(1.0);
+  std::vector<T> rs_state;
+  if (rate_state) rs_state = st.rate_state_slip_law ? slip_law_state(d, rs_dc) : contact_age(d, rs_dc);
   std::vector<T> drift_c;
   if (drift) {
     for (int index : k.drift) drift_c.push_back(val(index));
@@ -407,6 +447,9 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
     const T shape = delta == 1.0 ? ratio : (delta == 2.0 ? T(ratio * ratio) : T(pow(ratio, delta)));
     T level = fc + (static_level - fc) * exp(-shape);
     if (logv) level = level + log_coeff * log((speed + d.speed_floor) / d.speed_ref);
+    if (rate_state) {
+      level = level + rs_a * log((speed + d.speed_floor) / d.speed_ref) + rs_b * log(d.speed_ref * rs_state[i] / rs_dc);
+    }
     if (load_scaled) {
       const double normal = std::max(s.normal_force_n[i], 0.0);
       if (normal <= 0) return T(0.0);

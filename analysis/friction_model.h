@@ -55,6 +55,10 @@ struct ModelStructure {
   // bristle, docs/identification.md "Simulated tests"). Each pass is then
   // predicted from the force it starts at, not from a model of the hold.
   bool state_from_rest = false;
+  // rate_state: the state's evolution law, Ruina's slip law (true) or
+  // Dieterich's ageing law (false); the diagnosis fits both and keeps the one
+  // the data favour.
+  bool rate_state_slip_law = false;
   std::vector<Effect> effects;     // extensions, in the order they were accepted
 
   bool has(Effect e) const;

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "analysis/motion_estimate.h"
+
 namespace tribo::analysis {
 
 namespace {
@@ -41,7 +43,11 @@ std::vector<T> cut(const std::vector<T>& v, std::size_t first, std::size_t last)
 }  // namespace
 
 void derive_motion(MeasuredSeries& s, double smoothing_s) {
+  s.position_resolution_m = resolution_of(s.position_m);
+  s.position_noise_m = std::max(third_difference_noise(s.position_m), s.position_resolution_m / std::sqrt(12.0));
+  if (!s.velocity_m_per_s.empty()) s.motion_estimator = "measured";
   if (s.velocity_m_per_s.empty()) {
+    s.motion_estimator = smoothing_s > 0 ? "moving_average_central_difference" : "central_difference";
     s.velocity_m_per_s = central_difference(s.time_s, moving_average(s.time_s, s.position_m, smoothing_s));
     s.velocity_measured = false;
   }
@@ -52,12 +58,38 @@ void derive_motion(MeasuredSeries& s, double smoothing_s) {
   }
 }
 
+void derive_motion_smoothed(MeasuredSeries& s) {
+  if (!s.velocity_m_per_s.empty() && !s.acceleration_m_per_s2.empty()) {
+    derive_motion(s, 0);
+    return;
+  }
+  const MotionEstimate m =
+      s.reference_m.empty() ? estimate_motion(s.time_s, s.position_m) : estimate_motion_with_reference(s.time_s, s.position_m, s.reference_m);
+  s.loop_taps = m.loop_taps;
+  s.loop_variance_explained = m.loop_variance_explained;
+  s.position_noise_m = m.position_noise_m;
+  s.position_resolution_m = m.position_resolution_m;
+  s.velocity_noise_m_per_s = m.velocity_std_m_per_s;
+  s.motion_estimator = s.velocity_m_per_s.empty() ? m.estimator : "measured velocity, acceleration " + m.estimator;
+  if (s.velocity_m_per_s.empty()) {
+    s.velocity_m_per_s = m.velocity_m_per_s;
+    s.velocity_measured = false;
+    s.measured_position_m = s.position_m;
+    s.position_m = m.position_m;
+  }
+  if (s.acceleration_m_per_s2.empty()) {
+    s.acceleration_m_per_s2 = m.acceleration_m_per_s2;
+    s.acceleration_measured = false;
+  }
+}
+
 MeasuredSeries slice(const MeasuredSeries& s, std::size_t first, std::size_t last) {
   MeasuredSeries out;
   out.source = s.source;
   out.force_unit = s.force_unit;
   out.time_s = cut(s.time_s, first, last);
   out.position_m = cut(s.position_m, first, last);
+  out.measured_position_m = cut(s.measured_position_m, first, last);
   out.velocity_m_per_s = cut(s.velocity_m_per_s, first, last);
   out.acceleration_m_per_s2 = cut(s.acceleration_m_per_s2, first, last);
   out.force_n = cut(s.force_n, first, last);
@@ -66,6 +98,12 @@ MeasuredSeries slice(const MeasuredSeries& s, std::size_t first, std::size_t las
   out.segment = cut(s.segment, first, last);
   out.velocity_measured = s.velocity_measured;
   out.acceleration_measured = s.acceleration_measured;
+  out.motion_estimator = s.motion_estimator;
+  out.position_noise_m = s.position_noise_m;
+  out.position_resolution_m = s.position_resolution_m;
+  out.velocity_noise_m_per_s = s.velocity_noise_m_per_s;
+  out.loop_taps = s.loop_taps;
+  out.loop_variance_explained = s.loop_variance_explained;
   return out;
 }
 

@@ -17,7 +17,8 @@ struct MeasuredSeries {
   std::string source;        // file or run directory, for the report
   std::string force_unit = "N";
   std::vector<double> time_s;
-  std::vector<double> position_m;
+  std::vector<double> position_m;             // measured, or the smoother's estimate (derive_motion_smoothed)
+  std::vector<double> measured_position_m;    // the record's own position when position_m is an estimate; else empty
   std::vector<double> velocity_m_per_s;       // measured, or derived by derive_motion()
   std::vector<double> acceleration_m_per_s2;  // measured, or derived by derive_motion()
   std::vector<double> force_n;
@@ -26,6 +27,14 @@ struct MeasuredSeries {
   std::vector<std::uint32_t> segment;         // protocol segment (tribo runs); empty otherwise
   bool velocity_measured = false;
   bool acceleration_measured = false;
+  // How the velocity and acceleration were obtained where not measured, and
+  // the position noise floor estimated from the record (analysis/motion_estimate.h).
+  std::string motion_estimator = "none";
+  double position_noise_m = 0;        // white position noise (RMS), from third differences
+  double position_resolution_m = 0;   // smallest position step (0: none seen)
+  double velocity_noise_m_per_s = 0;  // the estimator's velocity standard deviation (median)
+  int loop_taps = 0;                  // motion from the reference: taps of the fitted loop response (0: not used)
+  double loop_variance_explained = 0;
 
   std::size_t size() const { return time_s.size(); }
   bool has_normal() const { return !normal_force_n.empty(); }
@@ -35,6 +44,16 @@ struct MeasuredSeries {
 // differences of the position (and then of the velocity), after a centred
 // moving average over smoothing_s (0: none). Non-uniform sampling is fine.
 void derive_motion(MeasuredSeries& series, double smoothing_s);
+
+// Fills velocity and acceleration where they were not measured with the
+// Rauch-Tung-Striebel smoother of analysis/motion_estimate.h (noise floor and
+// motion-model intensity estimated from the record), and records the
+// position noise floor and the estimator in any case.
+// When the velocity is derived, the position becomes the smoother's estimate
+// too (the record's own stays in measured_position_m): the model's bristle
+// is driven by position increments, and raw increments carry the full
+// position noise (10 nm at 500 Hz is 5 um/s).
+void derive_motion_smoothed(MeasuredSeries& series);
 
 // The samples [first, last) as a new series (for slicing long recordings).
 MeasuredSeries slice(const MeasuredSeries& series, std::size_t first, std::size_t last);

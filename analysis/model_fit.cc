@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <limits>
 #include <stdexcept>
 #include <cstdio>
@@ -229,7 +230,37 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
   for (Eigen::Index j = 0; j < ev.size(); ++j) {
     if (ev[j] > 1e-13 * ev_max) inverse += eig.eigenvectors().col(j) * eig.eigenvectors().col(j).transpose() / ev[j];
   }
-  const Eigen::MatrixXd cov = s2 * inverse;
+  Eigen::MatrixXd cov = s2 * inverse;
+  // Cluster-robust (sandwich) covariance over the record's blocks (passes,
+  // or time chunks): the residual of a pass is one correlated lump (a
+  // motion-estimate error, a model mismatch), which the lag-1 inflation
+  // above does not see; with independent passes, sum over blocks of
+  // (J_b^T r_b)(J_b^T r_b)^T estimates the score's variance whatever the
+  // correlation inside a block (small-sample factor G/(G-1)). Each
+  // parameter keeps the larger of the two standard errors.
+  {
+    std::map<int, Eigen::VectorXd> score;
+    for (std::size_t r = 0; r < rows.size(); ++r) {
+      const int block = data.motion.block_of.empty() ? 0 : data.motion.block_of[rows[r]];
+      auto it = score.find(block);
+      if (it == score.end()) it = score.emplace(block, Eigen::VectorXd::Zero(jac.cols())).first;
+      it->second += jac.row(static_cast<Eigen::Index>(r)).transpose() * fvec[static_cast<Eigen::Index>(r)];
+    }
+    const double groups = static_cast<double>(score.size());
+    if (groups >= 4) {
+      Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(jac.cols(), jac.cols());
+      for (const auto& [block, g] : score) meat += g * g.transpose();
+      meat *= groups / (groups - 1);
+      const Eigen::MatrixXd sandwich = inverse * meat * inverse;
+      for (Eigen::Index j = 0; j < cov.rows(); ++j) {
+        if (cov(j, j) > 0 && sandwich(j, j) > cov(j, j)) {
+          const double ratio = std::sqrt(sandwich(j, j) / std::max(cov(j, j), 1e-300));
+          cov.row(j) *= ratio;
+          cov.col(j) *= ratio;
+        }
+      }
+    }
+  }
   // Near-collinear parameter pairs (a null direction of J^T J).
   if (ev.size() > 0 && ev.minCoeff() <= 1e-13 * ev_max) {
     const Eigen::VectorXd null = eig.eigenvectors().col(0).cwiseAbs();

@@ -193,11 +193,16 @@ MotionSegmentation segment_motion(const MeasuredSeries& s, const SegmentationOpt
   for (std::size_t i = 0; i < n; ++i) smoothed_speed[i] = std::fabs(smoothed[i]);
   const double v95 = percentile(smoothed_speed, 0.95);
   const double smoothed_noise = white_noise_rms(s.velocity_m_per_s) / std::sqrt(std::max(window / dt, 1.0));
-  m.hold_speed_m_per_s = std::max(options.hold_speed_fraction * v95, 3.0 * smoothed_noise);
+  // A smoother's velocity (analysis/motion_estimate.h) is not white: its own
+  // standard deviation, which the estimator reports, sets the floor.
+  m.hold_speed_m_per_s = std::max({options.hold_speed_fraction * v95, 3.0 * smoothed_noise, 3.0 * s.velocity_noise_m_per_s});
 
   const auto [xmin, xmax] = std::minmax_element(s.position_m.begin(), s.position_m.end());
   m.position_noise_m = white_noise_rms(s.position_m);
-  m.reversal_distance_m = std::max(options.reversal_fraction * (*xmax - *xmin), 5.0 * m.position_noise_m);
+  // A smoothed position (analysis/motion_estimate.h) has almost no white
+  // noise left; the record's own noise floor still bounds what is a reversal.
+  m.reversal_distance_m =
+      std::max({options.reversal_fraction * (*xmax - *xmin), 5.0 * m.position_noise_m, 5.0 * s.position_noise_m});
 
   // Holds, and passes in the motion runs between them.
   if (options.segment_by_reference && !s.reference_m.empty()) {

@@ -17,12 +17,37 @@ import argparse
 import csv
 import json
 import os
+import textwrap
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+
+
+DPI = 200
+
+# SI prefixes for readable axes: forces in uN or mN, lengths in um or mm, etc.
+PREFIXES = [(1e-9, "n"), (1e-6, "\u00b5"), (1e-3, "m"), (1.0, ""), (1e3, "k"), (1e6, "M"), (1e9, "G")]
+
+
+def scaled(values, unit):
+    """(factor, label): values * factor shown in a prefixed unit (N -> uN, m -> um, Pa -> MPa)."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    typical = np.percentile(np.abs(v), 95) if v.size else 1.0
+    if not unit or unit in ("1",) or typical == 0:
+        return 1.0, unit
+    best = PREFIXES[3]
+    for factor, prefix in PREFIXES:
+        if typical >= factor:
+            best = (factor, prefix)
+    return 1.0 / best[0], best[1] + unit
+
+
+def wrap(text, width=100):
+    return "\n".join(textwrap.wrap(text, width))
 
 
 def read_traces(path):
@@ -51,23 +76,24 @@ def shade_heldout(ax, t, heldout):
 
 
 def plot_before_after(d, report, out, title, zoom):
-    t, f = d["t_s"], d["force"]
-    unit = report["input"]["force_unit"]
+    t = d["t_s"]
+    k, unit = scaled(d["force"], report["input"]["force_unit"])
+    f, before, after = k * d["force"], k * d["model_before"], k * d["model_after"]
     effects = ", ".join(e["name"] for e in report["accepted_effects"]) or "none"
     eb, ea = report["error_before"]["heldout"], report["error_after"]["heldout"]
     fig, axes = plt.subplots(3, 1, figsize=(11, 9), constrained_layout=True)
     for ax in axes[:2]:
         shade_heldout(ax, t, d["heldout"])
     axes[0].plot(t, f, color="k", lw=0.6, label="measured")
-    axes[0].plot(t, d["model_before"], color="tab:blue", lw=0.8, label="LuGre (before)")
-    axes[0].plot(t, d["model_after"], color="tab:red", lw=0.8, ls="--", label=f"with {effects} (after)")
+    axes[0].plot(t, before, color="tab:blue", lw=0.8, label="LuGre (before)")
+    axes[0].plot(t, after, color="tab:red", lw=0.8, ls="--", label=f"with {effects} (after)")
     axes[0].set_ylabel(f"force ({unit})")
     axes[0].legend(loc="upper right", fontsize=8)
-    axes[0].set_title(f"{title}\nheld-out RMS {eb['rms']:.4g} -> {ea['rms']:.4g} {unit} "
-                      f"(relative {100 * eb['relative']:.2f} % -> {100 * ea['relative']:.2f} %); held-out passes shaded",
-                      fontsize=10)
-    axes[1].plot(t, f - d["model_before"], color="tab:blue", lw=0.5, label="residual before")
-    axes[1].plot(t, f - d["model_after"], color="tab:red", lw=0.5, alpha=0.8, label="residual after")
+    axes[0].set_title(wrap(f"{title}: accepted {effects}. Held-out RMS {k * eb['rms']:.4g} -> {k * ea['rms']:.4g} {unit} "
+                           f"(relative {100 * eb['relative']:.2f} % -> {100 * ea['relative']:.2f} %); held-out passes shaded"),
+                      fontsize=11)
+    axes[1].plot(t, f - before, color="tab:blue", lw=0.5, label="residual before")
+    axes[1].plot(t, f - after, color="tab:red", lw=0.5, alpha=0.8, label="residual after")
     axes[1].set_ylabel(f"residual ({unit})")
     axes[1].legend(loc="upper right", fontsize=8)
     if zoom is None:
@@ -75,26 +101,28 @@ def plot_before_after(d, report, out, title, zoom):
         zoom = (t[int(0.45 * n)], t[min(n - 1, int(0.55 * n))])
     sel = (t >= zoom[0]) & (t <= zoom[1])
     axes[2].plot(t[sel], f[sel], color="k", lw=0.8, label="measured")
-    axes[2].plot(t[sel], d["model_before"][sel], color="tab:blue", lw=1, label="before")
-    axes[2].plot(t[sel], d["model_after"][sel], color="tab:red", lw=1, ls="--", label="after")
+    axes[2].plot(t[sel], before[sel], color="tab:blue", lw=1, label="before")
+    axes[2].plot(t[sel], after[sel], color="tab:red", lw=1, ls="--", label="after")
     axes[2].set_xlabel("time (s)")
     axes[2].set_ylabel(f"force ({unit}), zoom")
     axes[2].legend(loc="upper right", fontsize=8)
-    fig.savefig(os.path.join(out, "before_after.png"), dpi=110)
+    fig.savefig(os.path.join(out, "before_after.png"), dpi=DPI)
     plt.close(fig)
 
 
 def plot_hysteresis(d, report, out, title):
-    unit = report["input"]["force_unit"]
+    k, unit = scaled(d["force"], report["input"]["force_unit"])
+    kx, xunit = scaled(d["position_m"], "m")
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5), constrained_layout=True, sharey=True)
     for ax, model, label in ((axes[0], "model_before", "before"), (axes[1], "model_after", "after")):
-        ax.plot(d["position_m"], d["force"], color="k", lw=0.4, label="measured")
-        ax.plot(d["position_m"], d[model], color="tab:red" if label == "after" else "tab:blue", lw=0.6, label=f"model {label}")
-        ax.set_xlabel("position (m)")
+        ax.plot(kx * d["position_m"], k * d["force"], color="k", lw=0.4, label="measured")
+        ax.plot(kx * d["position_m"], k * d[model], color="tab:red" if label == "after" else "tab:blue", lw=0.6, label=f"model {label}")
+        ax.set_xlabel(f"position ({xunit})")
+        ax.set_title(f"model {label} the diagnosis", fontsize=10)
         ax.legend(fontsize=8)
     axes[0].set_ylabel(f"force ({unit})")
-    fig.suptitle(title, fontsize=10)
-    fig.savefig(os.path.join(out, "hysteresis.png"), dpi=110)
+    fig.suptitle(wrap(f"{title}: force against position"), fontsize=11)
+    fig.savefig(os.path.join(out, "hysteresis.png"), dpi=DPI)
     plt.close(fig)
 
 
@@ -105,18 +133,26 @@ def plot_signatures(groups, report, out):
     for (effect, stage), g in groups.items():
         fig, ax = plt.subplots(figsize=(7, 4.2), constrained_layout=True)
         x, y, e = np.array(g["x"]), np.array(g["y"]), np.array(g["e"])
+        xl, yl = g["x_label"], g["y_label"]
+        for unit in ("m", "N"):
+            if f"({unit})" in xl:
+                kx, u = scaled(x, unit)
+                x, xl = kx * x, xl.replace(f"({unit})", f"({u})")
+            if f"({unit})" in yl:
+                ky, u = scaled(y, unit)
+                y, e, yl = ky * y, ky * e, yl.replace(f"({unit})", f"({u})")
         if np.all(np.isnan(e)):
             ax.plot(x, y, "o-", ms=3, lw=0.8)
         else:
             ax.errorbar(x, y, yerr=e, fmt="o-", ms=3, lw=0.8, capsize=2)
-        if "wavelength" in g["x_label"] or "speed" in g["x_label"]:
+        if "wavelength" in xl or "speed" in xl:
             ax.set_xscale("log")
         ax.axhline(0, color="0.5", lw=0.6)
-        ax.set_xlabel(g["x_label"])
-        ax.set_ylabel(g["y_label"])
+        ax.set_xlabel(xl)
+        ax.set_ylabel(yl)
         text = verdicts.get(effect, (stage, ""))[1]
-        ax.set_title(f"{effect} ({stage})\n{text[:110]}", fontsize=8)
-        fig.savefig(os.path.join(out, f"signature_{effect}.png"), dpi=110)
+        ax.set_title(wrap(f"{effect} ({stage}): {text}", 90)[:600], fontsize=8)
+        fig.savefig(os.path.join(out, f"signature_{effect}.png"), dpi=DPI)
         plt.close(fig)
 
 

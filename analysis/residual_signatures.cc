@@ -806,6 +806,110 @@ Signature position_periodic(const Context& c) {
   return sig;
 }
 
+// ---------------------------------------------------------------------------
+// Rate and state (Dieterich 1979, Ruina 1983): after a speed step while
+// sliding, friction jumps by a ln(v2/v1) (the direct effect) and then
+// evolves by -b ln(v2/v1) over a slip distance of a few D_c. The signature:
+// after each step within a pass, the direction-signed residual (over the
+// level factor) against sgn(ln(v2/v1)) exp(-s/D), s the slip since the
+// step, for D on a log grid; the best |t| (autocorrelation-inflated) is the
+// strength. Onsets after holds are left out (dwell stiction's signature).
+Signature rate_state(const Context& c) {
+  const Effect e = Effect::kRateState;
+  struct Step {
+    std::size_t at, end;
+    double log_ratio;
+    int direction;
+  };
+  std::vector<Step> steps;
+  double longest = 0;
+  for (const Pass& p : c.m.passes) {
+    // Steps anywhere (a single velocity-step record is one pass split into
+    // time chunks); only fit samples enter the regression below.
+    const std::size_t count = p.last - p.first + 1;
+    const std::size_t chunk = std::max<std::size_t>(10, count / 40);
+    if (count < 4 * chunk) continue;
+    std::vector<double> medians;
+    std::vector<std::size_t> starts;
+    for (std::size_t a = p.first; a + chunk <= p.last + 1; a += chunk) {
+      std::vector<double> speeds;
+      for (std::size_t i = a; i < a + chunk; ++i) speeds.push_back(std::fabs(c.s.velocity_m_per_s[i]));
+      medians.push_back(median(speeds));
+      starts.push_back(a);
+    }
+    // A step: the chunk median speed changes by a factor of 1.5 or more and
+    // stays (the next chunk agrees with the new level); the first chunks
+    // (the pass's onset) are not steps.
+    std::vector<std::size_t> at;
+    std::vector<double> ratio;
+    for (std::size_t k = 2; k + 1 < medians.size(); ++k) {
+      const double before = medians[k - 1], after = medians[k], next = medians[k + 1];
+      if (!(before > 0 && after > 0)) continue;
+      const double r = after / before;
+      if ((r >= 1.5 || r <= 1 / 1.5) && std::fabs(std::log(next / after)) < std::log(1.25)) {
+        if (!at.empty() && starts[k] - at.back() < 3 * chunk) continue;
+        at.push_back(starts[k]);
+        ratio.push_back(next / before);
+      }
+    }
+    for (std::size_t j = 0; j < at.size(); ++j) {
+      const std::size_t end = j + 1 < at.size() ? at[j + 1] : p.last + 1;
+      steps.push_back({at[j] > chunk ? at[j] - chunk / 2 : at[j], end, std::log(ratio[j]), p.direction});
+      longest = std::max(longest, std::fabs(c.s.position_m[end - 1] - c.s.position_m[at[j]]));
+    }
+  }
+  if (steps.empty()) {
+    return not_applicable(e, "no speed step within a sliding pass (the rate-and-state transient needs a velocity change while sliding)");
+  }
+  Signature sig;
+  sig.effect = e;
+  sig.applicable = true;
+  double best_t = 0, best_coef = 0, best_d = 0;
+  std::vector<double> best_x, best_y;
+  for (double fraction : {0.003, 0.01, 0.03, 0.1, 0.3}) {
+    const double length = fraction * longest;
+    Design design;
+    std::vector<double> ys, xs;
+    for (const Step& st : steps) {
+      const double origin = c.s.position_m[st.at];
+      for (std::size_t i = st.at; i < st.end; ++i) {
+        const double factor = c.level_factor(i);
+        if (!c.in.in_fit[i] || !(factor > 0)) continue;
+        const double slip = std::fabs(c.s.position_m[i] - origin);
+        const double y = st.direction * c.r[i] / factor;
+        design.add_row({1.0, (st.log_ratio > 0 ? 1.0 : -1.0) * std::exp(-slip / length)}, y);
+        ys.push_back(y);
+        xs.push_back(slip);
+      }
+    }
+    if (design.rows() < 20) continue;
+    const Regression reg = design.fit();
+    if (!reg.ok) continue;
+    const double t = std::fabs(reg.t(1));  // errors already autocorrelation-inflated
+    if (t > best_t) {
+      best_t = t;
+      best_coef = reg.coef[1];
+      best_d = length;
+      best_x = xs;
+      best_y = ys;
+    }
+  }
+  double mean_log_ratio = 0;
+  for (const Step& st : steps) mean_log_ratio += std::fabs(st.log_ratio);
+  mean_log_ratio /= static_cast<double>(steps.size());
+  // A speed step within sliding is rare and specific (a velocity-step
+  // test): the extension is always fitted there, and the held-out test decides.
+  sig.strength = std::max(best_t / kScreenT, 1.0);
+  const double a0 = best_coef > 0 ? best_coef / std::max(mean_log_ratio, 1e-3) : 1e-3 * c.in.data.mu_scale;
+  sig.initial_values = {a0, a0, best_d > 0 ? best_d : 1e-5};
+  sig.plot = binned(best_x, best_y, 40, "slip since the speed step (m)", "direction-signed residual / level factor");
+  sig.summary = fmt("after %.0f speed steps within passes (mean |ln v2/v1| %.2f) the residual follows sgn(ln v2/v1) exp(-s/D) with "
+                    "D = %.3g m: coefficient %.3g",
+                    static_cast<double>(steps.size()), mean_log_ratio, best_d, best_coef);
+  sig.summary += fmt(" (t = %.1f, autocorrelation-inflated errors)", best_t);
+  return sig;
+}
+
 }  // namespace
 
 Signature compute_signature(Effect effect, const SignatureInput& input) {
@@ -821,6 +925,7 @@ Signature compute_signature(Effect effect, const SignatureInput& input) {
     case Effect::kDrift: return drift(c);
     case Effect::kPreslidingHysteresis: return presliding_hysteresis(c);
     case Effect::kBacklash: return backlash(c);
+    case Effect::kRateState: return rate_state(c);
   }
   return {};
 }

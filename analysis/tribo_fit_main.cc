@@ -13,6 +13,8 @@
 #include <string>
 #include <vector>
 
+#include <CLI/CLI.hpp>
+
 #include "analysis/diagnosis.h"
 #include "analysis/diagnosis_report.h"
 #include "analysis/json_writer.h"
@@ -25,124 +27,80 @@ namespace {
 
 using namespace tribo::analysis;
 
-constexpr const char* kUsage = R"(usage:
-  tribo-fit diagnose INPUT [options]
-  tribo-fit stribeck FILE.csv --x COL --y COL [--weight COL] [--model lugre|eq44]
-                     [--stribeck-exponent D] [--no-offset] [--json]
-  tribo-fit metrics RUN_DIR [--json]
-  tribo-fit --help
+constexpr const char* kSummary = R"(tribo-fit: friction identification on measured data.
+  tribo-fit diagnose INPUT [options]    residual diagnosis over the effect vocabulary
+  tribo-fit stribeck FILE.csv --x COL --y COL [options]   steady-state curve fit
+  tribo-fit metrics RUN_DIR [--json]    scratch metrics of a recorded tribo run
+  tribo-fit COMMAND --help              the command's options
+All columns are in SI units: time s, position m, velocity m/s, acceleration
+m/s^2, forces N (or one consistent unit, e.g. a stress in Pa, see --force-unit).
+exit codes: 0 done; 1 the input could not be read or analysed; 2 bad usage)";
 
-diagnose: fits the LuGre friction model to a measured run (driven by the measured
+constexpr const char* kDiagnoseFooter = R"(
+diagnose fits the LuGre friction model to a measured run (driven by the measured
 motion), traces what it gets wrong to an effect of the vocabulary
   dwell_stiction frictional_lag velocity_strengthening load_dependence
   position_periodic direction_asymmetry tilt_offset drift presliding_hysteresis
-  backlash
-adds an effect only if it clearly lowers the error on held-out passes, and
-reports the error before and after.
+  backlash rate_state
+adds an effect only if it clearly lowers the error on held-out passes and its
+fitted values lie within physical bounds, and reports the error before and
+after (every warning, and the final model, in the text report as in the JSON).
+INPUT is a CSV file with a header line (name the columns), or a tribo run
+directory (samples.csv + metadata.json; its columns are known). All columns
+are in SI units. Without --velocity the motion (velocity, acceleration) is
+estimated from the position by a Rauch-Tung-Striebel smoother whose noise
+floor and motion-model intensity are estimated from the record (reported).)";
 
-INPUT is a CSV file with a header line (name the columns below), or a tribo run
-directory (samples.csv + metadata.json; its columns are known).
-All columns are in SI units: time s, position m, velocity m/s, acceleration
-m/s^2, forces N (or one consistent unit, e.g. a stress in Pa, see --force-unit).
-
-  --time COL            time (s)                                  required for CSV
-  --position COL        position of the moving body (m)           required for CSV
-  --force COL           force that drives the motion against friction (N),
-                        positive when it pushes towards +x        required for CSV
-  --motor-force COL     a drive force that also accelerates the moving mass:
-                        --force COL --fit-mass
-  --fit-mass            fit a moving mass M: the force includes M a
-  --normal COL          normal load (N); friction levels then scale with it
-                        (Amontons) unless --no-load-scaling
-  --velocity COL        velocity (m/s); else derived from the position
-  --acceleration COL    acceleration (m/s^2); else derived from the velocity
-  --reference COL       commanded position (m), kept for the plots
-  --force-sign S        multiply the force column by S (1 or -1)
-  --force-unit U        unit of the force column in the report (default N)
-  --no-load-scaling     constant friction levels even with a normal channel
-  --stribeck-exponent D 1 (default, the dissertation's exponential) or 2
-  --smooth S            moving-average window (s) before differentiating
-  --effects LIST        comma-separated candidates (default: all ten)
-  --begin S, --end S    analyse only samples with begin <= t <= end
-  --json                print one JSON object (fields: see README)
-  --out DIR             also write DIR/diagnosis.json, traces.csv and
-                        signatures.csv (plots: analysis/plot_diagnosis.py DIR)
-
-stribeck: fits a steady-state curve to points (x, y[, weight]): the LuGre steady
+constexpr const char* kStribeckFooter = R"(
+stribeck fits a steady-state curve to points (x, y[, weight]): the LuGre steady
 state F(v) = sgn(v)(Fc + (Fs - Fc) exp(-(|v|/vs)^D)) + Fv v [+ offset], or eq. 44
-mu(x) = p1 + p2 exp(-p3 x) + p4 x, globally (no initial guess), with robust weights.
+mu(x) = p1 + p2 exp(-p3 x) + p4 x, globally (no initial guess), with robust weights.)";
 
+constexpr const char* kMetricsFooter = R"(
 metrics: the scratch metrics of a recorded tribo run: per loaded sliding segment
 the mean friction, mu, stiction peak Fs, stretch time ts and distance ds, steady
 lag dl and the Table 5.1 gains sigma = Fs/ds, mki = 2 Fs/(v0 ts^2), mk = mki dl/v0;
 the lateral-force drift in loaded holds; the surface tilt (normal displacement
 against lateral position over the first moving segment at constant load).
-Printed in µm, µN, s as in Table 5.1; --json prints SI units.
+Printed in µm, µN, s as in Table 5.1; --json prints SI units.)";
 
-exit codes: 0 done; 1 the input could not be read or analysed; 2 bad usage
-)";
-
-struct Args {
-  std::vector<std::string> positional;
-  std::map<std::string, std::string> options;
-  std::vector<std::string> flags;
-  bool flag(const std::string& f) const { return std::find(flags.begin(), flags.end(), f) != flags.end(); }
-  std::optional<std::string> get(const std::string& k) const {
-    auto it = options.find(k);
-    if (it == options.end()) return std::nullopt;
-    return it->second;
-  }
+struct DiagnoseArgs {
+  std::string input;
+  std::string time, position, force, motor_force, normal, velocity, acceleration, reference;
+  double force_sign = 1;
+  std::string force_unit = "N";
+  bool fit_mass = false, no_load_scaling = false, json = false;
+  double stribeck_exponent = 1, smooth = 0;
+  std::string motion_estimator = "rts";
+  std::string effects;
+  double begin = -HUGE_VAL, end = HUGE_VAL;
+  std::string out;
+  std::string command_line;
 };
 
-const std::vector<std::string> kFlags = {"--json", "--fit-mass", "--no-load-scaling", "--no-offset", "--help"};
+struct StribeckArgs {
+  std::string file, x, y, weight, model = "lugre";
+  double stribeck_exponent = 1;
+  bool no_offset = false, json = false;
+};
 
-std::optional<Args> parse(int argc, char** argv, std::string& error) {
-  Args a;
-  for (int i = 2; i < argc; ++i) {
-    const std::string s = argv[i];
-    if (s.rfind("--", 0) == 0) {
-      if (std::find(kFlags.begin(), kFlags.end(), s) != kFlags.end()) {
-        a.flags.push_back(s);
-      } else if (i + 1 < argc) {
-        a.options[s] = argv[++i];
-      } else {
-        error = "option " + s + " needs a value";
-        return std::nullopt;
-      }
-    } else {
-      a.positional.push_back(s);
-    }
-  }
-  return a;
-}
-
-bool parse_number(const std::string& text, double& value) {
-  std::istringstream in(text);
-  in >> value;
-  return !in.fail() && in.eof();
-}
+struct MetricsArgs {
+  std::string run_dir;
+  bool json = false;
+};
 
 int usage_error(const std::string& message) {
-  std::cerr << "tribo-fit: " << message << "\n\n" << kUsage;
+  std::cerr << "tribo-fit: " << message << "\n(tribo-fit --help, tribo-fit COMMAND --help)\n";
   return 2;
 }
 
-int diagnose_command(int argc, char** argv) {
+int diagnose_command(const DiagnoseArgs& a) {
   std::string error;
-  const auto args = parse(argc, argv, error);
-  if (!args) return usage_error(error);
-  static const std::vector<std::string> known = {"--time", "--position", "--force", "--motor-force", "--normal", "--velocity",
-                                                 "--acceleration", "--reference", "--force-sign", "--force-unit",
-                                                 "--stribeck-exponent", "--smooth", "--effects", "--begin", "--end", "--out"};
-  for (const auto& [k, v] : args->options) {
-    if (std::find(known.begin(), known.end(), k) == known.end()) return usage_error("unknown option " + k);
-  }
-  if (args->positional.size() != 1) return usage_error("diagnose takes one INPUT (a CSV file or a run directory)");
-  const std::filesystem::path input = args->positional[0];
+  const std::filesystem::path input = a.input;
   std::vector<Effect> candidates(kAllEffects.begin(), kAllEffects.end());
-  if (auto list = args->get("--effects")) {
+  if (!a.effects.empty()) {
     candidates.clear();
-    std::stringstream in(*list);
+    std::stringstream in(a.effects);
     std::string name;
     while (std::getline(in, name, ',')) {
       const auto e = effect_from_name(name);
@@ -152,32 +110,28 @@ int diagnose_command(int argc, char** argv) {
   }
 
   std::optional<MeasuredSeries> series;
-  bool fit_mass = args->flag("--fit-mass");
+  bool fit_mass = a.fit_mass;
   if (std::filesystem::is_directory(input)) {
     series = read_run_series(input, error);
   } else {
     ColumnMapping columns;
-    columns.time = args->get("--time").value_or("");
-    columns.position = args->get("--position").value_or("");
-    columns.force = args->get("--force").value_or("");
-    if (auto motor = args->get("--motor-force")) {
+    columns.time = a.time;
+    columns.position = a.position;
+    columns.force = a.force;
+    if (!a.motor_force.empty()) {
       if (!columns.force.empty()) return usage_error("give either --force or --motor-force");
-      columns.force = *motor;
+      columns.force = a.motor_force;
       fit_mass = true;
     }
     if (columns.time.empty() || columns.position.empty() || columns.force.empty()) {
       return usage_error("a CSV input needs --time, --position and --force (or --motor-force)");
     }
-    columns.normal = args->get("--normal").value_or("");
-    columns.velocity = args->get("--velocity").value_or("");
-    columns.acceleration = args->get("--acceleration").value_or("");
-    columns.reference = args->get("--reference").value_or("");
-    columns.force_unit = args->get("--force-unit").value_or("N");
-    if (auto sign = args->get("--force-sign")) {
-      if (!parse_number(*sign, columns.force_scale) || (columns.force_scale != 1 && columns.force_scale != -1)) {
-        return usage_error("--force-sign must be 1 or -1");
-      }
-    }
+    columns.normal = a.normal;
+    columns.velocity = a.velocity;
+    columns.acceleration = a.acceleration;
+    columns.reference = a.reference;
+    columns.force_unit = a.force_unit;
+    columns.force_scale = a.force_sign;
     series = read_csv_series(input, columns, error);
   }
   if (!series) {
@@ -185,29 +139,25 @@ int diagnose_command(int argc, char** argv) {
     return 1;
   }
 
-  double begin = -HUGE_VAL, end = HUGE_VAL, smooth = 0, exponent = 1;
-  if (auto v = args->get("--begin"); v && !parse_number(*v, begin)) return usage_error("--begin needs a number");
-  if (auto v = args->get("--end"); v && !parse_number(*v, end)) return usage_error("--end needs a number");
-  if (auto v = args->get("--smooth"); v && (!parse_number(*v, smooth) || smooth < 0)) return usage_error("--smooth needs a number >= 0");
-  if (auto v = args->get("--stribeck-exponent"); v && (!parse_number(*v, exponent) || exponent <= 0)) {
-    return usage_error("--stribeck-exponent needs a number > 0");
-  }
-  if (begin > -HUGE_VAL || end < HUGE_VAL) {
+  if (a.begin > -HUGE_VAL || a.end < HUGE_VAL) {
     std::size_t first = 0, last = series->size();
-    while (first < series->size() && series->time_s[first] < begin) ++first;
-    while (last > first && series->time_s[last - 1] > end) --last;
+    while (first < series->size() && series->time_s[first] < a.begin) ++first;
+    while (last > first && series->time_s[last - 1] > a.end) --last;
     *series = slice(*series, first, last);
   }
   if (const std::string problem = check_series(*series); !problem.empty()) {
     std::cerr << "tribo-fit: " << input.string() << ": " << problem << "\n";
     return 1;
   }
-  derive_motion(*series, smooth);
+  // The user's smoothing window, or central differences on request; else the
+  // smoother with the record's own noise floor.
+  if (a.smooth > 0 || a.motion_estimator == "central") derive_motion(*series, a.smooth);
+  else derive_motion_smoothed(*series);
 
   DiagnosisOptions options;
   options.base.fit_mass = fit_mass;
-  options.base.load_scaled = series->has_normal() && !args->flag("--no-load-scaling");
-  options.base.stribeck_exponent = exponent;
+  options.base.load_scaled = series->has_normal() && !a.no_load_scaling;
+  options.base.stribeck_exponent = a.stribeck_exponent;
   // A tribo run: holds, directions and passes from the setpoint; each pass
   // starts from the force measured at rest (the loop's dither relaxes the
   // contact in holds in a way the record cannot show).
@@ -224,27 +174,22 @@ int diagnose_command(int argc, char** argv) {
     return 1;
   }
   ReportInfo info;
-  for (int i = 0; i < argc; ++i) info.command_line += (i ? " " : "") + std::string(argv[i]);
+  info.command_line = a.command_line;
   info.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const std::string json = diagnosis_json(*series, d, info);
-  if (auto out = args->get("--out")) {
-    if (!write_diagnosis_files(*out, *series, d, json, error)) {
+  if (!a.out.empty()) {
+    if (!write_diagnosis_files(a.out, *series, d, json, error)) {
       std::cerr << "tribo-fit: " << error << "\n";
       return 1;
     }
   }
-  std::cout << (args->flag("--json") ? json : diagnosis_text(*series, d));
+  std::cout << (a.json ? json : diagnosis_text(*series, d));
   return 0;
 }
 
-int stribeck_command(int argc, char** argv) {
+int stribeck_command(const StribeckArgs& a) {
   std::string error;
-  const auto args = parse(argc, argv, error);
-  if (!args) return usage_error(error);
-  if (args->positional.size() != 1) return usage_error("stribeck takes one CSV file");
-  const auto x = args->get("--x"), y = args->get("--y");
-  if (!x || !y) return usage_error("stribeck needs --x COL and --y COL");
-  const auto table = read_csv_columns(args->positional[0], {*x, *y, args->get("--weight").value_or("")}, error);
+  const auto table = read_csv_columns(a.file, {a.x, a.y, a.weight}, error);
   if (!table) {
     std::cerr << "tribo-fit: " << error << "\n";
     return 1;
@@ -254,19 +199,18 @@ int stribeck_command(int argc, char** argv) {
     const double w = (*table)[2].empty() ? 1.0 : (*table)[2][i];
     points.push_back({(*table)[0][i], (*table)[1][i], w});
   }
-  double exponent = 1;
-  if (auto v = args->get("--stribeck-exponent"); v && !parse_number(*v, exponent)) return usage_error("--stribeck-exponent needs a number");
-  const std::string model = args->get("--model").value_or("lugre");
+  const double exponent = a.stribeck_exponent;
+  const std::string& model = a.model;
   CurveFit fit;
   try {
-    if (model == "lugre") fit = fit_stribeck_curve(points, exponent, !args->flag("--no-offset"));
+    if (model == "lugre") fit = fit_stribeck_curve(points, exponent, !a.no_offset);
     else if (model == "eq44") fit = fit_eq44(points);
     else return usage_error("--model is lugre or eq44");
   } catch (const std::exception& e) {
     std::cerr << "tribo-fit: " << e.what() << "\n";
     return 1;
   }
-  if (args->flag("--json")) {
+  if (a.json) {
     JsonWriter j;
     j.begin_object().field("model", model).key("parameters").begin_array();
     for (std::size_t k = 0; k < fit.names.size(); ++k) {
@@ -288,12 +232,9 @@ int stribeck_command(int argc, char** argv) {
   return 0;
 }
 
-int metrics_command(int argc, char** argv) {
+int metrics_command(const MetricsArgs& a) {
   std::string error;
-  const auto args = parse(argc, argv, error);
-  if (!args) return usage_error(error);
-  if (args->positional.size() != 1) return usage_error("metrics takes one run directory");
-  const auto run = tribo::wire::read_run_directory(args->positional[0], error);
+  const auto run = tribo::wire::read_run_directory(a.run_dir, error);
   if (!run) {
     std::cerr << "tribo-fit: " << error << "\n";
     return 1;
@@ -301,7 +242,7 @@ int metrics_command(int argc, char** argv) {
   const auto scratches = scratch_identification(run->samples);
   const auto drift = lateral_drift_from_holds(run->samples);
   const auto tilt = fit_surface_tilt(run->samples);
-  if (args->flag("--json")) {
+  if (a.json) {
     JsonWriter j;
     j.begin_object().key("scratches").begin_array();
     for (const auto& s : scratches) {
@@ -344,20 +285,71 @@ int metrics_command(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 2) return usage_error("missing command");
-  const std::string command = argv[1];
-  if (command == "--help" || command == "-h" || command == "help") {
-    std::cout << kUsage;
-    return 0;
+  CLI::App app{kSummary, "tribo-fit"};
+  app.set_version_flag("--version", std::string("tribo-fit ") + TRIBO_VERSION);
+  app.require_subcommand(1);
+
+  DiagnoseArgs d;
+  for (int i = 0; i < argc; ++i) d.command_line += (i ? " " : "") + std::string(argv[i]);
+  auto* diag = app.add_subcommand("diagnose", "residual diagnosis over the effect vocabulary");
+  diag->footer(kDiagnoseFooter);
+  diag->add_option("INPUT", d.input, "a CSV file with a header line, or a tribo run directory")->required();
+  diag->add_option("--time", d.time, "time column (s); required for CSV");
+  diag->add_option("--position", d.position, "position of the moving body (m); required for CSV");
+  diag->add_option("--force", d.force, "force that drives the motion against friction (N), positive towards +x");
+  diag->add_option("--motor-force", d.motor_force, "a drive force that also accelerates the moving mass: --force COL --fit-mass");
+  diag->add_flag("--fit-mass", d.fit_mass, "fit a moving mass M: the force includes M a");
+  diag->add_option("--normal", d.normal, "normal load (N); friction levels then scale with it unless --no-load-scaling");
+  diag->add_option("--velocity", d.velocity, "velocity (m/s); else estimated from the position");
+  diag->add_option("--acceleration", d.acceleration, "acceleration (m/s^2); else estimated");
+  diag->add_option("--reference", d.reference, "commanded position (m), kept for the plots");
+  diag->add_option("--force-sign", d.force_sign, "multiply the force column by S (1 or -1)")->check(CLI::IsMember({1.0, -1.0}));
+  diag->add_option("--force-unit", d.force_unit, "unit of the force column in the report")->capture_default_str();
+  diag->add_flag("--no-load-scaling", d.no_load_scaling, "constant friction levels even with a normal channel");
+  diag->add_option("--stribeck-exponent", d.stribeck_exponent, "1 (the dissertation's exponential) or 2 (Gaussian)")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  diag->add_option("--smooth", d.smooth, "moving-average window (s) before central differences, instead of the smoother")
+      ->check(CLI::NonNegativeNumber);
+  diag->add_option("--motion-estimator", d.motion_estimator,
+                   "rts: Rauch-Tung-Striebel smoother, noise from the record (default); central: central differences")
+      ->check(CLI::IsMember({"rts", "central"}))->capture_default_str();
+  diag->add_option("--effects", d.effects, "comma-separated candidates (default: all)");
+  diag->add_option("--begin", d.begin, "analyse only samples with t >= begin (s)");
+  diag->add_option("--end", d.end, "analyse only samples with t <= end (s)");
+  diag->add_flag("--json", d.json, "print one JSON object (fields: see README)");
+  diag->add_option("--out", d.out, "also write DIR/diagnosis.json, traces.csv and signatures.csv (plots: analysis/plot_diagnosis.py DIR)");
+
+  StribeckArgs s;
+  auto* strib = app.add_subcommand("stribeck", "steady-state curve fit (LuGre or eq. 44)");
+  strib->footer(kStribeckFooter);
+  strib->add_option("FILE", s.file, "CSV file with a header line")->required()->check(CLI::ExistingFile);
+  strib->add_option("--x", s.x, "column of the speed (or other abscissa)")->required();
+  strib->add_option("--y", s.y, "column of the force (or mu)")->required();
+  strib->add_option("--weight", s.weight, "column of point weights");
+  strib->add_option("--model", s.model, "lugre or eq44")->check(CLI::IsMember({"lugre", "eq44"}))->capture_default_str();
+  strib->add_option("--stribeck-exponent", s.stribeck_exponent, "Stribeck exponent D")->capture_default_str();
+  strib->add_flag("--no-offset", s.no_offset, "no offset term");
+  strib->add_flag("--json", s.json, "print one JSON object");
+
+  MetricsArgs m;
+  auto* metrics = app.add_subcommand("metrics", "scratch metrics of a recorded tribo run");
+  metrics->footer(kMetricsFooter);
+  metrics->add_option("RUN_DIR", m.run_dir, "a tribo run directory")->required();
+  metrics->add_flag("--json", m.json, "print SI units as JSON");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    return usage_error(e.what());
   }
-  for (int i = 2; i < argc; ++i) {
-    if (std::string(argv[i]) == "--help") {
-      std::cout << kUsage;
-      return 0;
-    }
-  }
-  if (command == "diagnose") return diagnose_command(argc, argv);
-  if (command == "stribeck") return stribeck_command(argc, argv);
-  if (command == "metrics") return metrics_command(argc, argv);
-  return usage_error("unknown command '" + command + "'");
+  if (diag->parsed()) return diagnose_command(d);
+  if (strib->parsed()) return stribeck_command(s);
+  if (metrics->parsed()) return metrics_command(m);
+  return usage_error("missing command");
 }

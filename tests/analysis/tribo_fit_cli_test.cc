@@ -35,6 +35,22 @@ TEST(TriboFitCli, HelpSaysColumnsAreSi) {
   EXPECT_NE(o.text.find("tribo-fit diagnose INPUT"), std::string::npos);
 }
 
+TEST(TriboFitCli, EveryCommandHasItsOwnHelpAndTheToolAVersion) {
+  const Output diagnose = run("diagnose --help");
+  EXPECT_EQ(diagnose.exit_code, 0);
+  EXPECT_NE(diagnose.text.find("--motion-estimator"), std::string::npos);
+  EXPECT_NE(diagnose.text.find("Rauch-Tung-Striebel"), std::string::npos);
+  const Output stribeck = run("stribeck --help");
+  EXPECT_EQ(stribeck.exit_code, 0);
+  EXPECT_NE(stribeck.text.find("--model"), std::string::npos);
+  const Output metrics = run("metrics --help");
+  EXPECT_EQ(metrics.exit_code, 0);
+  EXPECT_NE(metrics.text.find("RUN_DIR"), std::string::npos);
+  const Output version = run("--version");
+  EXPECT_EQ(version.exit_code, 0);
+  EXPECT_NE(version.text.find("tribo-fit "), std::string::npos);
+}
+
 TEST(TriboFitCli, BadUsageExitsWithTwo) {
   EXPECT_EQ(run("diagnose").exit_code, 2);
   EXPECT_EQ(run("frobnicate").exit_code, 2);

@@ -1,0 +1,244 @@
+#include "analysis/motion_estimate.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Core>
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+
+namespace tribo::analysis {
+
+namespace {
+
+using Mat3 = Eigen::Matrix3d;
+using Vec3 = Eigen::Vector3d;
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+void transition(double dt, double q, Mat3& F, Mat3& Q) {
+  F << 1, dt, 0.5 * dt * dt, 0, 1, dt, 0, 0, 1;
+  const double d2 = dt * dt, d3 = d2 * dt, d4 = d3 * dt, d5 = d4 * dt;
+  Q << d5 / 20, d4 / 8, d3 / 6, d4 / 8, d3 / 3, d2 / 2, d3 / 6, d2 / 2, dt;
+  Q *= q;
+}
+
+struct FilterPass {
+  double log_likelihood = 0;
+  std::vector<Vec3> predicted_mean, filtered_mean;
+  std::vector<Mat3> predicted_cov, filtered_cov;
+};
+
+// Positions in units of the noise (y / r_sd), so r = 1 and every number is of
+// order one; q in the same units.
+FilterPass kalman(const std::vector<double>& t, const std::vector<double>& y, double q, bool keep) {
+  const std::size_t n = y.size();
+  FilterPass out;
+  if (keep) {
+    out.predicted_mean.resize(n);
+    out.filtered_mean.resize(n);
+    out.predicted_cov.resize(n);
+    out.filtered_cov.resize(n);
+  }
+  Vec3 m(y[0], 0, 0);
+  Mat3 P = Mat3::Zero();
+  const double span = std::max(t.back() - t.front(), 1e-12);
+  const double ybig = 1e6;  // diffuse start for velocity and acceleration (noise units)
+  P(0, 0) = 1;
+  P(1, 1) = ybig / span * ybig / span;
+  P(2, 2) = P(1, 1) / (span * span);
+  Mat3 F, Q;
+  for (std::size_t i = 0; i < n; ++i) {
+    Vec3 mp = m;
+    Mat3 Pp = P;
+    if (i > 0) {
+      transition(t[i] - t[i - 1], q, F, Q);
+      mp = F * m;
+      Pp = F * P * F.transpose() + Q;
+    }
+    const double s = Pp(0, 0) + 1.0;
+    const double innovation = y[i] - mp(0);
+    if (i > 0) out.log_likelihood += -0.5 * (std::log(s) + innovation * innovation / s);
+    const Vec3 k = Pp.col(0) / s;
+    m = mp + k * innovation;
+    P = Pp - k * Pp.row(0);
+    P = 0.5 * (P + P.transpose());
+    if (keep) {
+      out.predicted_mean[i] = mp;
+      out.predicted_cov[i] = Pp;
+      out.filtered_mean[i] = m;
+      out.filtered_cov[i] = P;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+double third_difference_noise(const std::vector<double>& y) {
+  if (y.size() < 8) return 0;
+  std::vector<double> d;
+  d.reserve(y.size());
+  for (std::size_t i = 3; i < y.size(); ++i) d.push_back(std::abs(y[i] - 3 * y[i - 1] + 3 * y[i - 2] - y[i - 3]));
+  // Median absolute value of a normal variable is 0.6745 sigma.
+  return median(d) / 0.6745 / std::sqrt(20.0);
+}
+
+double resolution_of(const std::vector<double>& y) {
+  double best = std::numeric_limits<double>::infinity();
+  double scale = 0;
+  for (double v : y) scale = std::max(scale, std::abs(v));
+  for (std::size_t i = 1; i < y.size(); ++i) {
+    const double d = std::abs(y[i] - y[i - 1]);
+    if (d > 1e-12 * scale) best = std::min(best, d);
+  }
+  return std::isfinite(best) ? best : 0.0;
+}
+
+MotionEstimate estimate_motion(const std::vector<double>& t, const std::vector<double>& x) {
+  MotionEstimate out;
+  out.estimator = "rts_constant_acceleration";
+  const std::size_t n = x.size();
+  out.position_resolution_m = resolution_of(x);
+  double noise = third_difference_noise(x);
+  noise = std::max(noise, out.position_resolution_m / std::sqrt(12.0));
+  if (!(noise > 0)) {
+    double scale = 0;
+    for (double v : x) scale = std::max(scale, std::abs(v));
+    noise = std::max(1e-9 * scale, 1e-15);
+  }
+  out.position_noise_m = noise;
+  std::vector<double> y(n);
+  for (std::size_t i = 0; i < n; ++i) y[i] = x[i] / noise;
+  if (n < 4) {
+    out.position_m = x;
+    out.velocity_m_per_s.assign(n, 0.0);
+    out.acceleration_m_per_s2.assign(n, 0.0);
+    return out;
+  }
+  // q grid: from a jerk that moves the position by 1e-3 noise widths over the
+  // record to one that moves it by 1e3 widths per sample.
+  std::vector<double> dts;
+  for (std::size_t i = 1; i < n; ++i) dts.push_back(t[i] - t[i - 1]);
+  const double dt = std::max(median(dts), 1e-12);
+  const double span = t.back() - t.front();
+  const double lo = std::log(1e-6 / std::pow(span, 5)), hi = std::log(1e6 / std::pow(dt, 5));
+  auto ll = [&](double log_q) { return kalman(t, y, std::exp(log_q), false).log_likelihood; };
+  const int grid = 16;
+  double best_lq = lo, best = -std::numeric_limits<double>::infinity();
+  for (int k = 0; k <= grid; ++k) {
+    const double lq = lo + (hi - lo) * k / grid;
+    const double v = ll(lq);
+    if (v > best) best = v, best_lq = lq;
+  }
+  double a = best_lq - (hi - lo) / grid, b = best_lq + (hi - lo) / grid;
+  const double g = 0.5 * (std::sqrt(5.0) - 1);
+  double c = b - g * (b - a), d = a + g * (b - a);
+  double fc = ll(c), fd = ll(d);
+  for (int it = 0; it < 20; ++it) {
+    if (fc > fd) {
+      b = d, d = c, fd = fc, c = b - g * (b - a), fc = ll(c);
+    } else {
+      a = c, c = d, fc = fd, d = a + g * (b - a), fd = ll(d);
+    }
+  }
+  const double q = std::exp(0.5 * (a + b));
+  out.jerk_intensity = q * noise * noise;
+  // Forward pass kept, then the Rauch-Tung-Striebel backward pass.
+  FilterPass f = kalman(t, y, q, true);
+  std::vector<Vec3> smooth(n);
+  std::vector<double> velocity_sd(n);
+  smooth[n - 1] = f.filtered_mean[n - 1];
+  Mat3 Ps = f.filtered_cov[n - 1];
+  velocity_sd[n - 1] = std::sqrt(std::max(Ps(1, 1), 0.0));
+  Mat3 F, Q;
+  for (std::size_t i = n - 1; i-- > 0;) {
+    transition(t[i + 1] - t[i], q, F, Q);
+    const Mat3 gain = f.filtered_cov[i] * F.transpose() * f.predicted_cov[i + 1].inverse();
+    smooth[i] = f.filtered_mean[i] + gain * (smooth[i + 1] - f.predicted_mean[i + 1]);
+    Ps = f.filtered_cov[i] + gain * (Ps - f.predicted_cov[i + 1]) * gain.transpose();
+    velocity_sd[i] = std::sqrt(std::max(Ps(1, 1), 0.0));
+  }
+  out.position_m.resize(n);
+  out.velocity_m_per_s.resize(n);
+  out.acceleration_m_per_s2.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    out.position_m[i] = smooth[i](0) * noise;
+    out.velocity_m_per_s[i] = smooth[i](1) * noise;
+    out.acceleration_m_per_s2[i] = smooth[i](2) * noise;
+  }
+  out.velocity_std_m_per_s = median(velocity_sd) * noise;
+  return out;
+}
+
+MotionEstimate estimate_motion_with_reference(const std::vector<double>& t, const std::vector<double>& x,
+                                              const std::vector<double>& r) {
+  const std::size_t n = x.size();
+  if (r.size() != n || n < 400) return estimate_motion(t, x);
+  std::vector<double> dts;
+  for (std::size_t i = 1; i < n; ++i) dts.push_back(t[i] - t[i - 1]);
+  const double dt = std::max(median(dts), 1e-12);
+  // An impulse response on the sample grid needs uniform sampling.
+  for (double h : dts) {
+    if (std::fabs(h - dt) > 0.01 * dt) return estimate_motion(t, x);
+  }
+  // x[i] ~ sum_k h_k r[i - k] + c, k from -lead to lag: any linear loop whose
+  // response settles within the window (0.2 s, at most 200 taps), a few
+  // taps of lead for a clock skew between the channels.
+  const int lead = 4;
+  const int lag = std::clamp(static_cast<int>(std::lround(0.2 / dt)), 8, 200);
+  const int taps = lead + lag + 1;
+  const Eigen::Index cols = taps + 1;
+  Eigen::MatrixXd xtx = Eigen::MatrixXd::Zero(cols, cols);
+  Eigen::VectorXd xty = Eigen::VectorXd::Zero(cols);
+  Eigen::VectorXd row(cols);
+  const double r0 = r[0];
+  auto ref_at = [&](long j) { return (j < 0 ? r[0] : (j >= static_cast<long>(n) ? r[n - 1] : r[static_cast<std::size_t>(j)])) - r0; };
+  for (std::size_t i = 0; i < n; ++i) {
+    for (int k = -lead; k <= lag; ++k) row[k + lead] = ref_at(static_cast<long>(i) - k);
+    row[taps] = 1.0;
+    xtx.selfadjointView<Eigen::Lower>().rankUpdate(row);
+    xty += row * (x[i] - r0);
+  }
+  xtx = xtx.selfadjointView<Eigen::Lower>();
+  const Eigen::VectorXd coef = xtx.ldlt().solve(xty);
+  std::vector<double> xm(n);
+  double mean_x = 0, tss = 0, sse = 0;
+  for (double v : x) mean_x += v;
+  mean_x /= static_cast<double>(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    double value = coef[taps];
+    for (int k = -lead; k <= lag; ++k) value += coef[k + lead] * ref_at(static_cast<long>(i) - k);
+    xm[i] = value + r0;
+    tss += (x[i] - mean_x) * (x[i] - mean_x);
+    sse += (x[i] - xm[i]) * (x[i] - xm[i]);
+  }
+  if (!(tss > 0) || !std::isfinite(sse) || sse > 0.1 * tss) return estimate_motion(t, x);
+  // The loop model's motion is noise-free: its derivatives by differences.
+  std::vector<double> vm(n, 0.0), am(n, 0.0);
+  for (std::size_t i = 1; i + 1 < n; ++i) vm[i] = (xm[i + 1] - xm[i - 1]) / (t[i + 1] - t[i - 1]);
+  for (std::size_t i = 1; i + 1 < n; ++i) am[i] = (xm[i + 1] - 2 * xm[i] + xm[i - 1]) / (dt * dt);
+  std::vector<double> e(n);
+  for (std::size_t i = 0; i < n; ++i) e[i] = x[i] - xm[i];
+  MotionEstimate out = estimate_motion(t, e);
+  // The noise floor and resolution belong to the record's position.
+  out.position_resolution_m = resolution_of(x);
+  out.position_noise_m = std::max(third_difference_noise(x), out.position_resolution_m / std::sqrt(12.0));
+  for (std::size_t i = 0; i < n; ++i) {
+    out.position_m[i] += xm[i];
+    out.velocity_m_per_s[i] += vm[i];
+    out.acceleration_m_per_s2[i] += am[i];
+  }
+  out.estimator = "rts_constant_acceleration_on_reference_loop_residual";
+  out.loop_taps = taps;
+  out.loop_variance_explained = 1.0 - sse / tss;
+  return out;
+}
+
+}  // namespace tribo::analysis

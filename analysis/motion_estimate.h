@@ -1,0 +1,49 @@
+// Position, velocity and acceleration of the moving body estimated from a
+// noisy position record, whatever its noise: a Rauch-Tung-Striebel smoother
+// (forward Kalman filter, backward pass) with a constant-acceleration motion
+// model driven by white jerk. Both noise intensities come from the record:
+//   - the position noise floor from the third differences of the position
+//     (white noise gives var = 20 sigma^2; a smooth motion almost nothing;
+//     the median absolute value keeps onsets and turns out of it), never below
+//     the position's resolution (its smallest step) / sqrt(12);
+//   - the jerk intensity q by maximum likelihood of the filter's innovations
+//     over a log grid, refined by golden section.
+// Sampling may be non-uniform (the model is discretised per interval).
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace tribo::analysis {
+
+struct MotionEstimate {
+  std::string estimator;             // e.g. "rts_constant_acceleration"
+  double position_noise_m = 0;       // estimated white position noise (RMS)
+  double position_resolution_m = 0;  // smallest step of the position record (0: none seen)
+  double jerk_intensity = 0;         // q of the motion model (m^2/s^5), maximum likelihood
+  double velocity_std_m_per_s = 0;   // median smoothed velocity standard deviation
+  int loop_taps = 0;                 // with a reference: taps of the fitted loop response (0: none)
+  double loop_variance_explained = 0;
+  std::vector<double> position_m, velocity_m_per_s, acceleration_m_per_s2;
+};
+
+// Robust white-noise RMS of a sequence from its third differences (times
+// assumed roughly uniform).
+double third_difference_noise(const std::vector<double>& y);
+
+// Smallest nonzero step between consecutive values (quantisation), or 0.
+double resolution_of(const std::vector<double>& y);
+
+MotionEstimate estimate_motion(const std::vector<double>& time_s, const std::vector<double>& position_m);
+
+// With the commanded position: the closed loop's response to the reference
+// (a linear impulse response over 0.2 s, fitted to the record by least
+// squares, any loop order) carries the fast motion (onsets, stops), and the
+// smoother above estimates only what the loop model leaves (tracking errors
+// from friction, model mismatch), whose jerk is small. Falls back to
+// estimate_motion() when the loop model explains less than 90 % of the
+// position's variance, or the sampling is not uniform.
+MotionEstimate estimate_motion_with_reference(const std::vector<double>& time_s, const std::vector<double>& position_m,
+                                              const std::vector<double>& reference_m);
+
+}  // namespace tribo::analysis

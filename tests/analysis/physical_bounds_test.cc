@@ -1,0 +1,65 @@
+// Physical bounds (analysis/diagnosis.h out_of_bounds, base_bound_warnings):
+// a fit at or past a bound, or below what the data resolve, is a rejection
+// with the reason, never an accepted effect (issue 15: backlash gaps of 1e-22 m
+// and breakaway ratios of 1e-19 had been accepted).
+#include <gtest/gtest.h>
+
+#include "analysis/diagnosis.h"
+#include "tests/analysis/synthetic_run.h"
+
+namespace tribo::analysis {
+namespace {
+
+struct Fixture {
+  MeasuredSeries series;
+  MotionSegmentation motion;
+  Fixture() : series(testing::synthetic_run({}, 1)) {
+    derive_motion(series, 0);
+    motion = segment_motion(series);
+  }
+};
+
+FitResult with(const ModelData& data, Effect effect, std::vector<double> values) {
+  ModelStructure st;
+  st.load_scaled = true;
+  FitResult fit;
+  fit.params = with_effect(base_params(data, st), effect, data, values);
+  fit.params.set_value("mu_c", 0.1);
+  fit.params.set_value("mu_s", 0.14);
+  fit.params.set_value("sigma0", 3000);
+  return fit;
+}
+
+TEST(PhysicalBounds, RejectsUnresolvedOrImpossibleValuesWithTheReason) {
+  const Fixture f;
+  const ModelData data(f.series, f.motion);
+  EXPECT_NE(out_of_bounds(data, with(data, Effect::kBacklash, {1e-22}), Effect::kBacklash).find("resolved"), std::string::npos);
+  EXPECT_EQ(out_of_bounds(data, with(data, Effect::kBacklash, {0.3e-6}), Effect::kBacklash), "");
+  EXPECT_NE(out_of_bounds(data, with(data, Effect::kPreslidingHysteresis, {9.3e-19}), Effect::kPreslidingHysteresis).find("bound"),
+            std::string::npos);
+  EXPECT_EQ(out_of_bounds(data, with(data, Effect::kPreslidingHysteresis, {0.5}), Effect::kPreslidingHysteresis), "");
+  EXPECT_NE(out_of_bounds(data, with(data, Effect::kVelocityStrengthening, {-0.01}), Effect::kVelocityStrengthening).find("weakening"),
+            std::string::npos);
+  EXPECT_EQ(out_of_bounds(data, with(data, Effect::kVelocityStrengthening, {0.005}), Effect::kVelocityStrengthening), "");
+  EXPECT_NE(out_of_bounds(data, with(data, Effect::kTiltOffset, {0.9}), Effect::kTiltOffset).find("bound"), std::string::npos);
+  EXPECT_NE(out_of_bounds(data, with(data, Effect::kFrictionalLag, {1e-12}), Effect::kFrictionalLag).find("sample interval"),
+            std::string::npos);
+  EXPECT_NE(out_of_bounds(data, with(data, Effect::kRateState, {-0.001, 0.001, 1e-5}), Effect::kRateState).find("direct effect"),
+            std::string::npos);
+}
+
+TEST(PhysicalBounds, BaseModelValuesPastTheirBoundsAreWarned) {
+  const Fixture f;
+  const ModelData data(f.series, f.motion);
+  FitResult fit = with(data, Effect::kTiltOffset, {0.0});
+  fit.params.set_value("mu_s", 1.3e16);
+  fit.params.set_value("Fv", -75);
+  const auto warnings = base_bound_warnings(data, fit);
+  std::string all;
+  for (const auto& w : warnings) all += w + "\n";
+  EXPECT_NE(all.find("friction coefficients above 2"), std::string::npos) << all;
+  EXPECT_NE(all.find("negative viscous friction"), std::string::npos) << all;
+}
+
+}  // namespace
+}  // namespace tribo::analysis
