@@ -25,6 +25,11 @@
 //          d theta/dt = 1 - |v| theta / D_c              eq. 5 with Dieterich ageing:
 //                                                       theta is the rest time at
 //                                                       rest, D_c / |v| in sliding)
+//        + N_rs [a ln(1 + |v_S| / V*) + b ln(1 + V* phi / D_c)]
+//                                                       rate_state (Dieterich-Ruina,
+//                                                       regularised at V*; N_rs =
+//                                                       N_eff M_o W; its own state phi,
+//                                                       ageing or slip law, below)
 //   v_S  = v_L, d v_L/dt = (v - v_L) / tau_L            frictional_lag (Armstrong eq.
 //                                                       4 as a first-order lag;
 //                                                       otherwise v_S = v)
@@ -85,6 +90,32 @@ struct DirectionAsymmetryParams {
   double ratio = 0;
 };
 
+// Rate-and-state friction (Dieterich 1979; Ruina 1983), added to S:
+//   N_rs [a ln(1 + |v|/V*) + b ln(1 + V* phi / D_c)]
+// a direct effect (friction rises at once with the slip rate) and a state phi
+// (s) of its own, evolving by Dieterich's ageing law
+//   d phi/dt = 1 - |v| phi / D_c
+// or Ruina's slip law, under which a contact at rest keeps its state:
+//   d phi/dt = -(|v| phi / D_c) ln(|v| phi / D_c)
+// In steady sliding phi = D_c / |v| and the addition is (a - b) ln(|v|/V*)
+// for |v| >> V*. A fresh contact starts at phi_0 (initial_state_s). A step of
+// the slip rate from v0 (phi = D_c/v0) to v raises the friction by
+// a ln(v / v0) at once and lowers it by b ln(v / v0) over ~D_c of slip: with
+// elasto-plastic presliding (breakaway_ratio) holding the stuck contact, this
+// gives a break-away peak that grows with the loading rate and a drop after it
+// (the overshoot). Slow strengthening with rest time stays the dwell effect's.
+enum class StateLaw { kAgeing, kSlip };
+
+struct RateStateParams {
+  bool enabled = false;
+  double direct_coeff = 0;                   // a, per unit load and per e-fold of velocity
+  double state_coeff = 0;                    // b, per unit load and per e-fold of the state
+  double reference_velocity_m_per_s = 1e-6;  // V*
+  double memory_length_m = 1e-7;             // D_c
+  double initial_state_s = 0;                // phi_0 of a fresh contact
+  StateLaw law = StateLaw::kSlip;
+};
+
 struct FrictionModel {
   LugreParams lugre;
   DwellStictionParams dwell_stiction;
@@ -95,7 +126,18 @@ struct FrictionModel {
   OrientationAnisotropyParams orientation_anisotropy;
   DirectionAsymmetryParams direction_asymmetry;
   PreslidingHysteresisParams presliding_hysteresis;
+  RateStateParams rate_state;
 };
+
+// The rate-and-state addition to S (0 when off).
+double rate_state_n(const FrictionModel& m, const FrictionLevels& levels, double velocity_m_per_s,
+                    double state_s);
+
+// d phi/dt of the rate-and-state law at slip rate v.
+double rate_state_rate(const RateStateParams& p, double velocity_m_per_s, double state_s);
+
+// phi after h at frozen v: exact for both laws (the slip law is linear in ln(|v| phi / D_c)).
+double relax_rate_state(const RateStateParams& p, double velocity_m_per_s, double state_s, double h_s);
 
 // N_eff for the contact load N.
 double effective_load_n(const LoadDependenceParams& p, double contact_load_n);
@@ -113,6 +155,7 @@ struct ContactPoint {
   double stribeck_velocity_m_per_s = 0;  // v_S: the lagged velocity, or v
   double sample_position_m = 0;          // x_s
   double contact_age_s = 0;              // theta
+  double rate_state_s = 0;               // phi (rate_state)
 };
 
 // S at the contact point (all enabled effects); equals stribeck_n of the

@@ -23,7 +23,7 @@ int slip_elements(const LateralPlant& plant) {
 ContactPoint contact_point(const LateralPlant& plant, const LateralInputs& in, const LateralState& s) {
   const double v = tip_velocity_m_per_s(plant, s) - in.sample_velocity_m_per_s;
   return ContactPoint{v, plant.friction.frictional_lag.enabled ? s.lag_velocity_m_per_s : v,
-                      tip_position_m(plant, s) - in.sample_offset_m, s.contact_age_s};
+                      tip_position_m(plant, s) - in.sample_offset_m, s.contact_age_s, s.rate_state_s};
 }
 
 // Friction force of the bristle(s) at deflection scale g; fills their rates.
@@ -74,6 +74,7 @@ LateralEvaluation lateral_derivative(const LateralPlant& plant, const LateralInp
     if (m.dwell_stiction.enabled) {
       r.contact_age_s = 1.0 - std::fabs(c.velocity_m_per_s) * s.contact_age_s / m.dwell_stiction.memory_length_m;
     }
+    if (m.rate_state.enabled) r.rate_state_s = rate_state_rate(m.rate_state, c.velocity_m_per_s, s.rate_state_s);
   } else {
     for (int i = 0; i < slip_elements(plant); ++i) r.slip_m[i] = 0;  // out of contact nothing slips
   }
@@ -113,6 +114,7 @@ void add_scaled(State& out, const State& s, const LateralRate& r, double h, int 
   out.bristle_m = s.bristle_m + h * r.bristle_m;
   out.lag_velocity_m_per_s = s.lag_velocity_m_per_s + h * r.lag_velocity_m_per_s;
   out.contact_age_s = s.contact_age_s + h * r.contact_age_s;
+  out.rate_state_s = s.rate_state_s + h * r.rate_state_s;
   for (int i = 0; i < n; ++i) out.slip_m[i] = s.slip_m[i] + h * r.slip_m[i];
 }
 
@@ -126,6 +128,7 @@ void substep(const LateralPlant& plant, const LateralInputs& in, double h, bool 
     if (frozen_contact) {
       r.bristle_m = 0;
       r.contact_age_s = 0;
+      r.rate_state_s = 0;
       for (int i = 0; i < n; ++i) r.slip_m[i] = 0;
     }
     return r;
@@ -196,6 +199,7 @@ void relax_contact(const LateralPlant& plant, const LateralInputs& in, double h,
       s.slip_m[i] = relax_bristle(hy.breakaway_ratio, slip_share(hy, i) * g, v, s.slip_m[i], h);
     }
   }
+  if (m.rate_state.enabled) s.rate_state_s = relax_rate_state(m.rate_state, v, s.rate_state_s, h);
   if (m.dwell_stiction.enabled) {
     const double rate = std::fabs(v) / m.dwell_stiction.memory_length_m;
     s.contact_age_s = rate > 0 ? 1 / rate + (s.contact_age_s - 1 / rate) * std::exp(-rate * h)

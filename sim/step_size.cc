@@ -60,7 +60,8 @@ LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs&
           ? in.levels.strengthening_n * std::log1p(v_reach / m.velocity_strengthening.reference_velocity_m_per_s)
           : 0.0;
   const double f_min = std::min(in.levels.static_n, in.levels.coulomb_n) * floor;
-  const double f_max = (std::max(in.levels.static_n * dwell, in.levels.coulomb_n) + strengthening) / floor;
+  const double rate_state = rate_state_n(m, in.levels, v_reach, s.rate_state_s + dt_s);
+  const double f_max = (std::max(in.levels.static_n * dwell, in.levels.coulomb_n) + strengthening + rate_state) / floor;
   const PreslidingHysteresisParams& hy = m.presliding_hysteresis;
   const double share_min = hy.enabled ? 1.0 - hy.spread : 1.0;
   const double share_max = hy.enabled ? 1.0 + hy.spread : 1.0;
@@ -68,7 +69,8 @@ LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs&
   // |v| g'(v) / g, bounded over the Stribeck curve.
   const double shape = (in.levels.static_n * dwell - in.levels.coulomb_n) /
                            (std::numbers::e * in.levels.coulomb_n) +
-                       in.levels.strengthening_n / f_min;
+                       in.levels.strengthening_n / f_min +
+                       in.levels.rate_state_n * m.rate_state.direct_coeff / f_min;
 
   // The present deflection scale and how deep the bristle sits in it.
   double g = now.deflection_scale_m * share_min, z_ratio = 0, d = 0;
@@ -90,7 +92,12 @@ LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs&
     periodic = v_reach * 2 * std::numbers::pi * std::fabs(pp.amplitude) /
                (pp.period_m * (1 - std::fabs(pp.amplitude)));
   }
-  const double ageing = m.dwell_stiction.enabled ? v_reach / m.dwell_stiction.memory_length_m : 0.0;
+  double ageing = m.dwell_stiction.enabled ? v_reach / m.dwell_stiction.memory_length_m : 0.0;
+  if (m.rate_state.enabled) {  // |d(dphi/dt)/dphi|: |v|/D_c (ageing), (|v|/D_c)(|ln(|v| phi/D_c)| + 1) (slip)
+    const double x = v_reach * s.rate_state_s / m.rate_state.memory_length_m;
+    const double slope = m.rate_state.law == StateLaw::kSlip && x > 0 ? std::fabs(std::log(x)) + 1.0 : 1.0;
+    ageing += v_reach / m.rate_state.memory_length_m * slope;
+  }
   const double d_bound = 1.0 + ratio_max * (1.0 + shape);
   return LateralRates{mechanical(d) + v_reach / g * steepness + periodic * z_ratio + ageing + lag,
                       mechanical(d_bound) + periodic * ratio_max + lag};
@@ -131,7 +138,9 @@ bool sane(const LateralPlant& plant, const LateralInputs& in, const LateralState
   if (!in.levels.in_contact()) return true;
   const FrictionModel& m = plant.friction;
   const double dwell = m.dwell_stiction.enabled ? 1.0 + m.dwell_stiction.gain : 1.0;
-  const double g_max = 4.0 * (std::max(in.levels.static_n * dwell, in.levels.coulomb_n) + in.levels.strengthening_n * 40.0) /
+  // The rate-and-state addition at 1 m/s and an age of 1e6 s: a bound, not a state.
+  const double rate_state = rate_state_n(m, in.levels, 1.0, 1e6);
+  const double g_max = 4.0 * (std::max(in.levels.static_n * dwell, in.levels.coulomb_n) + in.levels.strengthening_n * 40.0 + rate_state) /
                        (modulation_floor(m) * m.lugre.sigma0_n_per_m);
   if (std::fabs(s.bristle_m) > g_max) return false;
   for (double z : s.slip_m) {
