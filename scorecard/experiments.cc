@@ -109,11 +109,15 @@ Breakaway run_breakaway(const v1::DaemonConfig& config, const BreakawayProtocol&
   Breakaway b;
   b.steady_n = mean(force, ticks * 7 / 10, ticks);
   b.lag_m = mean(lag, ticks * 8 / 10, ticks);
+  // A spike: the force falls by 2 % of its running maximum, and by at least
+  // four times the force noise left in the 5 ms average (at light loads 2 %
+  // is within the noise).
+  const double noise = config.sim().sensors().lateral_force_noise_n() / std::sqrt(static_cast<double>(2 * half + 1));
   std::size_t peak = 0;
   bool found = false;
   for (std::size_t k = 0; k < ticks; ++k) {
     if (f[k] > f[peak]) peak = k;
-    if (f[peak] > 0 && f[k] < 0.98 * f[peak] && f[peak] > 0.5 * b.steady_n) {
+    if (f[peak] > 0 && f[k] < f[peak] - std::max(0.02 * f[peak], 4 * noise) && f[peak] > 0.5 * b.steady_n) {
       found = true;
       break;
     }

@@ -25,7 +25,7 @@
 //          d theta/dt = 1 - |v| theta / D_c              eq. 5 with Dieterich ageing:
 //                                                       theta is the rest time at
 //                                                       rest, D_c / |v| in sliding)
-//        + N_rs [a ln(1 + |v_S| / V*) + b ln(1 + V* phi / D_c)]
+//        + N_rs [a ln(1 + |v_S| / V*) + b ln(V* phi / D_c)]  (S >= 0.2 Fc)
 //                                                       rate_state (Dieterich-Ruina,
 //                                                       regularised at V*; N_rs =
 //                                                       N_eff M_o W; its own state phi,
@@ -91,20 +91,27 @@ struct DirectionAsymmetryParams {
 };
 
 // Rate-and-state friction (Dieterich 1979; Ruina 1983), added to S:
-//   N_rs [a ln(1 + |v|/V*) + b ln(1 + V* phi / D_c)]
-// a direct effect (friction rises at once with the slip rate) and a state phi
-// (s) of its own, evolving by Dieterich's ageing law
-//   d phi/dt = 1 - |v| phi / D_c
-// or Ruina's slip law, under which a contact at rest keeps its state:
-//   d phi/dt = -(|v| phi / D_c) ln(|v| phi / D_c)
-// In steady sliding phi = D_c / |v| and the addition is (a - b) ln(|v|/V*)
-// for |v| >> V*. A fresh contact starts at phi_0 (initial_state_s). A step of
-// the slip rate from v0 (phi = D_c/v0) to v raises the friction by
-// a ln(v / v0) at once and lowers it by b ln(v / v0) over ~D_c of slip: with
-// elasto-plastic presliding (breakaway_ratio) holding the stuck contact, this
-// gives a break-away peak that grows with the loading rate and a drop after it
-// (the overshoot). Slow strengthening with rest time stays the dwell effect's.
+//   N_rs [a ln(1 + |v|/V*) + b ln(V* phi / D_c)]
+// a direct effect (friction rises at once with the rate) and a state phi (s)
+// of its own, evolving with the slip rate v_s (the tip's velocity less the
+// bristles' elastic rate) by Dieterich's ageing law or Ruina's slip law:
+//   d phi/dt = 1 - x             (ageing)
+//   d phi/dt = -x ln x           (slip),   x = (|v_s| + V*) phi / D_c
+// V* regularises both ends: the direct effect is linear below V*, and a
+// contact at rest relaxes to the state of sliding at V* (phi = D_c / V*, the
+// state term 0) over ~D_c / V*. In steady sliding phi = D_c / (|v| + V*)
+// and the addition is (a - b) ln(1 + |v|/V*): a = b is friction flat in
+// velocity. A fresh contact starts at phi_0 (initial_state_s). On loading,
+// the stuck contact deflects elastically (breakaway_ratio, below) at the
+// tip's velocity v ~ (dF/dt) / sigma0 while its state stays, so its
+// threshold S rises by a ln(1 + v/V*) with the loading rate: the break-away
+// peak grows with the commanded velocity (Table 5.1). Once it slips, the
+// state falls by b ln(1 + v/V*) over ~D_c of slip: the friction drops and
+// the tip overshoots (§5.3.1). S stays at least kRateStateFloor Fc.
 enum class StateLaw { kAgeing, kSlip };
+
+inline constexpr double kRateStateFloor = 0.2;
+inline constexpr double kMinRateStateRatio = 1e-12;
 
 struct RateStateParams {
   bool enabled = false;

@@ -48,6 +48,17 @@ double bristle_force_n(const FrictionModel& m, double g, double v, const Lateral
   return force;
 }
 
+// The slip rate at the interface: the tip's velocity less the bristles'
+// elastic deflection rate (their mean, with Maxwell-slip elements). The
+// rate-and-state state evolves with slip, not with elastic loading.
+double slip_rate_m_per_s(const LateralPlant& plant, double v, const LateralRate& r) {
+  const PreslidingHysteresisParams& h = plant.friction.presliding_hysteresis;
+  if (!h.enabled) return v - r.bristle_m;
+  double mean = 0;
+  for (int i = 0; i < h.elements; ++i) mean += r.slip_m[i];
+  return v - mean / h.elements;
+}
+
 // A plate at a stop stays there while the net force presses it on.
 void hold_at_stop(const DriveField& f, const LateralState& s, LateralRate& r) {
   if (!f.has_stops()) return;
@@ -74,7 +85,9 @@ LateralEvaluation lateral_derivative(const LateralPlant& plant, const LateralInp
     if (m.dwell_stiction.enabled) {
       r.contact_age_s = 1.0 - std::fabs(c.velocity_m_per_s) * s.contact_age_s / m.dwell_stiction.memory_length_m;
     }
-    if (m.rate_state.enabled) r.rate_state_s = rate_state_rate(m.rate_state, c.velocity_m_per_s, s.rate_state_s);
+    if (m.rate_state.enabled) {
+      r.rate_state_s = rate_state_rate(m.rate_state, slip_rate_m_per_s(plant, c.velocity_m_per_s, r), s.rate_state_s);
+    }
   } else {
     for (int i = 0; i < slip_elements(plant); ++i) r.slip_m[i] = 0;  // out of contact nothing slips
   }
@@ -199,7 +212,18 @@ void relax_contact(const LateralPlant& plant, const LateralInputs& in, double h,
       s.slip_m[i] = relax_bristle(hy.breakaway_ratio, slip_share(hy, i) * g, v, s.slip_m[i], h);
     }
   }
-  if (m.rate_state.enabled) s.rate_state_s = relax_rate_state(m.rate_state, v, s.rate_state_s, h);
+  if (m.rate_state.enabled) {  // at the slip rate of the relaxed bristle(s), frozen over h
+    double slip = 0;
+    if (!hy.enabled) {
+      slip = plasticity(m.lugre.breakaway_ratio, v, s.bristle_m, g) * std::fabs(v) * s.bristle_m / g;
+    } else {
+      for (int i = 0; i < hy.elements; ++i) {
+        const double gi = slip_share(hy, i) * g;
+        slip += plasticity(hy.breakaway_ratio, v, s.slip_m[i], gi) * std::fabs(v) * s.slip_m[i] / gi / hy.elements;
+      }
+    }
+    s.rate_state_s = relax_rate_state(m.rate_state, slip, s.rate_state_s, h);
+  }
   if (m.dwell_stiction.enabled) {
     const double rate = std::fabs(v) / m.dwell_stiction.memory_length_m;
     s.contact_age_s = rate > 0 ? 1 / rate + (s.contact_age_s - 1 / rate) * std::exp(-rate * h)

@@ -59,8 +59,9 @@ LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs&
       in.levels.strengthening_n > 0
           ? in.levels.strengthening_n * std::log1p(v_reach / m.velocity_strengthening.reference_velocity_m_per_s)
           : 0.0;
-  const double f_min = std::min(in.levels.static_n, in.levels.coulomb_n) * floor;
-  const double rate_state = rate_state_n(m, in.levels, v_reach, s.rate_state_s + dt_s);
+  const double f_min = std::min(in.levels.static_n, in.levels.coulomb_n) *
+                       (in.levels.rate_state_n > 0 ? kRateStateFloor : 1.0) * floor;
+  const double rate_state = std::max(0.0, rate_state_n(m, in.levels, v_reach, s.rate_state_s + dt_s));
   const double f_max = (std::max(in.levels.static_n * dwell, in.levels.coulomb_n) + strengthening + rate_state) / floor;
   const PreslidingHysteresisParams& hy = m.presliding_hysteresis;
   const double share_min = hy.enabled ? 1.0 - hy.spread : 1.0;
@@ -139,7 +140,7 @@ bool sane(const LateralPlant& plant, const LateralInputs& in, const LateralState
   const FrictionModel& m = plant.friction;
   const double dwell = m.dwell_stiction.enabled ? 1.0 + m.dwell_stiction.gain : 1.0;
   // The rate-and-state addition at 1 m/s and an age of 1e6 s: a bound, not a state.
-  const double rate_state = rate_state_n(m, in.levels, 1.0, 1e6);
+  const double rate_state = std::max(0.0, rate_state_n(m, in.levels, 1.0, 1e6));
   const double g_max = 4.0 * (std::max(in.levels.static_n * dwell, in.levels.coulomb_n) + in.levels.strengthening_n * 40.0 + rate_state) /
                        (modulation_floor(m) * m.lugre.sigma0_n_per_m);
   if (std::fabs(s.bristle_m) > g_max) return false;

@@ -259,6 +259,21 @@ void all_effects(v1::DaemonConfig& c) {
   f->mutable_presliding_hysteresis()->set_enabled(true);
 }
 
+// Rate-and-state with elasto-plastic presliding (config/instruments/dissertation_fit.textproto).
+void rate_state(v1::DaemonConfig& c) {
+  auto* f = c.mutable_sim()->mutable_friction();
+  f->set_breakaway_ratio(0.9);
+  f->set_coulomb_coeff(0.09);
+  f->set_static_coeff(0.09);
+  auto* r = f->mutable_rate_state();
+  r->set_enabled(true);
+  r->set_direct_coeff(0.023);
+  r->set_state_coeff(0.02);
+  r->set_reference_velocity_m_per_s(1e-6);
+  r->set_memory_length_m(0.66e-6);
+  r->set_initial_state_s(0.49);
+}
+
 // Backlash: the tip (0.3 g) on its own coupling behind a 20 nm dead zone.
 void backlash(v1::DaemonConfig& c) { c.mutable_sim()->mutable_tip()->mutable_backlash()->set_enabled(true); }
 
@@ -273,6 +288,8 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{"stiff_bristles", 1e4, 5e-3, 18e-6, stiff_bristles, false},
                       Case{"light_damping", 1e4, 5e-3, 18e-6, light_damping, false},
                       Case{"all_effects", 1e4, 5e-3, 4e-6, all_effects, false},
+                      Case{"rate_state", 1e4, 9.81e-3, 36e-6, rate_state, false},
+                      Case{"rate_state_light_load", 1e4, 50e-6, 4e-6, rate_state, false},
                       Case{"backlash", 1e4, 5e-3, 4e-6, backlash, false, 0.6}),
     [](const ::testing::TestParamInfo<Case>& info) { return std::string(info.param.name); });
 
