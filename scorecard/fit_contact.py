@@ -49,6 +49,11 @@ FIXED = [
     "sim.friction.dwell_stiction.enabled=true",
     "sim.friction.dwell_stiction.gain=0.15",
     "sim.friction.dwell_stiction.time_constant_s=200",
+    # memory 10 um: the held tip's position wander (~6 nm/s) must not cap the
+    # contact's age below Fig. 4.22's 1000 s (D_c / |v| ~ 1700 s).
+    "sim.friction.dwell_stiction.memory_length_m=10e-6",
+    # §4.4: five runs spread by 1.3 %, spot to spot on the sample.
+    "sim.sample.heterogeneity.enabled=true",
     "sim.friction.stribeck_velocity_m_per_s=10e-6",
     "sim.lateral.sensing.excitation_voltage_v=3.5",
 ]

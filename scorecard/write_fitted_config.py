@@ -54,7 +54,8 @@ def main():
                         "    stribeck_velocity_m_per_s: ", 1)
     text = text.replace("    dwell_stiction { enabled: true",
                         "    # Fig. 4.22 (+1.2 / +3.0 / +7.3 % after 30 / 100 / 1000 s at 3000 uN): gamma\n"
-                        "    # = 200 s from the series' shape, gain 0.15 from its size.\n"
+                        "    # = 200 s from the series' shape, gain 0.15 from its size; memory 10 um so\n"
+                        "    # that the held tip's ~6 nm/s position wander leaves ages up to ~1700 s.\n"
                         "    dwell_stiction { enabled: true", 1)
     open(OUT, "w").write(HEADER + text)
 

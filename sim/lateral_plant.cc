@@ -197,12 +197,33 @@ double relax_bristle(double breakaway_ratio, double g, double v, double z, doubl
   return next;
 }
 
+// The slip rate alpha |v| z / g of the bristle(s) at deflection scale g.
+double bristle_slip_rate_m_per_s(const FrictionModel& m, double g, double v, const LateralState& s) {
+  const PreslidingHysteresisParams& hy = m.presliding_hysteresis;
+  if (!hy.enabled) return plasticity(m.lugre.breakaway_ratio, v, s.bristle_m, g) * std::fabs(v) * s.bristle_m / g;
+  double slip = 0;
+  for (int i = 0; i < hy.elements; ++i) {
+    const double gi = slip_share(hy, i) * g;
+    slip += plasticity(hy.breakaway_ratio, v, s.slip_m[i], gi) * std::fabs(v) * s.slip_m[i] / gi / hy.elements;
+  }
+  return slip;
+}
+
 // Half of the Strang split: the contact states, exact for frozen v and g.
+// With rate-and-state, g depends on the state and the state's rate on the
+// bristle's slip, so they are split symmetrically too: the state for h/2,
+// the bristle(s) for h, the state for h/2 (second order in h).
 void relax_contact(const LateralPlant& plant, const LateralInputs& in, double h, LateralState& s) {
   if (!in.levels.in_contact()) return;
   const FrictionModel& m = plant.friction;
+  const double v = contact_point(plant, in, s).velocity_m_per_s;
+  auto relax_state = [&](double step) {
+    if (!m.rate_state.enabled) return;
+    const double g = stribeck_n(m, in.levels, contact_point(plant, in, s)) / m.lugre.sigma0_n_per_m;
+    s.rate_state_s = relax_rate_state(m.rate_state, bristle_slip_rate_m_per_s(m, g, v, s), s.rate_state_s, step);
+  };
+  relax_state(h / 2);
   const ContactPoint c = contact_point(plant, in, s);
-  const double v = c.velocity_m_per_s;
   const double g = stribeck_n(m, in.levels, c) / m.lugre.sigma0_n_per_m;
   const PreslidingHysteresisParams& hy = m.presliding_hysteresis;
   if (!hy.enabled) {
@@ -212,18 +233,7 @@ void relax_contact(const LateralPlant& plant, const LateralInputs& in, double h,
       s.slip_m[i] = relax_bristle(hy.breakaway_ratio, slip_share(hy, i) * g, v, s.slip_m[i], h);
     }
   }
-  if (m.rate_state.enabled) {  // at the slip rate of the relaxed bristle(s), frozen over h
-    double slip = 0;
-    if (!hy.enabled) {
-      slip = plasticity(m.lugre.breakaway_ratio, v, s.bristle_m, g) * std::fabs(v) * s.bristle_m / g;
-    } else {
-      for (int i = 0; i < hy.elements; ++i) {
-        const double gi = slip_share(hy, i) * g;
-        slip += plasticity(hy.breakaway_ratio, v, s.slip_m[i], gi) * std::fabs(v) * s.slip_m[i] / gi / hy.elements;
-      }
-    }
-    s.rate_state_s = relax_rate_state(m.rate_state, slip, s.rate_state_s, h);
-  }
+  relax_state(h / 2);
   if (m.dwell_stiction.enabled) {
     const double rate = std::fabs(v) / m.dwell_stiction.memory_length_m;
     s.contact_age_s = rate > 0 ? 1 / rate + (s.contact_age_s - 1 / rate) * std::exp(-rate * h)
