@@ -127,6 +127,39 @@ TEST(Breakaway, IsBitIdenticalForTheSameSeed) {
   EXPECT_EQ(a.steady_n, b.steady_n);
 }
 
+// The scorecard figures the fitted contact reaches (docs/simulated_instrument.md):
+// issue 14's goals are Fs within 25 %, ts within 30 %, dl within 25 % for each
+// of Table 5.1's eight conditions. Reached: Fs 7 of 8 (9810 uN at 0.2 um/s is
+// +29 %), ts 8 of 8, dl 5 of 8 (the 0.2 um/s rows and 9810 uN at 4 um/s: an
+// I-PD loop's steady lag is v (kp + k) / ki whatever the contact).
+TEST(Scorecard, TheFittedContactMeetsTheTable51GoalsItReached) {
+  scorecard::ScorecardOptions options;
+  options.groups = {"table_5_1"};
+  int fs = 0, ts = 0, dl = 0;
+  for (const scorecard::Row& r : scorecard::run_scorecard(fitted(), options)) {
+    const std::string what = r.observation.substr(0, 2);
+    if (r.goal > 0) std::printf("  %-40s %9.4g vs %9.4g: %+.1f %%\n", r.observation.c_str(), r.simulated, r.dissertation, 100 * r.error());
+    if (what == "Fs") fs += r.within_goal();
+    if (what == "ts") ts += r.within_goal();
+    if (what == "dl") dl += r.within_goal();
+  }
+  EXPECT_GE(fs, 7);
+  EXPECT_EQ(ts, 8);
+  EXPECT_GE(dl, 5);
+}
+
+// Fig. 4.22 at 3000 uN: +1.2 % and +3.0 % after 30 and 100 s of rest, within
+// 2 points (the 1000 s row runs in the scorecard, not here).
+TEST(Scorecard, TheFittedContactMeetsFig422At3000uN) {
+  scorecard::ScorecardOptions options;
+  options.groups = {"fig_4_22"};
+  options.quick = true;
+  for (const scorecard::Row& r : scorecard::run_scorecard(fitted(), options)) {
+    std::printf("  %-45s %+.2f %% vs %+.2f %%\n", r.observation.c_str(), r.simulated, r.dissertation);
+    if (r.observation.find("3000 uN") != std::string::npos) EXPECT_TRUE(r.within_goal()) << r.observation;
+  }
+}
+
 // The position sensor reads the whole +-15 um travel (Table 3.2) of the
 // shipped configurations. With V0 = 5 V its ADC (+-10 V) saturated at
 // +13.77 um (the +x plate is nearer, so that side's voltage grows faster):
