@@ -156,7 +156,9 @@ TEST(Scorecard, TheFittedContactMeetsFig422At3000uN) {
   options.quick = true;
   for (const scorecard::Row& r : scorecard::run_scorecard(fitted(), options)) {
     std::printf("  %-45s %+.2f %% vs %+.2f %%\n", r.observation.c_str(), r.simulated, r.dissertation);
-    if (r.observation.find("3000 uN") != std::string::npos) EXPECT_TRUE(r.within_goal()) << r.observation;
+    if (r.observation.find("3000 uN") != std::string::npos) {
+      EXPECT_TRUE(r.within_goal()) << r.observation;
+    }
   }
 }
 
