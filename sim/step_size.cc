@@ -85,7 +85,22 @@ LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs&
     for (int i = 0; i < hy.elements; ++i) z_ratio = std::max(z_ratio, std::fabs(s.slip_m[i]) / g);
     d = 1.0 + z_ratio * (1.0 + shape);
   }
-  const double steepness = r > 0 ? 1.0 + std::numbers::pi / (2.0 * (1.0 - r)) : 1.0;
+  // |d(alpha |v| z / g)/dz| <= (|v| / g)(1 + (|z|/g) g dalpha/dz). The sine
+  // blend's slope g dalpha/dz = pi / (2 (1 - r)) cos(pi (|z|/g - (1 + r)/2) / (1 - r))
+  // peaks mid-blend and is 0 at both ends; bound it over the |z|/g the tick
+  // can reach (the elastic contact at rest and steady sliding at |z| = g see
+  // little of it).
+  double steepness = 1.0;
+  if (r > 0) {
+    const double reach = v_reach * dt_s / g, lo = z_ratio - reach, hi = z_ratio + reach;
+    const double mid = 0.5 * (1.0 + r);
+    if (hi > r && lo < 1.0) {
+      const double nearest = std::clamp(mid, lo, hi);  // where the slope is largest within reach
+      const double slope = std::numbers::pi / (2.0 * (1.0 - r)) *
+                           std::cos(std::numbers::pi * (nearest - mid) / (1.0 - r));
+      steepness = 1.0 + std::min(hi, 1.0) * std::max(0.0, slope);
+    }
+  }
 
   double periodic = 0;  // times |z| / g
   if (m.position_periodic.enabled) {
