@@ -109,10 +109,11 @@ LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs&
                (pp.period_m * (1 - std::fabs(pp.amplitude)));
   }
   double ageing = m.dwell_stiction.enabled ? v_reach / m.dwell_stiction.memory_length_m : 0.0;
-  if (m.rate_state.enabled) {  // |d(dphi/dt)/dphi|: |v|/D_c (ageing), (|v|/D_c)(|ln(|v| phi/D_c)| + 1) (slip)
-    const double x = v_reach * s.rate_state_s / m.rate_state.memory_length_m;
+  if (m.rate_state.enabled) {  // |d(dphi/dt)/dphi| = r (ageing), r (|ln(r phi)| + 1) (slip); r = (|v| + V*)/D_c
+    const double rate = (v_reach + m.rate_state.reference_velocity_m_per_s) / m.rate_state.memory_length_m;
+    const double x = rate * s.rate_state_s;
     const double slope = m.rate_state.law == StateLaw::kSlip && x > 0 ? std::fabs(std::log(x)) + 1.0 : 1.0;
-    ageing += v_reach / m.rate_state.memory_length_m * slope;
+    ageing += rate * slope;
   }
   const double d_bound = 1.0 + ratio_max * (1.0 + shape);
   return LateralRates{mechanical(d) + v_reach / g * steepness + periodic * z_ratio + ageing + lag,
