@@ -11,9 +11,9 @@
 
 namespace {
 
-tribo::v1::DaemonConfig default_config() {
+tribo::v1::DaemonConfig default_config(const char* path = TRIBO_SOURCE_DIR "/config/tribod.textproto") {
   tribo::v1::DaemonConfig config;
-  if (auto error = tribo::daemon::load_daemon_config(TRIBO_SOURCE_DIR "/config/tribod.textproto", config)) {
+  if (auto error = tribo::daemon::load_daemon_config(path, config)) {
     throw std::runtime_error(*error);
   }
   return config;
@@ -22,8 +22,9 @@ tribo::v1::DaemonConfig default_config() {
 // One simulated second of the standard scratch's sliding part per iteration:
 // 1 mN, 0.5 µm/s back and forth between +2 and +10 µm (one-sided, as the
 // standard scratch), after a 1 s load ramp that is not timed.
-void run_scratch(benchmark::State& state, double max_h_lambda, tribo::v1::IntegrationMethod method) {
-  tribo::v1::DaemonConfig config = default_config();
+void run_scratch(benchmark::State& state, double max_h_lambda, tribo::v1::IntegrationMethod method,
+                 const tribo::v1::DaemonConfig& base = default_config()) {
+  tribo::v1::DaemonConfig config = base;
   config.mutable_sim()->mutable_integrator()->set_max_h_lambda(max_h_lambda);
   config.mutable_sim()->mutable_integrator()->set_method(method);
   tribo::hal::SimTransducer transducer(tribo::sim::instrument_params_from_config(config.sim()), 1,
@@ -57,9 +58,16 @@ void run_scratch(benchmark::State& state, double max_h_lambda, tribo::v1::Integr
 // h lambda <= 1.2 (accuracy in tests/sim/integrator_accuracy_test.cc).
 void BM_InstrumentAccurate(benchmark::State& state) { run_scratch(state, 1.0, tribo::v1::INTEGRATION_RK4); }
 void BM_InstrumentCoarse(benchmark::State& state) { run_scratch(state, 1.2, tribo::v1::INTEGRATION_MIDPOINT); }
+// The contact fitted to the dissertation (issue 14): rate-and-state, elasto-plastic
+// presliding and dwell on top of LuGre, Table 5.1's loop gains.
+void BM_InstrumentDissertationFit(benchmark::State& state) {
+  run_scratch(state, 1.0, tribo::v1::INTEGRATION_RK4,
+              default_config(TRIBO_SOURCE_DIR "/config/instruments/dissertation_fit.textproto"));
+}
 
 }  // namespace
 
 BENCHMARK(BM_InstrumentAccurate)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_InstrumentCoarse)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_InstrumentDissertationFit)->Unit(benchmark::kMillisecond);
 BENCHMARK_MAIN();

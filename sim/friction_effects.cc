@@ -1,5 +1,6 @@
 #include "sim/friction_effects.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -23,7 +24,30 @@ FrictionLevels contact_levels(const FrictionModel& m, double n, double rotation_
                        orientation_factor(m.orientation_anisotropy, rotation_deg) * local_factor;
   const double strengthening =
       m.velocity_strengthening.enabled ? m.velocity_strengthening.coeff * scale : 0.0;
-  return FrictionLevels{m.lugre.static_coeff * scale, m.lugre.coulomb_coeff * scale, strengthening};
+  return FrictionLevels{m.lugre.static_coeff * scale, m.lugre.coulomb_coeff * scale, strengthening,
+                        m.rate_state.enabled ? scale : 0.0};
+}
+
+double rate_state_n(const FrictionModel& m, const FrictionLevels& levels, double v, double phi) {
+  if (levels.rate_state_n <= 0) return 0.0;
+  const RateStateParams& r = m.rate_state;
+  return levels.rate_state_n * (r.direct_coeff * std::log1p(std::fabs(v) / r.reference_velocity_m_per_s) +
+                                r.state_coeff * std::log(std::max(r.reference_velocity_m_per_s * phi / r.memory_length_m,
+                                                                  kMinRateStateRatio)));
+}
+
+double rate_state_rate(const RateStateParams& p, double v, double phi) {
+  const double x = (std::fabs(v) + p.reference_velocity_m_per_s) * phi / p.memory_length_m;
+  if (p.law == StateLaw::kAgeing) return 1.0 - x;
+  return x > 0 ? -x * std::log(x) : 0.0;
+}
+
+double relax_rate_state(const RateStateParams& p, double v, double phi, double h) {
+  const double rate = (std::fabs(v) + p.reference_velocity_m_per_s) / p.memory_length_m;
+  if (p.law == StateLaw::kAgeing) return 1 / rate + (phi - 1 / rate) * std::exp(-rate * h);
+  if (phi <= 0) return phi;
+  // u = ln(rate phi) obeys du/dt = -rate u.
+  return std::exp(std::log(rate * phi) * std::exp(-rate * h)) / rate;
 }
 
 namespace {
@@ -40,6 +64,7 @@ double stribeck_at(const FrictionModel& m, const FrictionLevels& levels, const C
   if (levels.strengthening_n > 0) {
     s += levels.strengthening_n * std::log1p(std::fabs(vs) / m.velocity_strengthening.reference_velocity_m_per_s);
   }
+  if (levels.rate_state_n > 0) s = std::max(s + rate_state_n(m, levels, vs, c.rate_state_s), kRateStateFloor * levels.coulomb_n);
   if (m.position_periodic.enabled) {
     const auto& p = m.position_periodic;
     s *= 1.0 + p.amplitude * std::sin(2 * std::numbers::pi * c.sample_position_m / p.period_m + p.phase_rad);
@@ -72,7 +97,8 @@ double steady_state_friction_n(const FrictionModel& m, const FrictionLevels& lev
                                double x) {
   if (!levels.in_contact() || v == 0.0) return 0.0;
   const double age = m.dwell_stiction.memory_length_m / std::fabs(v);
-  const double s = stribeck_n(m, levels, ContactPoint{v, v, x, age});
+  const double phi = m.rate_state.memory_length_m / (std::fabs(v) + m.rate_state.reference_velocity_m_per_s);
+  const double s = stribeck_n(m, levels, ContactPoint{v, v, x, age, phi});
   return (v > 0 ? s : -s) + m.lugre.sigma2_n_s_per_m * v;
 }
 

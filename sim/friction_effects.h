@@ -25,6 +25,11 @@
 //          d theta/dt = 1 - |v| theta / D_c              eq. 5 with Dieterich ageing:
 //                                                       theta is the rest time at
 //                                                       rest, D_c / |v| in sliding)
+//        + N_rs [a ln(1 + |v_S| / V*) + b ln(V* phi / D_c)]  (S >= 0.2 Fc)
+//                                                       rate_state (Dieterich-Ruina,
+//                                                       regularised at V*; N_rs =
+//                                                       N_eff M_o W; its own state phi,
+//                                                       ageing or slip law, below)
 //   v_S  = v_L, d v_L/dt = (v - v_L) / tau_L            frictional_lag (Armstrong eq.
 //                                                       4 as a first-order lag;
 //                                                       otherwise v_S = v)
@@ -85,6 +90,39 @@ struct DirectionAsymmetryParams {
   double ratio = 0;
 };
 
+// Rate-and-state friction (Dieterich 1979; Ruina 1983), added to S:
+//   N_rs [a ln(1 + |v|/V*) + b ln(V* phi / D_c)]
+// a direct effect (friction rises at once with the rate) and a state phi (s)
+// of its own, evolving with the slip rate v_s (the tip's velocity less the
+// bristles' elastic rate) by Dieterich's ageing law or Ruina's slip law:
+//   d phi/dt = 1 - x             (ageing)
+//   d phi/dt = -x ln x           (slip),   x = (|v_s| + V*) phi / D_c
+// V* regularises both ends: the direct effect is linear below V*, and a
+// contact at rest relaxes to the state of sliding at V* (phi = D_c / V*, the
+// state term 0) over ~D_c / V*. In steady sliding phi = D_c / (|v| + V*)
+// and the addition is (a - b) ln(1 + |v|/V*): a = b is friction flat in
+// velocity. A fresh contact starts at phi_0 (initial_state_s). On loading,
+// the stuck contact deflects elastically (breakaway_ratio, below) at the
+// tip's velocity v ~ (dF/dt) / sigma0 while its state stays, so its
+// threshold S rises by a ln(1 + v/V*) with the loading rate: the break-away
+// peak grows with the commanded velocity (Table 5.1). Once it slips, the
+// state falls by b ln(1 + v/V*) over ~D_c of slip: the friction drops and
+// the tip overshoots (§5.3.1). S stays at least kRateStateFloor Fc.
+enum class StateLaw { kAgeing, kSlip };
+
+inline constexpr double kRateStateFloor = 0.2;
+inline constexpr double kMinRateStateRatio = 1e-12;
+
+struct RateStateParams {
+  bool enabled = false;
+  double direct_coeff = 0;                   // a, per unit load and per e-fold of velocity
+  double state_coeff = 0;                    // b, per unit load and per e-fold of the state
+  double reference_velocity_m_per_s = 1e-6;  // V*
+  double memory_length_m = 1e-7;             // D_c
+  double initial_state_s = 0;                // phi_0 of a fresh contact
+  StateLaw law = StateLaw::kSlip;
+};
+
 struct FrictionModel {
   LugreParams lugre;
   DwellStictionParams dwell_stiction;
@@ -95,7 +133,18 @@ struct FrictionModel {
   OrientationAnisotropyParams orientation_anisotropy;
   DirectionAsymmetryParams direction_asymmetry;
   PreslidingHysteresisParams presliding_hysteresis;
+  RateStateParams rate_state;
 };
+
+// The rate-and-state addition to S (0 when off).
+double rate_state_n(const FrictionModel& m, const FrictionLevels& levels, double velocity_m_per_s,
+                    double state_s);
+
+// d phi/dt of the rate-and-state law at slip rate v.
+double rate_state_rate(const RateStateParams& p, double velocity_m_per_s, double state_s);
+
+// phi after h at frozen v: exact for both laws (the slip law is linear in ln(|v| phi / D_c)).
+double relax_rate_state(const RateStateParams& p, double velocity_m_per_s, double state_s, double h_s);
 
 // N_eff for the contact load N.
 double effective_load_n(const LoadDependenceParams& p, double contact_load_n);
@@ -113,6 +162,7 @@ struct ContactPoint {
   double stribeck_velocity_m_per_s = 0;  // v_S: the lagged velocity, or v
   double sample_position_m = 0;          // x_s
   double contact_age_s = 0;              // theta
+  double rate_state_s = 0;               // phi (rate_state)
 };
 
 // S at the contact point (all enabled effects); equals stribeck_n of the

@@ -44,6 +44,7 @@ SimInstrument::SimInstrument(const InstrumentParams& params, std::uint64_t seed)
     NoiseSource site(derive_seed(seed, kSampleSite));
     truth_.site_factor = std::max(0.1, 1.0 + params_.sample.heterogeneity.rms * site.gaussian());
   }
+  truth_.lateral.rate_state_s = params_.friction.rate_state.initial_state_s;
   inputs_.drive = ideal_drive_field(0.0);
   sample_sensors(DriveInput{}, 0.0);
 }
@@ -90,6 +91,7 @@ StepReport SimInstrument::step(const DriveInput& drive, double dt_s) {
     lateral.bristle_m = 0;
     lateral.slip_m = {};
     lateral.contact_age_s = 0;
+    lateral.rate_state_s = params_.friction.rate_state.initial_state_s;
   }
   inputs_.tip_force_n = load * tan_tilt_;
   inputs_.sample_velocity_m_per_s = truth_.sample_velocity_m_per_s;

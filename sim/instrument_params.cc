@@ -77,6 +77,10 @@ InstrumentParams instrument_params_from_config(const v1::SimConfig& c) {
   m.presliding_hysteresis = {f.presliding_hysteresis().enabled(),
                              static_cast<int>(f.presliding_hysteresis().elements()),
                              f.presliding_hysteresis().spread(), f.presliding_hysteresis().breakaway_ratio()};
+  m.rate_state = {f.rate_state().enabled(), f.rate_state().direct_coeff(), f.rate_state().state_coeff(),
+                  f.rate_state().reference_velocity_m_per_s(), f.rate_state().memory_length_m(),
+                  f.rate_state().initial_state_s(),
+                  f.rate_state().law() == v1::RATE_STATE_AGEING ? StateLaw::kAgeing : StateLaw::kSlip};
 
   p.tilt = {tip.tilt_offset().enabled(), radians(tip.tilt_offset().angle_deg())};
   const auto& smp = c.sample();
@@ -238,6 +242,14 @@ std::optional<std::string> validate_friction(const v1::FrictionParams& f) {
     checks.push_back({"friction.presliding_hysteresis.spread", f.presliding_hysteresis().spread(), 0, 0.95, false});
     checks.push_back({"friction.presliding_hysteresis.breakaway_ratio", f.presliding_hysteresis().breakaway_ratio(),
                       0, 0.99, true});
+  }
+  if (f.rate_state().enabled()) {
+    checks.push_back({"friction.rate_state.direct_coeff", f.rate_state().direct_coeff(), 0, 1, true});
+    checks.push_back({"friction.rate_state.state_coeff", f.rate_state().state_coeff(), 0, 1, true});
+    checks.push_back({"friction.rate_state.reference_velocity_m_per_s", f.rate_state().reference_velocity_m_per_s(),
+                      1e-12, 1, true});
+    checks.push_back({"friction.rate_state.memory_length_m", f.rate_state().memory_length_m(), 1e-12, 1e-3, true});
+    checks.push_back({"friction.rate_state.initial_state_s", f.rate_state().initial_state_s(), 1e-9, 1e9, true});
   }
   return first_failure(checks);
 }

@@ -23,7 +23,7 @@ int slip_elements(const LateralPlant& plant) {
 ContactPoint contact_point(const LateralPlant& plant, const LateralInputs& in, const LateralState& s) {
   const double v = tip_velocity_m_per_s(plant, s) - in.sample_velocity_m_per_s;
   return ContactPoint{v, plant.friction.frictional_lag.enabled ? s.lag_velocity_m_per_s : v,
-                      tip_position_m(plant, s) - in.sample_offset_m, s.contact_age_s};
+                      tip_position_m(plant, s) - in.sample_offset_m, s.contact_age_s, s.rate_state_s};
 }
 
 // Friction force of the bristle(s) at deflection scale g; fills their rates.
@@ -46,6 +46,17 @@ double bristle_force_n(const FrictionModel& m, double g, double v, const Lateral
     force += share * (p.sigma0_n_per_m * z + p.sigma1_n_s_per_m * dz);
   }
   return force;
+}
+
+// The slip rate at the interface: the tip's velocity less the bristles'
+// elastic deflection rate (their mean, with Maxwell-slip elements). The
+// rate-and-state state evolves with slip, not with elastic loading.
+double slip_rate_m_per_s(const LateralPlant& plant, double v, const LateralRate& r) {
+  const PreslidingHysteresisParams& h = plant.friction.presliding_hysteresis;
+  if (!h.enabled) return v - r.bristle_m;
+  double mean = 0;
+  for (int i = 0; i < h.elements; ++i) mean += r.slip_m[i];
+  return v - mean / h.elements;
 }
 
 // A plate at a stop stays there while the net force presses it on.
@@ -73,6 +84,9 @@ LateralEvaluation lateral_derivative(const LateralPlant& plant, const LateralInp
     e.friction_n = bristle_force_n(m, g, c.velocity_m_per_s, s, r);
     if (m.dwell_stiction.enabled) {
       r.contact_age_s = 1.0 - std::fabs(c.velocity_m_per_s) * s.contact_age_s / m.dwell_stiction.memory_length_m;
+    }
+    if (m.rate_state.enabled) {
+      r.rate_state_s = rate_state_rate(m.rate_state, slip_rate_m_per_s(plant, c.velocity_m_per_s, r), s.rate_state_s);
     }
   } else {
     for (int i = 0; i < slip_elements(plant); ++i) r.slip_m[i] = 0;  // out of contact nothing slips
@@ -113,6 +127,7 @@ void add_scaled(State& out, const State& s, const LateralRate& r, double h, int 
   out.bristle_m = s.bristle_m + h * r.bristle_m;
   out.lag_velocity_m_per_s = s.lag_velocity_m_per_s + h * r.lag_velocity_m_per_s;
   out.contact_age_s = s.contact_age_s + h * r.contact_age_s;
+  out.rate_state_s = s.rate_state_s + h * r.rate_state_s;
   for (int i = 0; i < n; ++i) out.slip_m[i] = s.slip_m[i] + h * r.slip_m[i];
 }
 
@@ -126,6 +141,7 @@ void substep(const LateralPlant& plant, const LateralInputs& in, double h, bool 
     if (frozen_contact) {
       r.bristle_m = 0;
       r.contact_age_s = 0;
+      r.rate_state_s = 0;
       for (int i = 0; i < n; ++i) r.slip_m[i] = 0;
     }
     return r;
@@ -181,12 +197,33 @@ double relax_bristle(double breakaway_ratio, double g, double v, double z, doubl
   return next;
 }
 
+// The slip rate alpha |v| z / g of the bristle(s) at deflection scale g.
+double bristle_slip_rate_m_per_s(const FrictionModel& m, double g, double v, const LateralState& s) {
+  const PreslidingHysteresisParams& hy = m.presliding_hysteresis;
+  if (!hy.enabled) return plasticity(m.lugre.breakaway_ratio, v, s.bristle_m, g) * std::fabs(v) * s.bristle_m / g;
+  double slip = 0;
+  for (int i = 0; i < hy.elements; ++i) {
+    const double gi = slip_share(hy, i) * g;
+    slip += plasticity(hy.breakaway_ratio, v, s.slip_m[i], gi) * std::fabs(v) * s.slip_m[i] / gi / hy.elements;
+  }
+  return slip;
+}
+
 // Half of the Strang split: the contact states, exact for frozen v and g.
+// With rate-and-state, g depends on the state and the state's rate on the
+// bristle's slip, so they are split symmetrically too: the state for h/2,
+// the bristle(s) for h, the state for h/2 (second order in h).
 void relax_contact(const LateralPlant& plant, const LateralInputs& in, double h, LateralState& s) {
   if (!in.levels.in_contact()) return;
   const FrictionModel& m = plant.friction;
+  const double v = contact_point(plant, in, s).velocity_m_per_s;
+  auto relax_state = [&](double step) {
+    if (!m.rate_state.enabled) return;
+    const double g = stribeck_n(m, in.levels, contact_point(plant, in, s)) / m.lugre.sigma0_n_per_m;
+    s.rate_state_s = relax_rate_state(m.rate_state, bristle_slip_rate_m_per_s(m, g, v, s), s.rate_state_s, step);
+  };
+  relax_state(h / 2);
   const ContactPoint c = contact_point(plant, in, s);
-  const double v = c.velocity_m_per_s;
   const double g = stribeck_n(m, in.levels, c) / m.lugre.sigma0_n_per_m;
   const PreslidingHysteresisParams& hy = m.presliding_hysteresis;
   if (!hy.enabled) {
@@ -196,6 +233,7 @@ void relax_contact(const LateralPlant& plant, const LateralInputs& in, double h,
       s.slip_m[i] = relax_bristle(hy.breakaway_ratio, slip_share(hy, i) * g, v, s.slip_m[i], h);
     }
   }
+  relax_state(h / 2);
   if (m.dwell_stiction.enabled) {
     const double rate = std::fabs(v) / m.dwell_stiction.memory_length_m;
     s.contact_age_s = rate > 0 ? 1 / rate + (s.contact_age_s - 1 / rate) * std::exp(-rate * h)

@@ -75,6 +75,7 @@ struct LateralState {
   double bristle_m = 0;  // LuGre z
   double lag_velocity_m_per_s = 0;
   double contact_age_s = 0;
+  double rate_state_s = 0;  // phi of the rate-and-state law
   SlipElements slip_m{};  // Maxwell-slip z_i
 };
 
@@ -88,6 +89,7 @@ struct LateralRate {
   double bristle_m = 0;
   double lag_velocity_m_per_s = 0;
   double contact_age_s = 0;
+  double rate_state_s = 0;
   SlipElements slip_m;
 };
 

@@ -41,6 +41,7 @@ struct FrictionLevels {
   double static_n = 0;        // Fs
   double coulomb_n = 0;       // Fc
   double strengthening_n = 0; // velocity strengthening per e-fold (sim/friction_effects.h)
+  double rate_state_n = 0;    // load scale of the rate-and-state terms (sim/friction_effects.h)
   bool in_contact() const { return coulomb_n > 0 && static_n > 0; }
 };
 

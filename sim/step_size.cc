@@ -59,8 +59,10 @@ LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs&
       in.levels.strengthening_n > 0
           ? in.levels.strengthening_n * std::log1p(v_reach / m.velocity_strengthening.reference_velocity_m_per_s)
           : 0.0;
-  const double f_min = std::min(in.levels.static_n, in.levels.coulomb_n) * floor;
-  const double f_max = (std::max(in.levels.static_n * dwell, in.levels.coulomb_n) + strengthening) / floor;
+  const double f_min = std::min(in.levels.static_n, in.levels.coulomb_n) *
+                       (in.levels.rate_state_n > 0 ? kRateStateFloor : 1.0) * floor;
+  const double rate_state = std::max(0.0, rate_state_n(m, in.levels, v_reach, s.rate_state_s + dt_s));
+  const double f_max = (std::max(in.levels.static_n * dwell, in.levels.coulomb_n) + strengthening + rate_state) / floor;
   const PreslidingHysteresisParams& hy = m.presliding_hysteresis;
   const double share_min = hy.enabled ? 1.0 - hy.spread : 1.0;
   const double share_max = hy.enabled ? 1.0 + hy.spread : 1.0;
@@ -68,7 +70,8 @@ LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs&
   // |v| g'(v) / g, bounded over the Stribeck curve.
   const double shape = (in.levels.static_n * dwell - in.levels.coulomb_n) /
                            (std::numbers::e * in.levels.coulomb_n) +
-                       in.levels.strengthening_n / f_min;
+                       in.levels.strengthening_n / f_min +
+                       in.levels.rate_state_n * m.rate_state.direct_coeff / f_min;
 
   // The present deflection scale and how deep the bristle sits in it.
   double g = now.deflection_scale_m * share_min, z_ratio = 0, d = 0;
@@ -82,7 +85,22 @@ LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs&
     for (int i = 0; i < hy.elements; ++i) z_ratio = std::max(z_ratio, std::fabs(s.slip_m[i]) / g);
     d = 1.0 + z_ratio * (1.0 + shape);
   }
-  const double steepness = r > 0 ? 1.0 + std::numbers::pi / (2.0 * (1.0 - r)) : 1.0;
+  // |d(alpha |v| z / g)/dz| <= (|v| / g)(1 + (|z|/g) g dalpha/dz). The sine
+  // blend's slope g dalpha/dz = pi / (2 (1 - r)) cos(pi (|z|/g - (1 + r)/2) / (1 - r))
+  // peaks mid-blend and is 0 at both ends; bound it over the |z|/g the tick
+  // can reach (the elastic contact at rest and steady sliding at |z| = g see
+  // little of it).
+  double steepness = 1.0;
+  if (r > 0) {
+    const double reach = v_reach * dt_s / g, lo = z_ratio - reach, hi = z_ratio + reach;
+    const double mid = 0.5 * (1.0 + r);
+    if (hi > r && lo < 1.0) {
+      const double nearest = std::clamp(mid, lo, hi);  // where the slope is largest within reach
+      const double slope = std::numbers::pi / (2.0 * (1.0 - r)) *
+                           std::cos(std::numbers::pi * (nearest - mid) / (1.0 - r));
+      steepness = 1.0 + std::min(hi, 1.0) * std::max(0.0, slope);
+    }
+  }
 
   double periodic = 0;  // times |z| / g
   if (m.position_periodic.enabled) {
@@ -90,7 +108,13 @@ LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs&
     periodic = v_reach * 2 * std::numbers::pi * std::fabs(pp.amplitude) /
                (pp.period_m * (1 - std::fabs(pp.amplitude)));
   }
-  const double ageing = m.dwell_stiction.enabled ? v_reach / m.dwell_stiction.memory_length_m : 0.0;
+  double ageing = m.dwell_stiction.enabled ? v_reach / m.dwell_stiction.memory_length_m : 0.0;
+  if (m.rate_state.enabled) {  // |d(dphi/dt)/dphi| = r (ageing), r (|ln(r phi)| + 1) (slip); r = (|v| + V*)/D_c
+    const double rate = (v_reach + m.rate_state.reference_velocity_m_per_s) / m.rate_state.memory_length_m;
+    const double x = rate * s.rate_state_s;
+    const double slope = m.rate_state.law == StateLaw::kSlip && x > 0 ? std::fabs(std::log(x)) + 1.0 : 1.0;
+    ageing += rate * slope;
+  }
   const double d_bound = 1.0 + ratio_max * (1.0 + shape);
   return LateralRates{mechanical(d) + v_reach / g * steepness + periodic * z_ratio + ageing + lag,
                       mechanical(d_bound) + periodic * ratio_max + lag};
@@ -131,7 +155,9 @@ bool sane(const LateralPlant& plant, const LateralInputs& in, const LateralState
   if (!in.levels.in_contact()) return true;
   const FrictionModel& m = plant.friction;
   const double dwell = m.dwell_stiction.enabled ? 1.0 + m.dwell_stiction.gain : 1.0;
-  const double g_max = 4.0 * (std::max(in.levels.static_n * dwell, in.levels.coulomb_n) + in.levels.strengthening_n * 40.0) /
+  // The rate-and-state addition at 1 m/s and an age of 1e6 s: a bound, not a state.
+  const double rate_state = std::max(0.0, rate_state_n(m, in.levels, 1.0, 1e6));
+  const double g_max = 4.0 * (std::max(in.levels.static_n * dwell, in.levels.coulomb_n) + in.levels.strengthening_n * 40.0 + rate_state) /
                        (modulation_floor(m) * m.lugre.sigma0_n_per_m);
   if (std::fabs(s.bristle_m) > g_max) return false;
   for (double z : s.slip_m) {

@@ -20,8 +20,11 @@
 // (Fs - Fc)/(e Fc) for the exponential and Gaussian shapes. To that are added
 // the contact's own rates:
 //
-//   v_reach / g * P                  bristle relaxation |v|/g (P = 1 + pi/(2(1-r))
-//                                    for elasto-plastic bristles, else 1)
+//   v_reach / g * P                  bristle relaxation |v|/g (P = 1 + the largest
+//                                    slope g dalpha/dz of the elasto-plastic blend,
+//                                    at most pi/(2(1-r)), over the |z|/g the tick
+//                                    can reach; 1 for plain LuGre)
+//   (v_reach + V*) / D_c (|ln x| + 1)  rate-and-state state (slip law; 1 for ageing)
 //   v_reach (|z|/g) |dg/dx| / g      position-periodic friction
 //   v_reach / D_c                    contact ageing (dwell)
 //   1 / tau_L                        frictional lag

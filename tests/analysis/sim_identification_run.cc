@@ -9,7 +9,13 @@
 namespace tribo::testing {
 
 v1::DaemonConfig identification_config(const ConfigEdit& edit) {
-  v1::DaemonConfig config = default_config();
+  // The contact these tests were written for: plain LuGre, tribod's default
+  // before issue 14, kept as config/instruments/lugre_plain.textproto.
+  v1::DaemonConfig config;
+  if (auto error = daemon::load_daemon_config(
+          std::string(TRIBO_SOURCE_DIR) + "/config/instruments/lugre_plain.textproto", config)) {
+    throw std::runtime_error(*error);
+  }
   config.mutable_controller()->mutable_lateral_displacement()->set_setpoint_weight_p(1.0);
   config.mutable_sim()->mutable_tip()->mutable_tilt_offset()->set_enabled(false);
   if (edit) edit(config);

@@ -124,6 +124,10 @@ Errors local_errors(const Record& ref, const LateralPlant& plant, double max_h_l
   for (const Tick& t : ref.ticks) {
     if (t.dead_time_s > 0 || !t.inputs.levels.in_contact()) continue;
     LateralState s = t.before;
+    // As the instrument does before integrating a tick: with rate-and-state
+    // the state's fall after break-away lowers g faster than the bristle
+    // relaxes, and this limit (not the integrator) takes the bristle back.
+    limit_to_static_friction(plant, t.inputs, s);
     advance_lateral(plant, t.inputs, IntegratorSettings{max_h_lambda, 100000}, dt, s);
     e.friction = std::max(e.friction, std::fabs(friction_at(plant, t.inputs, s) -
                                                 friction_at(plant, t.inputs, t.after)) / fs);
@@ -259,6 +263,26 @@ void all_effects(v1::DaemonConfig& c) {
   f->mutable_presliding_hysteresis()->set_enabled(true);
 }
 
+// Rate-and-state with elasto-plastic presliding (config/instruments/dissertation_fit.textproto).
+// At 9.81 mN, 36 um/s it converges as required (local friction error 1.3e-3
+// Fs at h lambda = 1, 1.0e-5 Fs at 0.25). At 50 uN, 4 um/s (split scheme) the
+// error is small (1.4e-4 Fs at h lambda = 1) but the bristle converges only
+// at first order (8.8e-6 -> 3.8e-6 Fs/sigma0 from h lambda 1 to 0.25, issue
+// 14): not listed, as the 4x-per-4x-step requirement below does not hold.
+void rate_state(v1::DaemonConfig& c) {
+  auto* f = c.mutable_sim()->mutable_friction();
+  f->set_breakaway_ratio(0.9);
+  f->set_coulomb_coeff(0.09);
+  f->set_static_coeff(0.09);
+  auto* r = f->mutable_rate_state();
+  r->set_enabled(true);
+  r->set_direct_coeff(0.023);
+  r->set_state_coeff(0.02);
+  r->set_reference_velocity_m_per_s(1e-6);
+  r->set_memory_length_m(0.66e-6);
+  r->set_initial_state_s(0.49);
+}
+
 // Backlash: the tip (0.3 g) on its own coupling behind a 20 nm dead zone.
 void backlash(v1::DaemonConfig& c) { c.mutable_sim()->mutable_tip()->mutable_backlash()->set_enabled(true); }
 
@@ -273,6 +297,7 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{"stiff_bristles", 1e4, 5e-3, 18e-6, stiff_bristles, false},
                       Case{"light_damping", 1e4, 5e-3, 18e-6, light_damping, false},
                       Case{"all_effects", 1e4, 5e-3, 4e-6, all_effects, false},
+                      Case{"rate_state", 1e4, 9.81e-3, 36e-6, rate_state, false},
                       Case{"backlash", 1e4, 5e-3, 4e-6, backlash, false, 0.6}),
     [](const ::testing::TestParamInfo<Case>& info) { return std::string(info.param.name); });
 

@@ -1,0 +1,207 @@
+#include "scorecard/experiments.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <numeric>
+
+#include "daemon/controller.h"
+#include "hal/sim_transducer.h"
+#include "sim/instrument_params.h"
+
+namespace tribo::scorecard {
+
+namespace {
+
+constexpr double kStartM = 2e-6;
+constexpr double kLoadAtS = 1.5, kLoadRampS = 0.5;
+
+double tan_tilt(const v1::DaemonConfig& c) {
+  const auto& t = c.sim().tip().tilt_offset();
+  return t.enabled() ? std::tan(t.angle_deg() * std::numbers::pi / 180) : 0.0;
+}
+
+// The instrument and its controller in lock-step.
+class LockStep {
+ public:
+  LockStep(const v1::DaemonConfig& config, std::uint64_t seed)
+      : transducer_(sim::instrument_params_from_config(config.sim()), seed, config.controller().loop_rate_hz(),
+                    false),
+        controller_(daemon::controller_params_from_config(config.controller())) {}
+
+  double dt_s() const { return transducer_.period_s(); }
+
+  void step(double normal_force_n, double lateral_position_m) {
+    daemon::Setpoints s;
+    s.normal_force_n = normal_force_n;
+    s.lateral_position_m = lateral_position_m;
+    hal::SensorFrame frame;
+    transducer_.read(frame);
+    transducer_.write(controller_.step(s, frame).drive);
+    transducer_.wait_next_tick();
+  }
+
+  const sim::Measurement& measured() const { return transducer_.instrument().measurement(); }
+  const sim::InstrumentTruth& truth() const { return transducer_.instrument().truth(); }
+
+ private:
+  hal::SimTransducer transducer_;
+  daemon::Controller controller_;
+};
+
+// Approach, settle, load to load_n, rest until rest_end_s (all unrecorded).
+void prepare(LockStep& loop, double load_n, double rest_end_s) {
+  const auto ticks = std::lround(rest_end_s / loop.dt_s());
+  for (long k = 0; k < ticks; ++k) {
+    const double t = static_cast<double>(k) * loop.dt_s();
+    loop.step(std::clamp((t - kLoadAtS) / kLoadRampS, 0.0, 1.0) * load_n, kStartM * std::min(1.0, t / 0.3));
+  }
+}
+
+double mean(const std::vector<double>& v, std::size_t from, std::size_t to) {
+  return std::accumulate(v.begin() + static_cast<long>(from), v.begin() + static_cast<long>(to), 0.0) /
+         static_cast<double>(to - from);
+}
+
+// Centred moving average over `half` samples each side.
+std::vector<double> smooth(const std::vector<double>& v, std::size_t half) {
+  std::vector<double> out(v.size());
+  double sum = 0;
+  std::size_t lo = 0, hi = 0;  // window [lo, hi)
+  for (std::size_t k = 0; k < v.size(); ++k) {
+    const std::size_t want_lo = k >= half ? k - half : 0, want_hi = std::min(v.size(), k + half + 1);
+    while (hi < want_hi) sum += v[hi++];
+    while (lo < want_lo) sum -= v[lo++];
+    out[k] = sum / static_cast<double>(hi - lo);
+  }
+  return out;
+}
+
+}  // namespace
+
+Breakaway run_breakaway(const v1::DaemonConfig& config, const BreakawayProtocol& p, std::uint64_t seed) {
+  LockStep loop(config, seed);
+  const double go_s = kLoadAtS + kLoadRampS + p.rest_s;
+  prepare(loop, p.load_n, go_s - 0.05);
+  const double dt = loop.dt_s(), tilt = tan_tilt(config);
+  // 50 ms before the onset give the position the motion starts from.
+  std::vector<double> before;
+  for (long k = 0; k < std::lround(0.05 / dt); ++k) {
+    loop.step(p.load_n, kStartM);
+    before.push_back(loop.measured().lateral_position_m);
+  }
+  const double x0 = mean(before, 0, before.size());
+  const double move_s = std::min(p.travel_m / p.velocity_m_per_s, p.max_motion_s);
+  const auto ticks = static_cast<std::size_t>(std::lround(move_s / dt));
+  std::vector<double> force(ticks), position(ticks), lag(ticks);
+  for (std::size_t k = 0; k < ticks; ++k) {
+    const double setpoint = kStartM + p.velocity_m_per_s * static_cast<double>(k + 1) * dt;
+    loop.step(p.load_n, setpoint);
+    const sim::Measurement& m = loop.measured();
+    force[k] = m.lateral_force_n + m.normal_force_n * tilt;
+    position[k] = m.lateral_position_m;
+    lag[k] = setpoint - m.lateral_position_m;
+  }
+  // 5 ms windows: the force averaged as a 1 kHz record with a few points per
+  // feature would be, the velocity differenced over 5 ms of position.
+  const std::size_t half = static_cast<std::size_t>(std::lround(0.0025 / dt));
+  const std::vector<double> f = smooth(force, half);
+  Breakaway b;
+  b.steady_n = mean(force, ticks * 7 / 10, ticks);
+  b.lag_m = mean(lag, ticks * 8 / 10, ticks);
+  // A spike: the force falls by 2 % of its running maximum, and by at least
+  // four times the force noise left in the 5 ms average (at light loads 2 %
+  // is within the noise).
+  const double noise = config.sim().sensors().lateral_force_noise_n() / std::sqrt(static_cast<double>(2 * half + 1));
+  std::size_t peak = 0;
+  bool found = false;
+  for (std::size_t k = 0; k < ticks; ++k) {
+    if (f[k] > f[peak]) peak = k;
+    if (f[peak] > 0 && f[k] < f[peak] - std::max(0.02 * f[peak], 4 * noise) && f[peak] > 0.5 * b.steady_n) {
+      found = true;
+      break;
+    }
+  }
+  if (!found) {  // no spike: the end of the rise, 99 % of the steady friction
+    peak = 0;
+    while (peak + 1 < ticks && f[peak] < 0.99 * b.steady_n) ++peak;
+  }
+  b.spike = found;
+  b.peak_n = f[peak];
+  b.time_to_peak_s = static_cast<double>(peak + 1) * dt;
+  b.stretch_m = mean(position, peak > half ? peak - half : 0, std::min(ticks, peak + half + 1)) - x0;
+  const std::size_t w = 2 * half;
+  double vmax = 0, amax = 0;
+  for (std::size_t k = w; k < ticks; ++k) {
+    vmax = std::max(vmax, (position[k] - position[k - w]) / (static_cast<double>(w) * dt));
+  }
+  // Acceleration from velocities 5 ms apart.
+  for (std::size_t k = 2 * w; k < ticks; ++k) {
+    const double v1 = (position[k] - position[k - w]) / (static_cast<double>(w) * dt);
+    const double v0 = (position[k - w] - position[k - 2 * w]) / (static_cast<double>(w) * dt);
+    amax = std::max(amax, (v1 - v0) / (static_cast<double>(w) * dt));
+  }
+  b.overshoot = vmax / p.velocity_m_per_s;
+  b.peak_acceleration_m_per_s2 = amax;
+  return b;
+}
+
+Passes run_passes(const v1::DaemonConfig& config, double load_n, double velocity, std::uint64_t seed) {
+  // 10 um passes with a 1 s hold between them, averaged over the last 30 %
+  // of each pass (the I-PD loop settles within ~0.2 s).
+  LockStep loop(config, seed);
+  const double go_s = kLoadAtS + kLoadRampS + 0.5, travel = 10e-6, pass_s = travel / velocity, hold_s = 1.0;
+  prepare(loop, load_n, go_s);
+  const double dt = loop.dt_s();
+  double fwd = 0, bwd = 0, load = 0;
+  long nf = 0, nb = 0;
+  const auto ticks = std::lround((2 * pass_s + hold_s) / dt);
+  for (long k = 0; k < ticks; ++k) {
+    const double s = static_cast<double>(k + 1) * dt;
+    double x = kStartM + velocity * std::min(s, pass_s);
+    if (s > pass_s + hold_s) x -= velocity * std::min(s - pass_s - hold_s, pass_s);
+    loop.step(load_n, x);
+    const sim::Measurement& m = loop.measured();
+    if (s > 0.7 * pass_s && s <= pass_s) {
+      fwd += m.lateral_force_n;
+      load += m.normal_force_n;
+      ++nf;
+    } else if (s > pass_s + hold_s + 0.7 * pass_s) {
+      bwd += m.lateral_force_n;
+      load += m.normal_force_n;
+      ++nb;
+    }
+  }
+  fwd /= static_cast<double>(nf);
+  bwd /= static_cast<double>(nb);
+  return Passes{load / static_cast<double>(nf + nb), 0.5 * (fwd - bwd), 0.5 * (fwd + bwd),
+                loop.truth().normal.depth_m};
+}
+
+double held_force_drift_n(const v1::DaemonConfig& config, double load_n, double hold_s, std::uint64_t seed) {
+  LockStep loop(config, seed);
+  prepare(loop, load_n, kLoadAtS + kLoadRampS + 20.0);
+  const auto per_second = std::lround(1.0 / loop.dt_s());
+  double lo = HUGE_VAL, hi = -HUGE_VAL;
+  for (long s = 0; s < std::lround(hold_s); ++s) {
+    double sum = 0;
+    for (long k = 0; k < per_second; ++k) {
+      loop.step(load_n, kStartM);
+      sum += loop.measured().lateral_force_n;
+    }
+    lo = std::min(lo, sum / static_cast<double>(per_second));
+    hi = std::max(hi, sum / static_cast<double>(per_second));
+  }
+  return hi - lo;
+}
+
+double steady_friction_n(const v1::DaemonConfig& config, double load_n, double velocity, std::uint64_t seed) {
+  BreakawayProtocol p;
+  p.load_n = load_n;
+  p.velocity_m_per_s = velocity;
+  p.travel_m = 10e-6;
+  p.max_motion_s = 8.0;
+  return run_breakaway(config, p, seed).steady_n;
+}
+
+}  // namespace tribo::scorecard

@@ -1,0 +1,185 @@
+// The static-to-kinetic transition of the simulated instrument against the
+// dissertation's measurements (Table 5.1, §5.3.1, Fig. 4.22, Fig. 3.12), on
+// the configuration fitted to them (config/instruments/dissertation_fit.textproto,
+// docs/simulated_instrument.md), through the scorecard's experiments.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "daemon/daemon_config.h"
+#include "scorecard/experiments.h"
+#include "scorecard/scorecard.h"
+#include "sim/capacitive_sensor.h"
+#include "tests/sim/sim_test_support.h"
+
+namespace tribo::sim {
+namespace {
+
+using scorecard::Breakaway;
+using scorecard::BreakawayProtocol;
+
+v1::DaemonConfig instrument_config(const std::string& name) {
+  v1::DaemonConfig config;
+  const std::string path = std::string(TRIBO_SOURCE_DIR) + "/config/instruments/" + name + ".textproto";
+  if (auto error = daemon::load_daemon_config(path, config)) throw std::runtime_error(*error);
+  return config;
+}
+
+v1::DaemonConfig fitted() { return instrument_config("dissertation_fit"); }
+
+Breakaway breakaway(const v1::DaemonConfig& config, double load_n, double velocity, double rest_s = 2.0) {
+  BreakawayProtocol p;
+  p.load_n = load_n;
+  p.velocity_m_per_s = velocity;
+  p.rest_s = rest_s;
+  const Breakaway b = scorecard::run_breakaway(config, p, 1);
+  std::printf("  %5.0f uN %4.1f um/s rest %6.1f s: Fs %7.1f uN (spike %d) ts %.3f s ds %.3f um dl %.3f um "
+              "overshoot %.2f\n",
+              load_n * 1e6, velocity * 1e6, rest_s, b.peak_n * 1e6, b.spike, b.time_to_peak_s, b.stretch_m * 1e6,
+              b.lag_m * 1e6, b.overshoot);
+  return b;
+}
+
+// Table 5.1 at 9810 uN: Fs 1273 / 1394 / 1520 uN at 4 / 18 / 36 um/s, and
+// ds 0.35 / 0.41 / 0.46 um: both grow with velocity. Plain LuGre's peak does
+// not (config/instruments/lugre_plain.textproto: no spike, the rise from rest
+// is largest at the lowest velocity).
+TEST(Breakaway, PeakAndStretchGrowWithVelocityAt9810uN) {
+  const v1::DaemonConfig config = fitted();
+  const Breakaway slow = breakaway(config, 9810e-6, 4e-6);
+  const Breakaway mid = breakaway(config, 9810e-6, 18e-6);
+  const Breakaway fast = breakaway(config, 9810e-6, 36e-6);
+  EXPECT_TRUE(slow.spike && mid.spike && fast.spike);
+  EXPECT_GT(mid.peak_n, slow.peak_n);
+  EXPECT_GT(fast.peak_n, mid.peak_n);
+  EXPECT_GT(fast.stretch_m, slow.stretch_m);
+}
+
+TEST(Breakaway, PlainLugreHasNoSpikeAt9810uN) {
+  const v1::DaemonConfig config = instrument_config("lugre_plain");
+  for (double v : {4e-6, 18e-6, 36e-6}) EXPECT_FALSE(breakaway(config, 9810e-6, v).spike);
+}
+
+// §5.3.1: the tip's velocity overshoots about 3x after break-away.
+TEST(Breakaway, VelocityOvershootsAtLeastTwiceAt18umPerS) {
+  EXPECT_GE(breakaway(fitted(), 9810e-6, 18e-6).overshoot, 2.0);
+}
+
+// Fig. 4.22: the spike grows with the rest before the motion (3000 uN).
+TEST(Breakaway, LongerRestGivesALargerSpike) {
+  const v1::DaemonConfig config = fitted();
+  const double short_rest = breakaway(config, 3000e-6, 4e-6, 0.5).peak_n;
+  const double long_rest = breakaway(config, 3000e-6, 4e-6, 100).peak_n;
+  EXPECT_GT(long_rest, short_rest * 1.01);
+}
+
+// A force held by the stuck contact stays (Fig. 3.12's drift needs it): 7 mN
+// of load, slide 3 um at 4 um/s, stop, hold the position 100 s; the
+// tilt-corrected lateral force, averaged over a second, keeps 80 % of what it
+// was in the first second of the hold. Plain LuGre drains it under the
+// position wander (checked below).
+double held_fraction(const v1::DaemonConfig& config) {
+  const double tilt = std::tan(config.sim().tip().tilt_offset().angle_deg() * M_PI / 180) *
+                      (config.sim().tip().tilt_offset().enabled() ? 1 : 0);
+  const double go = 3.0, stop = go + 0.75, end = stop + 100.0;
+  double first = 0, last = 0;
+  long n_first = 0, n_last = 0;
+  testing::run_closed_loop(
+      config, 1, end,
+      [&](double t) {
+        return testing::LoopSetpoints{std::clamp((t - 1.5) / 0.5, 0.0, 1.0) * 7e-3,
+                                      2e-6 * std::min(1.0, t / 0.3) + 4e-6 * std::clamp(t - go, 0.0, stop - go)};
+      },
+      [&](double t, const hal::SimTransducer& h) {
+        const Measurement& m = h.instrument().measurement();
+        const double f = m.lateral_force_n + m.normal_force_n * tilt;
+        if (t > stop + 0.5 && t <= stop + 1.5) {
+          first += f;
+          ++n_first;
+        } else if (t > end - 1.0) {
+          last += f;
+          ++n_last;
+        }
+      });
+  first /= static_cast<double>(n_first);
+  last /= static_cast<double>(n_last);
+  std::printf("  held force %.1f uN -> %.1f uN after 100 s\n", first * 1e6, last * 1e6);
+  return last / first;
+}
+
+TEST(Breakaway, HeldForceAt7mNDoesNotDrainOver100s) { EXPECT_GT(held_fraction(fitted()), 0.8); }
+
+TEST(Breakaway, PlainLugreDrainsTheHeldForce) { EXPECT_LT(held_fraction(instrument_config("lugre_plain")), 0.8); }
+
+// Same config and seed: bit-identical results.
+TEST(Breakaway, IsBitIdenticalForTheSameSeed) {
+  const v1::DaemonConfig config = fitted();
+  BreakawayProtocol p;
+  p.velocity_m_per_s = 36e-6;
+  const Breakaway a = scorecard::run_breakaway(config, p, 7), b = scorecard::run_breakaway(config, p, 7);
+  EXPECT_EQ(a.peak_n, b.peak_n);
+  EXPECT_EQ(a.time_to_peak_s, b.time_to_peak_s);
+  EXPECT_EQ(a.stretch_m, b.stretch_m);
+  EXPECT_EQ(a.lag_m, b.lag_m);
+  EXPECT_EQ(a.overshoot, b.overshoot);
+  EXPECT_EQ(a.steady_n, b.steady_n);
+}
+
+// The scorecard figures the fitted contact reaches (docs/simulated_instrument.md):
+// issue 14's goals are Fs within 25 %, ts within 30 %, dl within 25 % for each
+// of Table 5.1's eight conditions. Reached: Fs 7 of 8 (9810 uN at 0.2 um/s is
+// +29 %), ts 8 of 8, dl 5 of 8 (the 0.2 um/s rows and 9810 uN at 4 um/s: an
+// I-PD loop's steady lag is v (kp + k) / ki whatever the contact).
+TEST(Scorecard, TheFittedContactMeetsTheTable51GoalsItReached) {
+  scorecard::ScorecardOptions options;
+  options.groups = {"table_5_1"};
+  int fs = 0, ts = 0, dl = 0;
+  for (const scorecard::Row& r : scorecard::run_scorecard(fitted(), options)) {
+    const std::string what = r.observation.substr(0, 2);
+    if (r.goal > 0) std::printf("  %-40s %9.4g vs %9.4g: %+.1f %%\n", r.observation.c_str(), r.simulated, r.dissertation, 100 * r.error());
+    if (what == "Fs") fs += r.within_goal();
+    if (what == "ts") ts += r.within_goal();
+    if (what == "dl") dl += r.within_goal();
+  }
+  EXPECT_GE(fs, 7);
+  EXPECT_EQ(ts, 8);
+  EXPECT_GE(dl, 5);
+}
+
+// Fig. 4.22 at 3000 uN: +1.2 % and +3.0 % after 30 and 100 s of rest, within
+// 2 points (the 1000 s row runs in the scorecard, not here).
+TEST(Scorecard, TheFittedContactMeetsFig422At3000uN) {
+  scorecard::ScorecardOptions options;
+  options.groups = {"fig_4_22"};
+  options.quick = true;
+  for (const scorecard::Row& r : scorecard::run_scorecard(fitted(), options)) {
+    std::printf("  %-45s %+.2f %% vs %+.2f %%\n", r.observation.c_str(), r.simulated, r.dissertation);
+    if (r.observation.find("3000 uN") != std::string::npos) {
+      EXPECT_TRUE(r.within_goal()) << r.observation;
+    }
+  }
+}
+
+// The position sensor reads the whole +-15 um travel (Table 3.2) of the
+// shipped configurations. With V0 = 5 V its ADC (+-10 V) saturated at
+// +13.77 um (the +x plate is nearer, so that side's voltage grows faster):
+// config/instruments/lugre_plain.textproto keeps that, as it was.
+TEST(PositionSensor, ReadsTheWholeTravelOfTheShippedConfigurations) {
+  for (const std::string& path : {std::string(TRIBO_SOURCE_DIR) + "/config/tribod.textproto",
+                                 std::string(TRIBO_SOURCE_DIR) + "/config/instruments/appendix_c.textproto",
+                                 std::string(TRIBO_SOURCE_DIR) + "/config/instruments/dissertation_fit.textproto"}) {
+    v1::DaemonConfig config;
+    ASSERT_FALSE(daemon::load_daemon_config(path, config).has_value()) << path;
+    CapacitiveSensingParams sensing = instrument_params_from_config(config.sim()).lateral_sensing;
+    sensing.white_noise_m = sensing.low_frequency_noise_m = sensing.drift_m_per_s = 0;
+    CapacitivePositionSensor sensor(sensing, 1, 2);
+    for (double x : {-15e-6, -10e-6, 0.0, 10e-6, 13.77e-6, 14.5e-6, 15e-6}) {
+      EXPECT_NEAR(sensor.sample(x, 0, 1e-4).position_m, x, 1e-10) << path << " at " << x * 1e6 << " um";
+    }
+  }
+}
+
+}  // namespace
+}  // namespace tribo::sim
