@@ -23,7 +23,7 @@
 #include <fmt/format.h>
 #include <google/protobuf/util/json_util.h>
 
-#include "client/annotated_run.h"
+#include "client/run_annotations.h"
 #include "client/control_loops.h"
 #include "client/hdf5_export.h"
 #include "client/protocol_check.h"
@@ -227,7 +227,7 @@ int run_command(const Options& o) {
   {
     tribo::client::TriboClient client(o.address, session(o, tribo::v1::CONTROLLER));
     bool abort_sent = false;
-    run = tribo::client::run_protocol_with(client, protocol, start, [&](const tribo::v1::ServerMessage& d) {
+    run = tribo::client::run_protocol(client, protocol, start, [&](const tribo::v1::ServerMessage& d) {
       if (progress) line.on_document(d);
       if (g_interrupts.load() == 0 || abort_sent || d.has_run_stop()) return;
       abort_sent = true;

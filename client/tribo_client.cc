@@ -198,6 +198,13 @@ v1::SampleBlock concatenate(std::vector<v1::SampleBlock> blocks, std::uint64_t& 
 RunResult run_protocol(TriboClient& client, const v1::Protocol& protocol,
                        std::optional<std::uint64_t> seed,
                        const std::function<void(const v1::ServerMessage&)>& on_document) {
+  v1::StartRun start;
+  if (seed) start.set_seed(*seed);
+  return run_protocol(client, protocol, start, on_document);
+}
+
+RunResult run_protocol(TriboClient& client, const v1::Protocol& protocol, const v1::StartRun& start_run,
+                       const std::function<void(const v1::ServerMessage&)>& on_document) {
   RunResult result;
   v1::ClientMessage load;
   *load.mutable_load_protocol()->mutable_protocol() = protocol;
@@ -208,8 +215,7 @@ RunResult run_protocol(TriboClient& client, const v1::Protocol& protocol,
   client.request(subscribe);
 
   v1::ClientMessage start;
-  if (seed) start.mutable_start_run()->set_seed(*seed);
-  else start.mutable_start_run();
+  *start.mutable_start_run() = start_run;
   const std::string run_id = client.request(start).start_run().run_id();
 
   // A lease (server.control_lease_s) needs a request now and then: the

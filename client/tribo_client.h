@@ -110,6 +110,10 @@ struct RunResult {
 // stops; fetches whatever the stream missed from the recording. The client
 // must hold control. on_document (optional) sees every run document as it
 // arrives.
+// `start` carries the seed and the user's annotations; on_document runs on
+// the caller's thread between reads, so it may send requests (abort).
+RunResult run_protocol(TriboClient& client, const v1::Protocol& protocol, const v1::StartRun& start,
+                       const std::function<void(const v1::ServerMessage&)>& on_document = {});
 RunResult run_protocol(TriboClient& client, const v1::Protocol& protocol,
                        std::optional<std::uint64_t> seed,
                        const std::function<void(const v1::ServerMessage&)>& on_document = {});
