@@ -64,9 +64,34 @@ std::optional<Loop> loop_from_proto(v1::ControlLoop loop) {
 
 }  // namespace
 
+namespace {
+
+// What the link did since `start` (counters are running totals).
+hal::BackendHealth health_since(const hal::BackendHealth& now, const hal::BackendHealth& start) {
+  hal::BackendHealth d = now;
+  d.transactions -= std::min(now.transactions, start.transactions);
+  d.timeouts -= std::min(now.timeouts, start.timeouts);
+  d.exceptions -= std::min(now.exceptions, start.exceptions);
+  d.bad_frames -= std::min(now.bad_frames, start.bad_frames);
+  d.link_losses -= std::min(now.link_losses, start.link_losses);
+  d.reconnect_attempts -= std::min(now.reconnect_attempts, start.reconnect_attempts);
+  // The first failure of this run: none if nothing failed since the start,
+  // the latest one if an earlier run had already set the first.
+  if (d.errors() == 0 && d.reconnect_attempts == 0) {
+    d.first_error.clear();
+    d.last_error.clear();
+  } else if (!start.first_error.empty()) {
+    d.first_error = now.last_error;
+  }
+  return d;
+}
+
+}  // namespace
+
 struct InstrumentService::ActiveRun {
   v1::RunStart start;
   hal::Transducer* transducer = nullptr;  // the service's backend, on the loop thread
+  hal::BackendHealth health_at_start;     // guarded by the service mutex
   LoadFunction load_function;
   RunLoopConfig loop_config;
   SpscQueue<Sample> queue{kQueueCapacity};
@@ -294,8 +319,9 @@ v1::StatusReply InstrumentService::status() const {
   s.set_run_duration_s(loaded_duration_s_);
   // The link's own record (issue 6) plus what the recorded samples say.
   v1::BackendHealth* health = s.mutable_backend_health();
-  *health = run_ && run_->transducer
-                ? health_message(run_->transducer->backend_name(), run_->transducer->health())
+  *health = state_ == v1::RUNNING && run_ && run_->transducer
+                ? health_message(run_->transducer->backend_name(),
+                                 health_since(run_->transducer->health(), run_->health_at_start))
                 : last_backend_health_;
   health->set_backend(backend_name());
   health->set_sensor_invalid_samples(counters.sensor_invalid);
@@ -560,6 +586,10 @@ std::optional<v1::Error> InstrumentService::autotune(const v1::Autotune& request
 void InstrumentService::run_main(ActiveRun& run) {
   // A new session of the one backend: the simulated plant at rest with the
   // run's seed (runs stay bit-identical), a real instrument as it is.
+  {
+    std::lock_guard lock(mutex_);
+    run.health_at_start = run.transducer->health();
+  }
   run.transducer->begin_session(run.start.seed());
   std::thread drain([this, &run] { drain_samples(run); });
   const RunOutcome outcome = execute_run(*run.transducer, run.load_function, run.loop_config,
@@ -609,7 +639,8 @@ void InstrumentService::run_main(ActiveRun& run) {
   }
   // A real backend says what its link did; a run that did not complete
   // because of it records why.
-  const hal::BackendHealth health = run.transducer->health();
+  // The run's share of the link's record: the backend lives across runs.
+  const hal::BackendHealth health = health_since(run.transducer->health(), run.health_at_start);
   *stop.mutable_backend_health() = health_message(run.transducer->backend_name(), health);
   if (outcome.end != RunEnd::kCompleted && !health.first_error.empty()) {
     stop.set_reason(stop.reason() + "; backend " + std::string(run.transducer->backend_name()) + ": " +

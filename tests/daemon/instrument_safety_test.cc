@@ -203,7 +203,17 @@ TEST(FullDisk, AFailedWriteEndsTheRunAsAFaultNamingTheLostSamples) {
   f.start();
   {
     FileSizeLimit limit(250 * 1024);  // the metadata fits; samples.csv fills it after a few thousand rows
-    f.run(parse_protocol(kScratch));
+    // A 100 s dwell: the simulated loop may run ahead of the recorder by
+    // the sample queue (65536 samples, 65.5 s here), and must still be
+    // running when the recorder fails.
+    f.run(parse_protocol(R"(
+      name: "long dwell"
+      acquisition_rate_hz: 1000
+      segments { name: "approach" duration_s: 1 normal { end_uN: 0 } lateral { end_um: 4 } }
+      segments { name: "load" duration_s: 1 normal { end_uN: 1000 } lateral { shape: HOLD } }
+      segments { name: "dwell" duration_s: 100 normal { shape: HOLD } lateral { shape: HOLD } }
+      segments { name: "unload" duration_s: 1 normal { end_uN: 0 } lateral { shape: HOLD } }
+    )"));
   }
   ASSERT_EQ(f.sink.stops.size(), 1u);
   const v1::RunStop& stop = f.sink.stops[0];
@@ -215,7 +225,8 @@ TEST(FullDisk, AFailedWriteEndsTheRunAsAFaultNamingTheLostSamples) {
   // The run stopped early, through the safe stop sequence.
   const auto& b = f.sink.samples;
   ASSERT_GT(sample_count(b), 0);
-  EXPECT_LT(b.time_s(sample_count(b) - 1), 5.0);
+  // Within the queue's lead (65.5 s) and the stop sequence of the failure.
+  EXPECT_LT(b.time_s(sample_count(b) - 1), static_cast<double>(stop.lost_first_sequence()) / 1000 + 65.6 + 10);
   EXPECT_TRUE(b.status_flags(sample_count(b) - 1) & v1::SAFE_UNLOAD);
   const v1::StatusReply status = f.service->status();
   EXPECT_EQ(status.state(), v1::FAULTED);
