@@ -17,6 +17,7 @@
 
 #include "analysis/diagnosis.h"
 #include "analysis/diagnosis_report.h"
+#include "analysis/fit_commands.h"
 #include "analysis/json_writer.h"
 #include "analysis/scratch_metrics.h"
 #include "analysis/series_input.h"
@@ -139,51 +140,31 @@ int diagnose_command(const DiagnoseArgs& a) {
     return 1;
   }
 
-  if (a.begin > -HUGE_VAL || a.end < HUGE_VAL) {
-    std::size_t first = 0, last = series->size();
-    while (first < series->size() && series->time_s[first] < a.begin) ++first;
-    while (last > first && series->time_s[last - 1] > a.end) --last;
-    *series = slice(*series, first, last);
-  }
-  if (const std::string problem = check_series(*series); !problem.empty()) {
-    std::cerr << "tribo-fit: " << input.string() << ": " << problem << "\n";
+  DiagnoseRequest request;
+  request.candidates = candidates;
+  request.begin_s = a.begin;
+  request.end_s = a.end;
+  request.fit_mass = fit_mass;
+  request.load_scaling = !a.no_load_scaling;
+  request.stribeck_exponent = a.stribeck_exponent;
+  request.smooth_s = a.smooth;
+  request.central_differences = a.motion_estimator == "central";
+  request.tribo_run = std::filesystem::is_directory(input);
+  request.command_line = a.command_line;
+  const DiagnoseOutcome outcome = diagnose_series(std::move(*series), request);
+  if (!outcome.error.empty()) {
+    std::cerr << "tribo-fit: " << outcome.error << "\n";
     return 1;
   }
-  // The user's smoothing window, or central differences on request; else the
-  // smoother with the record's own noise floor.
-  if (a.smooth > 0 || a.motion_estimator == "central") derive_motion(*series, a.smooth);
-  else derive_motion_smoothed(*series);
-
-  DiagnosisOptions options;
-  options.base.fit_mass = fit_mass;
-  options.base.load_scaled = series->has_normal() && !a.no_load_scaling;
-  options.base.stribeck_exponent = a.stribeck_exponent;
-  // A tribo run: holds, directions and passes from the setpoint; each pass
-  // starts from the force measured at rest (the loop's dither relaxes the
-  // contact in holds in a way the record cannot show).
-  const bool tribo_run = std::filesystem::is_directory(input);
-  options.segmentation.segment_by_reference = tribo_run;
-  options.base.state_from_rest = tribo_run;
-  options.candidates = candidates;
-  const auto t0 = std::chrono::steady_clock::now();
-  Diagnosis d;
-  try {
-    d = diagnose(*series, options);
-  } catch (const std::exception& e) {
-    std::cerr << "tribo-fit: the analysis failed: " << e.what() << "\n";
-    return 1;
-  }
-  ReportInfo info;
-  info.command_line = a.command_line;
-  info.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const std::string json = diagnosis_json(*series, d, info);
+  const std::string& json = outcome.json;
+  const Diagnosis& d = outcome.diagnosis;
   if (!a.out.empty()) {
-    if (!write_diagnosis_files(a.out, *series, d, json, error)) {
+    if (!write_diagnosis_files(a.out, outcome.series, d, json, error)) {
       std::cerr << "tribo-fit: " << error << "\n";
       return 1;
     }
   }
-  std::cout << (a.json ? json : diagnosis_text(*series, d));
+  std::cout << (a.json ? json : diagnosis_text(outcome.series, d));
   return 0;
 }
 
@@ -243,27 +224,7 @@ int metrics_command(const MetricsArgs& a) {
   const auto drift = lateral_drift_from_holds(run->samples);
   const auto tilt = fit_surface_tilt(run->samples);
   if (a.json) {
-    JsonWriter j;
-    j.begin_object().key("scratches").begin_array();
-    for (const auto& s : scratches) {
-      const auto& m = s.metrics;
-      j.begin_object().field("segment", static_cast<int>(m.segment)).field("velocity_m_per_s", m.velocity_m_per_s);
-      j.field("normal_force_n", m.normal_force_n).field("mean_friction_n", m.mean_friction_n).field("mu", m.mu);
-      j.field("stiction_peak_n", m.stiction_peak_n).field("stretch_time_s", s.stretch_time_s);
-      j.field("stretch_distance_m", s.stretch_distance_m).field("steady_lag_m", m.steady_lag_m);
-      j.field("contact_stiffness_n_per_m", s.gains.contact_stiffness_n_per_m).field("mki_n_per_m_s", s.gains.integral_gain);
-      j.field("mk_n_per_m", s.gains.proportional_gain).end_object();
-    }
-    j.end_array().key("drift").begin_object().field("mean_rate_n_per_s", drift.mean_rate_n_per_s).key("holds").begin_array();
-    for (const auto& h : drift.holds) {
-      j.begin_object().field("segment", static_cast<int>(h.segment)).field("duration_s", h.duration_s);
-      j.field("rate_n_per_s", h.rate_n_per_s).field("rate_std_error", h.rate_std_error).end_object();
-    }
-    j.end_array().end_object().key("tilt");
-    if (tilt) j.begin_object().field("segment", static_cast<int>(tilt->segment)).field("slope", tilt->slope).field("samples", tilt->samples).end_object();
-    else j.null();
-    j.end_object();
-    std::cout << j.str();
+    std::cout << metrics_json(run->samples);
     return 0;
   }
   for (const auto& s : scratches) {

@@ -309,8 +309,9 @@ int abort_command(const Options& o) {
     reply = client.request(request).abort_run();
   } catch (const tribo::client::ClientError& e) {
     // Another client (e.g. `tribo run` in another terminal) holds control:
-    // present the token as an observer, which the daemon accepts for an abort.
+    // the abort itself carries the token (AbortRun.token), from an observer.
     if (e.error().code() != tribo::v1::PERMISSION_DENIED) throw;
+    request.mutable_abort_run()->set_token(o.token);
     tribo::client::TriboClient client(o.address, session(o, tribo::v1::OBSERVER));
     reply = client.request(request).abort_run();
   }

@@ -19,11 +19,8 @@
 #include <string>
 #include <vector>
 
-#include "analysis/diagnosis.h"
-#include "analysis/diagnosis_report.h"
 #include "analysis/effect.h"
-#include "analysis/json_writer.h"
-#include "analysis/scratch_metrics.h"
+#include "analysis/fit_commands.h"
 #include "analysis/series_input.h"
 #include "daemon/daemon_config.h"
 #include "daemon/protocol_validator.h"
@@ -186,38 +183,6 @@ v1::SampleBlock block_of(const std::vector<Sample>& samples) {
   return block;
 }
 
-// `tribo-fit metrics --json`, field for field (analysis/tribo_fit_main.cc).
-std::string metrics_json(const v1::SampleBlock& samples) {
-  using namespace analysis;
-  const auto scratches = scratch_identification(samples);
-  const auto drift = lateral_drift_from_holds(samples);
-  const auto tilt = fit_surface_tilt(samples);
-  JsonWriter j;
-  j.begin_object().key("scratches").begin_array();
-  for (const auto& s : scratches) {
-    const auto& m = s.metrics;
-    j.begin_object().field("segment", static_cast<int>(m.segment)).field("velocity_m_per_s", m.velocity_m_per_s);
-    j.field("normal_force_n", m.normal_force_n).field("mean_friction_n", m.mean_friction_n).field("mu", m.mu);
-    j.field("stiction_peak_n", m.stiction_peak_n).field("stretch_time_s", s.stretch_time_s);
-    j.field("stretch_distance_m", s.stretch_distance_m).field("steady_lag_m", m.steady_lag_m);
-    j.field("contact_stiffness_n_per_m", s.gains.contact_stiffness_n_per_m).field("mki_n_per_m_s", s.gains.integral_gain);
-    j.field("mk_n_per_m", s.gains.proportional_gain).end_object();
-  }
-  j.end_array().key("drift").begin_object().field("mean_rate_n_per_s", drift.mean_rate_n_per_s).key("holds").begin_array();
-  for (const auto& h : drift.holds) {
-    j.begin_object().field("segment", static_cast<int>(h.segment)).field("duration_s", h.duration_s);
-    j.field("rate_n_per_s", h.rate_n_per_s).field("rate_std_error", h.rate_std_error).end_object();
-  }
-  j.end_array().end_object().key("tilt");
-  if (tilt) {
-    j.begin_object().field("segment", static_cast<int>(tilt->segment)).field("slope", tilt->slope).field("samples", tilt->samples).end_object();
-  } else {
-    j.null();
-  }
-  j.end_object();
-  return j.str();
-}
-
 std::vector<analysis::Effect> effects_from(const std::optional<std::vector<std::string>>& names) {
   std::vector<analysis::Effect> effects(analysis::kAllEffects.begin(), analysis::kAllEffects.end());
   if (!names) return effects;
@@ -230,32 +195,19 @@ std::vector<analysis::Effect> effects_from(const std::optional<std::vector<std::
   return effects;
 }
 
-// `tribo-fit diagnose RUN --json` on a tribo run's samples: the options that
-// command sets for a run directory (analysis/tribo_fit_main.cc).
-std::string diagnose_series(analysis::MeasuredSeries series, const std::vector<analysis::Effect>& effects,
-                            double begin_s, double end_s) {
-  using namespace analysis;
-  if (begin_s > -HUGE_VAL || end_s < HUGE_VAL) {
-    std::size_t first = 0, last = series.size();
-    while (first < series.size() && series.time_s[first] < begin_s) ++first;
-    while (last > first && series.time_s[last - 1] > end_s) --last;
-    series = slice(series, first, last);
-  }
-  if (const std::string problem = check_series(series); !problem.empty()) {
-    throw std::runtime_error(series.source + ": " + problem);
-  }
-  derive_motion(series, 0);
-  DiagnosisOptions options;
-  options.base.load_scaled = series.has_normal();
-  options.segmentation.segment_by_reference = true;
-  options.base.state_from_rest = true;
-  options.candidates = effects;
-  const auto t0 = std::chrono::steady_clock::now();
-  const Diagnosis d = diagnose(series, options);
-  ReportInfo info;
-  info.command_line = "tribo_native.diagnose";
-  info.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return diagnosis_json(series, d, info);
+// `tribo-fit diagnose RUN --json` on a tribo run's samples (a run directory's
+// options: analysis/fit_commands.h).
+std::string diagnose_run_series(analysis::MeasuredSeries series, const std::vector<analysis::Effect>& effects,
+                                double begin_s, double end_s) {
+  analysis::DiagnoseRequest request;
+  request.candidates = effects;
+  request.begin_s = begin_s;
+  request.end_s = end_s;
+  request.tribo_run = true;
+  request.command_line = "tribo_native.diagnose";
+  analysis::DiagnoseOutcome outcome = analysis::diagnose_series(std::move(series), request);
+  if (!outcome.error.empty()) throw std::runtime_error(outcome.error);
+  return outcome.json;
 }
 
 const char* exit_status_of(daemon::RunEnd end) {
@@ -336,7 +288,7 @@ PYBIND11_MODULE(tribo_native, m) {
   m.def("metrics", [](const py::dict& columns) {
     const v1::SampleBlock block = block_of(samples_from_columns(columns));
     py::gil_scoped_release release;
-    return metrics_json(block);
+    return analysis::metrics_json(block);
   }, py::arg("samples"), "tribo-fit metrics --json on sample columns (JSON text).");
 
   m.def("metrics_of_run", [](const std::string& run_dir) {
@@ -344,7 +296,7 @@ PYBIND11_MODULE(tribo_native, m) {
     std::string error;
     const auto run = wire::read_run_directory(run_dir, error);
     if (!run) throw std::runtime_error(error);
-    return metrics_json(run->samples);
+    return analysis::metrics_json(run->samples);
   }, py::arg("run_dir"), "tribo-fit metrics RUN_DIR --json (JSON text).");
 
   m.def("diagnose", [](const py::dict& columns, std::optional<std::vector<std::string>> effects, double begin_s,
@@ -352,7 +304,7 @@ PYBIND11_MODULE(tribo_native, m) {
     const auto candidates = effects_from(effects);
     const std::vector<Sample> samples = samples_from_columns(columns);
     py::gil_scoped_release release;
-    return diagnose_series(analysis::series_from_samples(samples, source), candidates, begin_s, end_s);
+    return diagnose_run_series(analysis::series_from_samples(samples, source), candidates, begin_s, end_s);
   }, py::arg("samples"), py::arg("effects") = py::none(), py::arg("begin_s") = -HUGE_VAL,
      py::arg("end_s") = HUGE_VAL, py::arg("source") = "python",
      "tribo-fit diagnose --json on sample columns (JSON text).");
@@ -364,7 +316,7 @@ PYBIND11_MODULE(tribo_native, m) {
     std::string error;
     auto series = analysis::read_run_series(run_dir, error);
     if (!series) throw std::runtime_error(error);
-    return diagnose_series(std::move(*series), candidates, begin_s, end_s);
+    return diagnose_run_series(std::move(*series), candidates, begin_s, end_s);
   }, py::arg("run_dir"), py::arg("effects") = py::none(), py::arg("begin_s") = -HUGE_VAL,
      py::arg("end_s") = HUGE_VAL, "tribo-fit diagnose RUN_DIR --json (JSON text).");
 }

@@ -1,0 +1,79 @@
+#include "analysis/fit_commands.h"
+
+#include <chrono>
+#include <exception>
+
+#include "analysis/diagnosis_report.h"
+#include "analysis/json_writer.h"
+#include "analysis/scratch_metrics.h"
+
+namespace tribo::analysis {
+
+std::string metrics_json(const v1::SampleBlock& samples) {
+  const auto scratches = scratch_identification(samples);
+  const auto drift = lateral_drift_from_holds(samples);
+  const auto tilt = fit_surface_tilt(samples);
+  JsonWriter j;
+  j.begin_object().key("scratches").begin_array();
+  for (const auto& s : scratches) {
+    const auto& m = s.metrics;
+    j.begin_object().field("segment", static_cast<int>(m.segment)).field("velocity_m_per_s", m.velocity_m_per_s);
+    j.field("normal_force_n", m.normal_force_n).field("mean_friction_n", m.mean_friction_n).field("mu", m.mu);
+    j.field("stiction_peak_n", m.stiction_peak_n).field("stretch_time_s", s.stretch_time_s);
+    j.field("stretch_distance_m", s.stretch_distance_m).field("steady_lag_m", m.steady_lag_m);
+    j.field("contact_stiffness_n_per_m", s.gains.contact_stiffness_n_per_m).field("mki_n_per_m_s", s.gains.integral_gain);
+    j.field("mk_n_per_m", s.gains.proportional_gain).end_object();
+  }
+  j.end_array().key("drift").begin_object().field("mean_rate_n_per_s", drift.mean_rate_n_per_s).key("holds").begin_array();
+  for (const auto& h : drift.holds) {
+    j.begin_object().field("segment", static_cast<int>(h.segment)).field("duration_s", h.duration_s);
+    j.field("rate_n_per_s", h.rate_n_per_s).field("rate_std_error", h.rate_std_error).end_object();
+  }
+  j.end_array().end_object().key("tilt");
+  if (tilt) {
+    j.begin_object().field("segment", static_cast<int>(tilt->segment)).field("slope", tilt->slope).field("samples", tilt->samples).end_object();
+  } else {
+    j.null();
+  }
+  j.end_object();
+  return j.str();
+}
+
+DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r) {
+  DiagnoseOutcome out;
+  if (r.begin_s > -HUGE_VAL || r.end_s < HUGE_VAL) {
+    std::size_t first = 0, last = series.size();
+    while (first < series.size() && series.time_s[first] < r.begin_s) ++first;
+    while (last > first && series.time_s[last - 1] > r.end_s) --last;
+    series = slice(series, first, last);
+  }
+  if (const std::string problem = check_series(series); !problem.empty()) {
+    out.error = series.source + ": " + problem;
+    return out;
+  }
+  if (r.smooth_s > 0 || r.central_differences) derive_motion(series, r.smooth_s);
+  else derive_motion_smoothed(series);
+
+  DiagnosisOptions options;
+  options.base.fit_mass = r.fit_mass;
+  options.base.load_scaled = series.has_normal() && r.load_scaling;
+  options.base.stribeck_exponent = r.stribeck_exponent;
+  options.segmentation.segment_by_reference = r.tribo_run;
+  options.base.state_from_rest = r.tribo_run;
+  options.candidates = r.candidates;
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    out.diagnosis = diagnose(series, options);
+  } catch (const std::exception& e) {
+    out.error = std::string("the analysis failed: ") + e.what();
+    return out;
+  }
+  ReportInfo info;
+  info.command_line = r.command_line;
+  info.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  out.json = diagnosis_json(series, out.diagnosis, info);
+  out.series = std::move(series);
+  return out;
+}
+
+}  // namespace tribo::analysis

@@ -1,0 +1,46 @@
+// What `tribo-fit metrics` and `tribo-fit diagnose` compute, as functions, so
+// that the command line and the Python module (client/python/native) give the
+// same report for the same input.
+#pragma once
+
+#include <cmath>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analysis/diagnosis.h"
+#include "analysis/effect.h"
+#include "analysis/measured_series.h"
+#include "tribo/v1/api.pb.h"
+
+namespace tribo::analysis {
+
+// `tribo-fit metrics RUN_DIR --json`: scratch metrics, hold drift and tilt (SI).
+std::string metrics_json(const v1::SampleBlock& samples);
+
+struct DiagnoseRequest {
+  std::vector<Effect> candidates{kAllEffects.begin(), kAllEffects.end()};
+  double begin_s = -HUGE_VAL, end_s = HUGE_VAL;  // the time window analysed
+  bool fit_mass = false;
+  bool load_scaling = true;       // friction levels proportional to the normal load, when given
+  double stribeck_exponent = 1;
+  double smooth_s = 0;            // > 0: central differences after this smoothing window
+  bool central_differences = false;  // instead of the smoother with the record's noise floor
+  // A tribo run directory: holds, directions and passes from the setpoint;
+  // each pass starts from the force measured at rest (the loop's dither
+  // relaxes the contact in holds in a way the record cannot show).
+  bool tribo_run = false;
+  std::string command_line;       // recorded in the report
+};
+
+struct DiagnoseOutcome {
+  MeasuredSeries series;  // windowed, with the motion estimate
+  Diagnosis diagnosis;
+  std::string json;       // `tribo-fit diagnose --json`
+  std::string error;      // non-empty: nothing else is set
+};
+
+// Windows the series, estimates the motion, diagnoses and reports.
+DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& request);
+
+}  // namespace tribo::analysis
