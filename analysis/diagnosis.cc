@@ -1,3 +1,5 @@
+#include <fmt/printf.h>
+
 #include "analysis/diagnosis.h"
 
 #include <algorithm>
@@ -14,10 +16,9 @@ namespace tribo::analysis {
 
 namespace {
 
+// printf-style messages (the formats name their units), without a fixed buffer.
 std::string fmt(const char* format, double a, double b = 0, double c = 0, double d = 0) {
-  char buf[320];
-  std::snprintf(buf, sizeof buf, format, a, b, c, d);
-  return buf;
+  return fmt::sprintf(format, a, b, c, d);
 }
 
 std::vector<char> invert(const std::vector<char>& mask) {

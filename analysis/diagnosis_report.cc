@@ -6,52 +6,42 @@
 #include <cstdio>
 #include <fstream>
 
-#include "analysis/json_writer.h"
+#include <fmt/printf.h>
+#include <nlohmann/json.hpp>
 
 namespace tribo::analysis {
 
 namespace {
 
-void write_parameters(JsonWriter& j, const std::vector<ParamEstimate>& params) {
-  j.begin_array();
+using Json = nlohmann::ordered_json;
+
+Json parameters_json(const std::vector<ParamEstimate>& params) {
+  Json out = Json::array();
   for (const auto& p : params) {
-    j.begin_object();
-    j.field("name", p.name).field("value", p.value).field("std_error", p.std_error).field("unit", p.unit);
-    j.field("determined", p.determined).field("fixed", p.fixed);
-    j.end_object();
+    out.push_back({{"name", p.name}, {"value", p.value}, {"std_error", p.std_error}, {"unit", p.unit},
+                   {"determined", p.determined}, {"fixed", p.fixed}});
   }
-  j.end_array();
+  return out;
 }
 
-void write_errors(JsonWriter& j, const ErrorStats& e) {
-  j.begin_object();
-  j.field("n", e.n).field("rms", e.rms).field("nrmse", e.nrmse).field("max", e.max_abs).field("relative", e.relative);
-  j.end_object();
+Json errors_json(const ErrorStats& e) {
+  return {{"n", e.n}, {"rms", e.rms}, {"nrmse", e.nrmse}, {"max", e.max_abs}, {"relative", e.relative}};
 }
 
-void write_model_errors(JsonWriter& j, const ModelErrors& e) {
-  j.begin_object();
-  j.key("fit");
-  write_errors(j, e.fit);
-  j.key("heldout");
-  write_errors(j, e.heldout);
-  j.key("all");
-  write_errors(j, e.all);
-  j.end_object();
+Json model_errors_json(const ModelErrors& e) {
+  return {{"fit", errors_json(e.fit)}, {"heldout", errors_json(e.heldout)}, {"all", errors_json(e.all)}};
 }
 
-void write_strings(JsonWriter& j, const std::vector<std::string>& v) {
-  j.begin_array();
-  for (const auto& s : v) j.value(s);
-  j.end_array();
-}
-
-void write_trial(JsonWriter& j, const CandidateTrial& t) {
-  j.field("signature", t.signature.summary).field("signature_strength", t.signature.strength);
-  j.field("delta_aicc", t.delta_aicc).field("delta_aicc_effective", t.delta_aicc_effective);
-  j.field("heldout_rms_before", t.heldout_rms_before);
-  j.field("heldout_rms_after", t.heldout_rms_after).field("heldout_gain", t.heldout_gain);
-  j.field("block_agreement", t.block_agreement).field("round", t.round);
+void add_trial(Json& j, const CandidateTrial& t) {
+  j["signature"] = t.signature.summary;
+  j["signature_strength"] = t.signature.strength;
+  j["delta_aicc"] = t.delta_aicc;
+  j["delta_aicc_effective"] = t.delta_aicc_effective;
+  j["heldout_rms_before"] = t.heldout_rms_before;
+  j["heldout_rms_after"] = t.heldout_rms_after;
+  j["heldout_gain"] = t.heldout_gain;
+  j["block_agreement"] = t.block_agreement;
+  j["round"] = t.round;
 }
 
 std::string number(double v) {
@@ -71,107 +61,84 @@ std::string csv_text(std::string s) {
 }  // namespace
 
 std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const ReportInfo& info) {
-  JsonWriter j;
-  j.begin_object();
-  j.field("tool", "tribo-fit diagnose");
-  j.key("input").begin_object();
-  j.field("source", s.source).field("samples", s.size()).field("duration_s", s.time_s.back() - s.time_s.front());
-  j.field("force_unit", s.force_unit).field("normal_channel", s.has_normal());
-  j.field("velocity", s.velocity_measured ? "measured" : "derived from position");
-  j.field("acceleration", s.acceleration_measured ? "measured" : "derived from velocity");
-  j.field("motion_estimator", s.motion_estimator);
-  j.field("position_noise_m", s.position_noise_m).field("position_resolution_m", s.position_resolution_m);
-  j.field("velocity_noise_m_per_s", s.velocity_noise_m_per_s);
-  j.field("loop_taps", s.loop_taps).field("loop_variance_explained", s.loop_variance_explained);
-  j.field("command", info.command_line);
-  j.end_object();
-
-  j.key("segmentation").begin_object();
-  j.field("passes", d.motion.passes.size()).field("holds", d.motion.holds.size());
-  j.field("heldout_scheme", d.motion.heldout_scheme)
-      .field("fit_samples", d.before.fit.n)
-      .field("heldout_samples", d.before.heldout.n);
-  j.end_object();
-
-  j.key("base_model").begin_object();
+  Json j;
+  j["tool"] = "tribo-fit diagnose";
+  j["input"] = {{"source", s.source},
+                {"samples", s.size()},
+                {"duration_s", s.time_s.back() - s.time_s.front()},
+                {"force_unit", s.force_unit},
+                {"normal_channel", s.has_normal()},
+                {"velocity", s.velocity_measured ? "measured" : "derived from position"},
+                {"acceleration", s.acceleration_measured ? "measured" : "derived from velocity"},
+                {"motion_estimator", s.motion_estimator},
+                {"position_noise_m", s.position_noise_m},
+                {"position_resolution_m", s.position_resolution_m},
+                {"velocity_noise_m_per_s", s.velocity_noise_m_per_s},
+                {"loop_taps", s.loop_taps},
+                {"loop_variance_explained", s.loop_variance_explained},
+                {"command", info.command_line}};
+  j["segmentation"] = {{"passes", d.motion.passes.size()},
+                       {"holds", d.motion.holds.size()},
+                       {"heldout_scheme", d.motion.heldout_scheme},
+                       {"fit_samples", d.before.fit.n},
+                       {"heldout_samples", d.before.heldout.n}};
   const ModelStructure& st = d.base.result.params.structure;
-  j.field("name", "lugre").field("load_scaled", st.load_scaled).field("fit_mass", st.fit_mass);
-  j.field("stribeck_exponent", st.stribeck_exponent);
-  j.field("state_from_rest", st.state_from_rest);
-  j.key("parameters");
-  write_parameters(j, d.base.result.estimates);
-  j.field("starts_evaluated", d.base.starts_evaluated).field("starts_refined", d.base.starts_refined);
-  j.field("converged", d.base.result.converged);
-  j.key("warnings");
-  write_strings(j, d.base.result.warnings);
-  j.end_object();
+  j["base_model"] = {{"name", "lugre"},
+                     {"load_scaled", st.load_scaled},
+                     {"fit_mass", st.fit_mass},
+                     {"stribeck_exponent", st.stribeck_exponent},
+                     {"state_from_rest", st.state_from_rest},
+                     {"parameters", parameters_json(d.base.result.estimates)},
+                     {"starts_evaluated", d.base.starts_evaluated},
+                     {"starts_refined", d.base.starts_refined},
+                     {"converged", d.base.result.converged},
+                     {"warnings", d.base.result.warnings}};
 
-  j.key("accepted_effects").begin_array();
+  Json& accepted = j["accepted_effects"] = Json::array();
   for (const auto& a : d.accepted) {
-    j.begin_object();
-    j.field("name", effect_name(a.effect));
-    j.key("parameters");
-    write_parameters(j, a.parameters);
-    write_trial(j, a.trial);
-    j.end_object();
+    Json effect = {{"name", effect_name(a.effect)}, {"parameters", parameters_json(a.parameters)}};
+    add_trial(effect, a.trial);
+    accepted.push_back(std::move(effect));
   }
-  j.end_array();
-
-  j.key("rejected_effects").begin_array();
+  Json& rejected = j["rejected_effects"] = Json::array();
   for (const auto& r : d.rejected) {
-    j.begin_object();
-    j.field("name", effect_name(r.effect)).field("reason", r.reason).field("signature_strength", r.signature_strength);
+    Json effect = {{"name", effect_name(r.effect)}, {"reason", r.reason}, {"signature_strength", r.signature_strength}};
     if (r.last_trial) {
-      j.field("delta_aicc", r.last_trial->delta_aicc).field("delta_aicc_effective", r.last_trial->delta_aicc_effective);
-      j.field("heldout_gain", r.last_trial->heldout_gain);
-      j.field("block_agreement", r.last_trial->block_agreement);
+      effect["delta_aicc"] = r.last_trial->delta_aicc;
+      effect["delta_aicc_effective"] = r.last_trial->delta_aicc_effective;
+      effect["heldout_gain"] = r.last_trial->heldout_gain;
+      effect["block_agreement"] = r.last_trial->block_agreement;
     }
-    j.end_object();
+    rejected.push_back(std::move(effect));
   }
-  j.end_array();
 
-  j.key("error_before");
-  write_model_errors(j, d.before);
-  j.key("error_after");
-  write_model_errors(j, d.after);
-  j.key("heldout_by_condition").begin_array();
+  j["error_before"] = model_errors_json(d.before);
+  j["error_after"] = model_errors_json(d.after);
+  Json& by_condition = j["heldout_by_condition"] = Json::array();
   for (const auto& c : d.heldout_by_condition) {
-    j.begin_object();
-    j.field("condition", c.condition).field("n", c.n).field("rms_before", c.rms_before).field("rms_after", c.rms_after);
-    j.end_object();
+    by_condition.push_back({{"condition", c.condition}, {"n", c.n}, {"rms_before", c.rms_before}, {"rms_after", c.rms_after}});
   }
-  j.end_array();
 
-  j.key("final_model").begin_object();
-  j.key("effects").begin_array();
-  for (Effect e : d.final_fit.params.structure.effects) j.value(effect_name(e));
-  j.end_array();
+  Json& final_model = j["final_model"];
+  final_model["effects"] = Json::array();
+  for (Effect e : d.final_fit.params.structure.effects) final_model["effects"].push_back(effect_name(e));
   if (d.final_fit.params.structure.has(Effect::kRateState)) {
-    j.field("rate_state_law", d.final_fit.params.structure.rate_state_slip_law ? "slip (Ruina)" : "ageing (Dieterich)");
+    final_model["rate_state_law"] = d.final_fit.params.structure.rate_state_slip_law ? "slip (Ruina)" : "ageing (Dieterich)";
   }
-  j.key("parameters");
-  write_parameters(j, d.final_fit.estimates);
-  j.key("warnings");
-  write_strings(j, d.final_fit.warnings);
-  j.end_object();
+  final_model["parameters"] = parameters_json(d.final_fit.estimates);
+  final_model["warnings"] = d.final_fit.warnings;
 
-  j.key("unexplained");
-  if (d.unexplained) j.value(*d.unexplained);
-  else j.null();
-  j.field("noise_floor", d.noise_floor);
-  j.key("warnings");
-  write_strings(j, d.warnings);
-  j.field("elapsed_s", info.elapsed_s);
-  j.end_object();
-  return j.str();
+  j["unexplained"] = d.unexplained ? Json(*d.unexplained) : Json(nullptr);
+  j["noise_floor"] = d.noise_floor;
+  j["warnings"] = d.warnings;
+  j["elapsed_s"] = info.elapsed_s;
+  return j.dump(2) + "\n";
 }
 
 std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
   std::string out;
-  char buf[512];
   auto line = [&](const char* format, auto... args) {
-    std::snprintf(buf, sizeof buf, format, args...);
-    out += buf;
+    out += fmt::sprintf(format, args...);
     out += '\n';
   };
   line("%s: %zu samples, %zu passes, %zu holds; held out: %s", s.source.c_str(), s.size(), d.motion.passes.size(),

@@ -3,40 +3,45 @@
 #include <chrono>
 #include <exception>
 
+#include <nlohmann/json.hpp>
+
 #include "analysis/diagnosis_report.h"
-#include "analysis/json_writer.h"
 #include "analysis/scratch_metrics.h"
 
 namespace tribo::analysis {
 
 std::string metrics_json(const v1::SampleBlock& samples) {
-  const auto scratches = scratch_identification(samples);
-  const auto drift = lateral_drift_from_holds(samples);
-  const auto tilt = fit_surface_tilt(samples);
-  JsonWriter j;
-  j.begin_object().key("scratches").begin_array();
-  for (const auto& s : scratches) {
+  using Json = nlohmann::ordered_json;
+  Json j;
+  Json& scratches = j["scratches"] = Json::array();
+  for (const auto& s : scratch_identification(samples)) {
     const auto& m = s.metrics;
-    j.begin_object().field("segment", static_cast<int>(m.segment)).field("velocity_m_per_s", m.velocity_m_per_s);
-    j.field("normal_force_n", m.normal_force_n).field("mean_friction_n", m.mean_friction_n).field("mu", m.mu);
-    j.field("stiction_peak_n", m.stiction_peak_n).field("stretch_time_s", s.stretch_time_s);
-    j.field("stretch_distance_m", s.stretch_distance_m).field("steady_lag_m", m.steady_lag_m);
-    j.field("contact_stiffness_n_per_m", s.gains.contact_stiffness_n_per_m).field("mki_n_per_m_s", s.gains.integral_gain);
-    j.field("mk_n_per_m", s.gains.proportional_gain).end_object();
+    scratches.push_back({{"segment", static_cast<int>(m.segment)},
+                         {"velocity_m_per_s", m.velocity_m_per_s},
+                         {"normal_force_n", m.normal_force_n},
+                         {"mean_friction_n", m.mean_friction_n},
+                         {"mu", m.mu},
+                         {"stiction_peak_n", m.stiction_peak_n},
+                         {"stretch_time_s", s.stretch_time_s},
+                         {"stretch_distance_m", s.stretch_distance_m},
+                         {"steady_lag_m", m.steady_lag_m},
+                         {"contact_stiffness_n_per_m", s.gains.contact_stiffness_n_per_m},
+                         {"mki_n_per_m_s", s.gains.integral_gain},
+                         {"mk_n_per_m", s.gains.proportional_gain}});
   }
-  j.end_array().key("drift").begin_object().field("mean_rate_n_per_s", drift.mean_rate_n_per_s).key("holds").begin_array();
+  const auto drift = lateral_drift_from_holds(samples);
+  Json holds = Json::array();
   for (const auto& h : drift.holds) {
-    j.begin_object().field("segment", static_cast<int>(h.segment)).field("duration_s", h.duration_s);
-    j.field("rate_n_per_s", h.rate_n_per_s).field("rate_std_error", h.rate_std_error).end_object();
+    holds.push_back({{"segment", static_cast<int>(h.segment)},
+                     {"duration_s", h.duration_s},
+                     {"rate_n_per_s", h.rate_n_per_s},
+                     {"rate_std_error", h.rate_std_error}});
   }
-  j.end_array().end_object().key("tilt");
-  if (tilt) {
-    j.begin_object().field("segment", static_cast<int>(tilt->segment)).field("slope", tilt->slope).field("samples", tilt->samples).end_object();
-  } else {
-    j.null();
-  }
-  j.end_object();
-  return j.str();
+  j["drift"] = {{"mean_rate_n_per_s", drift.mean_rate_n_per_s}, {"holds", std::move(holds)}};
+  const auto tilt = fit_surface_tilt(samples);
+  j["tilt"] = tilt ? Json{{"segment", static_cast<int>(tilt->segment)}, {"slope", tilt->slope}, {"samples", tilt->samples}}
+                   : Json(nullptr);
+  return j.dump(2) + "\n";
 }
 
 DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r) {

@@ -1,3 +1,5 @@
+#include <fmt/printf.h>
+
 #include "analysis/residual_signatures.h"
 
 #include <algorithm>
@@ -17,10 +19,9 @@ namespace {
 // is enough to try.
 constexpr double kScreenT = 2.0;
 
+// printf-style messages (the formats name their units), without a fixed buffer.
 std::string fmt(const char* format, double a, double b = 0, double c = 0, double d = 0) {
-  char buf[256];
-  std::snprintf(buf, sizeof buf, format, a, b, c, d);
-  return buf;
+  return fmt::sprintf(format, a, b, c, d);
 }
 
 double median(std::vector<double> v) {

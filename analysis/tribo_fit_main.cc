@@ -14,11 +14,11 @@
 #include <vector>
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include "analysis/diagnosis.h"
 #include "analysis/diagnosis_report.h"
 #include "analysis/fit_commands.h"
-#include "analysis/json_writer.h"
 #include "analysis/scratch_metrics.h"
 #include "analysis/series_input.h"
 #include "proto/run_files.h"
@@ -192,17 +192,16 @@ int stribeck_command(const StribeckArgs& a) {
     return 1;
   }
   if (a.json) {
-    JsonWriter j;
-    j.begin_object().field("model", model).key("parameters").begin_array();
+    nlohmann::ordered_json j;
+    j["model"] = model;
+    j["parameters"] = nlohmann::ordered_json::array();
     for (std::size_t k = 0; k < fit.names.size(); ++k) {
-      j.begin_object().field("name", fit.names[k]).field("value", fit.values[k]).field("std_error", fit.std_errors[k]).end_object();
+      j["parameters"].push_back({{"name", fit.names[k]}, {"value", fit.values[k]}, {"std_error", fit.std_errors[k]}});
     }
-    j.end_array().field("rms", fit.rms).key("robust_weights").begin_array();
-    for (double w : fit.robust_weights) j.value(w);
-    j.end_array().key("warnings").begin_array();
-    for (const auto& w : fit.warnings) j.value(w);
-    j.end_array().end_object();
-    std::cout << j.str();
+    j["rms"] = fit.rms;
+    j["robust_weights"] = fit.robust_weights;
+    j["warnings"] = fit.warnings;
+    std::cout << j.dump(2) << "\n";
   } else {
     for (std::size_t k = 0; k < fit.names.size(); ++k) {
       std::printf("%-8s %14.6g +- %.3g\n", fit.names[k].c_str(), fit.values[k], fit.std_errors[k]);
@@ -229,14 +228,14 @@ int metrics_command(const MetricsArgs& a) {
   }
   for (const auto& s : scratches) {
     const auto& m = s.metrics;
-    std::printf("segment %u: v0 %+.3f um/s at %.1f uN: friction %.2f uN, mu %.4f\n", m.segment, 1e6 * m.velocity_m_per_s,
+    std::printf("segment %u: v0 %+.3f µm/s at %.1f µN: friction %.2f µN, mu %.4f\n", m.segment, 1e6 * m.velocity_m_per_s,
                 1e6 * m.normal_force_n, 1e6 * m.mean_friction_n, m.mu);
-    std::printf("  Fs %.2f uN, ts %.4f s, ds %.4f um, dl %.4f um -> sigma %.1f uN/um, mki %.1f, mk %.1f (Table 5.1 units)\n",
+    std::printf("  Fs %.2f µN, ts %.4f s, ds %.4f µm, dl %.4f µm -> sigma %.1f µN/µm, mki %.1f, mk %.1f (Table 5.1 units)\n",
                 1e6 * m.stiction_peak_n, s.stretch_time_s, 1e6 * s.stretch_distance_m, 1e6 * m.steady_lag_m,
                 s.gains.contact_stiffness_n_per_m, s.gains.integral_gain, s.gains.proportional_gain);
   }
   for (const auto& h : drift.holds) {
-    std::printf("hold segment %u (%.2f s): lateral-force drift %.4g +- %.2g uN/s\n", h.segment, h.duration_s, 1e6 * h.rate_n_per_s,
+    std::printf("hold segment %u (%.2f s): lateral-force drift %.4g +- %.2g µN/s\n", h.segment, h.duration_s, 1e6 * h.rate_n_per_s,
                 1e6 * h.rate_std_error);
   }
   if (tilt) std::printf("surface tilt (segment %u): %.5f (%.3f deg)\n", tilt->segment, tilt->slope, std::atan(tilt->slope) * 180 / M_PI);

@@ -10,7 +10,7 @@
 #include <fstream>
 #include <iostream>
 
-#include "analysis/json_writer.h"
+#include <nlohmann/json.hpp>
 #include "analysis/lugre_fit.h"
 #include "tests/analysis/synthetic_run.h"
 
@@ -64,24 +64,32 @@ int main(int argc, char** argv) {
   const LugreFit full = fit_lugre(d, st, mask);
   const auto t2 = std::chrono::steady_clock::now();
 
-  JsonWriter j;
-  j.begin_object().field("samples", s.size()).field("fit_samples", single.n).field("force_scale", d.force_scale);
-  j.field("speed_ref", d.speed_ref);
-  j.key("start").begin_array();
+  nlohmann::ordered_json j;
+  j["samples"] = s.size();
+  j["fit_samples"] = single.n;
+  j["force_scale"] = d.force_scale;
+  j["speed_ref"] = d.speed_ref;
+  j["start"] = nlohmann::ordered_json::array();
   for (std::size_t k = 0; k < start.specs.size(); ++k) {
     const ParamSpec& p = start.specs[k];
-    j.begin_object().field("name", p.name).field("transform", p.transform == Transform::kLog ? "log" : "linear");
-    j.field("scale", p.scale).field("theta", start.theta[k]).field("value", param_value(p, start.theta[k])).end_object();
+    j["start"].push_back({{"name", p.name},
+                          {"transform", p.transform == Transform::kLog ? "log" : "linear"},
+                          {"scale", p.scale},
+                          {"theta", start.theta[k]},
+                          {"value", param_value(p, start.theta[k])}});
   }
-  j.end_array();
-  j.key("tribo_single_start").begin_object().field("seconds", std::chrono::duration<double>(t1 - t0).count());
-  j.field("rss", single.rss).field("jacobians", single.iterations).key("values").begin_object();
-  for (const auto& e : single.estimates) j.field(e.name, e.value);
-  j.end_object().end_object();
-  j.key("tribo_full_fit").begin_object().field("seconds", std::chrono::duration<double>(t2 - t1).count());
-  j.field("rss", full.result.rss).field("starts_evaluated", full.starts_evaluated).field("starts_refined", full.starts_refined);
-  j.end_object().end_object();
-  std::ofstream(dir / "tribo_fit.json") << j.str();
-  std::cout << j.str();
+  nlohmann::ordered_json values;
+  for (const auto& e : single.estimates) values[e.name] = e.value;
+  j["tribo_single_start"] = {{"seconds", std::chrono::duration<double>(t1 - t0).count()},
+                             {"rss", single.rss},
+                             {"jacobians", single.iterations},
+                             {"values", std::move(values)}};
+  j["tribo_full_fit"] = {{"seconds", std::chrono::duration<double>(t2 - t1).count()},
+                         {"rss", full.result.rss},
+                         {"starts_evaluated", full.starts_evaluated},
+                         {"starts_refined", full.starts_refined}};
+  const std::string text = j.dump(2) + "\n";
+  std::ofstream(dir / "tribo_fit.json") << text;
+  std::cout << text;
   return 0;
 }

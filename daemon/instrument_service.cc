@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include "daemon/autotune.h"
@@ -436,30 +437,25 @@ std::optional<std::string> InstrumentService::rearm_check(v1::RearmReply& reply)
       if (v[c] != v0[c]) changed[c] = true;
     }
   }
-  char text[240];
   const bool per_channel = config_.supervisor().frozen_channel_ticks() > 0;
   const char* names[4] = {"lateral position", "lateral force", "normal force", "normal displacement"};
   if (!changed[0] && !changed[1] && !changed[2] && !changed[3]) {
-    std::snprintf(text, sizeof text, "all four sensor channels repeated the same values for %d ticks: the readout "
-                                     "is frozen", kRearmTicks);
-    return std::string(text);
+    return fmt::format("all four sensor channels repeated the same values for {} ticks: the readout is frozen",
+                       kRearmTicks);
   }
   for (int c = 0; per_channel && c < 4; ++c) {
     if (!changed[c]) {
-      std::snprintf(text, sizeof text, "the %s repeated the same value for %d ticks: frozen", names[c], kRearmTicks);
-      return std::string(text);
+      return fmt::format("the {} repeated the same value for {} ticks: frozen", names[c], kRearmTicks);
     }
   }
   const double x = sum[0] / kRearmTicks, lf = sum[1] / kRearmTicks, n = sum[2] / kRearmTicks,
                z = sum[3] / kRearmTicks;
   if (std::fabs(x) > p.max_lateral_travel_m) {
-    std::snprintf(text, sizeof text, "the lateral position %g m is beyond the travel %g m", x, p.max_lateral_travel_m);
-    return std::string(text);
+    return fmt::format("the lateral position {:g} m is beyond the travel {:g} m", x, p.max_lateral_travel_m);
   }
   if (std::fabs(n) > p.contact_force_n) {
-    std::snprintf(text, sizeof text, "the normal force %g N (mean of %d ticks) is above the unloaded threshold %g N",
-                  n, kRearmTicks, p.contact_force_n);
-    return std::string(text);
+    return fmt::format("the normal force {:g} N (mean of {} ticks) is above the unloaded threshold {:g} N", n,
+                       kRearmTicks, p.contact_force_n);
   }
   reply.set_lateral_position_m(x);
   reply.set_lateral_force_n(lf);

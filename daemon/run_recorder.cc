@@ -8,6 +8,7 @@
 #include <ctime>
 #include <system_error>
 
+#include <fmt/format.h>
 #include <google/protobuf/util/json_util.h>
 
 #include "proto/run_files.h"
@@ -42,9 +43,7 @@ std::unique_ptr<RunRecorder> RunRecorder::create(const fs::path& data_dir, v1::R
   const std::string stem = utc_now("%Y%m%d-%H%M%S");
   fs::path dir;
   for (int i = 0; i < 1000; ++i) {
-    char suffix[8];
-    std::snprintf(suffix, sizeof suffix, "-%03d", i);
-    dir = data_dir / (stem + suffix);
+    dir = data_dir / fmt::format("{}-{:03d}", stem, i);
     if (fs::create_directory(dir, ec)) break;  // atomic: two daemons never share a run
     dir.clear();
   }

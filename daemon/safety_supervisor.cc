@@ -93,7 +93,9 @@ TripReason SafetySupervisor::latch(TripReason reason, std::uint64_t tick, const 
                                    double a, double b) {
   trip_.reason = reason;
   trip_.tick = tick;
-  // format takes at most two doubles; constant texts ignore them.
+  // format takes at most two doubles; constant texts ignore them. The tick
+  // path allocates nothing, so the detail goes into the trip's fixed buffer
+  // (snprintf truncates, never overflows).
   std::snprintf(trip_.detail.data(), trip_.detail.size(), format, a, b);
   return reason;
 }

@@ -1,3 +1,6 @@
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
 #include "scorecard/scorecard.h"
 
 #include <algorithm>
@@ -18,11 +21,7 @@ bool wanted(const ScorecardOptions& o, const std::string& group) {
   return o.groups.empty() || std::find(o.groups.begin(), o.groups.end(), group) != o.groups.end();
 }
 
-std::string fixed(double v, int decimals) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-  return buf;
-}
+std::string fixed(double v, int decimals) { return fmt::format("{:.{}f}", v, decimals); }
 
 // Table 5.1 (§5.4.1): stiction force Fs, stretch time ts, stretch distance
 // ds and lag distance dl at two loads and four velocities.
@@ -171,30 +170,22 @@ std::string format_table(const std::vector<Row>& rows) {
 }
 
 std::string format_json(const std::vector<Row>& rows, const std::string& config_name) {
-  auto quote = [](const std::string& s) {
-    std::string q = "\"";
-    for (char c : s) {
-      if (c == '"' || c == '\\') q += '\\';
-      q += c;
-    }
-    return q + "\"";
-  };
-  auto num = [](double v) {
-    if (!std::isfinite(v)) return std::string("null");
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.6g", v);
-    return std::string(buf);
-  };
-  std::string out = "{\"config\": " + quote(config_name) + ", \"rows\": [\n";
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    const Row& r = rows[i];
-    out += "  {\"source\": " + quote(r.group) + ", \"observation\": " + quote(r.observation) + ", \"unit\": " +
-           quote(r.unit) + ", \"dissertation\": " + num(r.dissertation) + ", \"simulated\": " + num(r.simulated) +
-           ", \"error\": " + num(r.error()) + ", \"error_in_points\": " + (r.points ? "true" : "false") +
-           ", \"goal\": " + num(r.goal) + ", \"within_goal\": " + (r.within_goal() ? "true" : "false") + "}" +
-           (i + 1 < rows.size() ? ",\n" : "\n");
+  // Non-finite values (a row the run could not measure) are written as null.
+  nlohmann::ordered_json j;
+  j["config"] = config_name;
+  j["rows"] = nlohmann::ordered_json::array();
+  for (const Row& r : rows) {
+    j["rows"].push_back({{"source", r.group},
+                         {"observation", r.observation},
+                         {"unit", r.unit},
+                         {"dissertation", r.dissertation},
+                         {"simulated", r.simulated},
+                         {"error", r.error()},
+                         {"error_in_points", r.points},
+                         {"goal", r.goal},
+                         {"within_goal", r.within_goal()}});
   }
-  return out + "]}\n";
+  return j.dump(2) + "\n";
 }
 
 }  // namespace tribo::scorecard

@@ -2,7 +2,6 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/json_writer.h"
 #include "analysis/scratch_metrics.h"
 #include "proto/sample_record.h"
 
@@ -76,13 +75,6 @@ TEST(ScratchMetrics, TiltDriftAndStretchFromARecordedScratch) {
   EXPECT_NEAR(ids[0].stretch_time_s, 0.5, 0.02);
   EXPECT_NEAR(ids[0].stretch_distance_m, 0.5e-6, 0.02e-6);
   EXPECT_NEAR(ids[0].metrics.steady_lag_m, 0.05e-6, 1e-12);
-}
-
-TEST(JsonWriter, EscapesStringsAndWritesNonFiniteNumbersAsNull) {
-  JsonWriter j;
-  j.begin_object().field("name", "a \"quoted\"\nline").field("nan", std::nan("")).field("n", 3).key("list").begin_array();
-  j.value(1.5).value(true).end_array().end_object();
-  EXPECT_EQ(j.str(), "{\n  \"name\": \"a \\\"quoted\\\"\\nline\",\n  \"nan\": null,\n  \"n\": 3,\n  \"list\": [\n    1.5,\n    true\n  ]\n}\n");
 }
 
 }  // namespace
