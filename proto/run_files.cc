@@ -1,6 +1,10 @@
 #include "proto/run_files.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -28,16 +32,26 @@ std::string run_metadata_to_json(const v1::RunMetadata& metadata) {
 
 bool write_file_atomically(const fs::path& path, const std::string& content) {
   const fs::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) return false;
-    out << content;
-    out.flush();
-    if (!out) return false;
+  // A stale or planted temporary (a symlink to a file elsewhere, say) is
+  // removed, not followed: unlink drops the link itself, and O_EXCL with
+  // O_NOFOLLOW creates a fresh file or fails.
+  ::unlink(tmp.c_str());
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+  if (fd < 0) return false;
+  std::size_t written = 0;
+  while (written < content.size()) {
+    const ssize_t n = ::write(fd, content.data() + written, content.size() - written);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    written += static_cast<std::size_t>(n);
   }
+  // On disk before the rename makes it the file: a crash leaves the old or the new, whole.
+  const bool ok = written == content.size() && ::fsync(fd) == 0;
+  ::close(fd);
   std::error_code ec;
-  fs::rename(tmp, path, ec);
-  return !ec;
+  if (ok) fs::rename(tmp, path, ec);
+  if (!ok || ec) ::unlink(tmp.c_str());
+  return ok && !ec;
 }
 
 bool write_run_directory(const fs::path& dir, const v1::RunMetadata& metadata,

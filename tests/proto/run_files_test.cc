@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <iterator>
 
 #include "proto/sample_record.h"
 #include "tests/support/daemon_process.h"
@@ -136,6 +137,25 @@ TEST(RunFiles, ListsRunsNewestFirstWithIncompleteOnes) {
   EXPECT_EQ(runs[0].sample_count(), 5u);
   EXPECT_TRUE(runs[1].finalized());
   EXPECT_EQ(runs[1].exit_status(), v1::SUCCESS);
+}
+
+// `tribo run --out` and `tribo fetch` write through write_run_directory: a
+// samples.csv.tmp planted as a symlink must not redirect the write.
+TEST(RunFiles, APlantedTemporarySymlinkIsReplacedNotFollowed) {
+  testing::TempDir dir;
+  const std::filesystem::path victim = dir.path() / "victim.txt";
+  std::ofstream(victim) << "keep me";
+  const std::filesystem::path run = dir.path() / "run";
+  std::filesystem::create_directories(run);
+  std::filesystem::create_symlink(victim, run / "samples.csv.tmp");
+  std::string error;
+  ASSERT_TRUE(write_run_directory(run, v1::RunMetadata(), samples(3), error)) << error;
+  std::ifstream in(victim);
+  const std::string kept((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(kept, "keep me");
+  EXPECT_FALSE(std::filesystem::is_symlink(run / "samples.csv"));
+  EXPECT_EQ(count_recorded_samples(run), 3u);
+  EXPECT_FALSE(std::filesystem::exists(run / "samples.csv.tmp"));
 }
 
 }  // namespace

@@ -3,7 +3,7 @@
 compare with the daemon's recording, refuse observers' control commands, fetch
 a recorded run, and plot a run to PNG with the example.
 
-    /usr/bin/python3 test_client.py --tribod build/daemon/tribod --source-dir .
+    /usr/bin/python3 tests/python/test_client.py --build-dir build --source-dir .
 (PYTHONPATH must hold client/python and build/python.)"""
 
 import argparse
@@ -15,33 +15,8 @@ import unittest
 
 import numpy as np
 
-from tribo_client import Client, TriboError, load_protocol_file
-
-ARGS = None
-
-
-def short_protocol():
-    p = load_protocol_file(os.path.join(ARGS.source_dir, "config/protocols/standard_scratch.textproto"))
-    p.name = "short-scratch"
-    for seg, duration in zip(p.segments, (0.5, 0.5, 1.0, 0.5, 0.5)):
-        seg.duration_s = duration
-    p.segments[2].lateral.end_um = 2.5
-    p.segments[3].lateral.end_um = 2.5
-    return p
-
-
-class Daemon:
-    def __init__(self, data_dir):
-        self.proc = subprocess.Popen(
-            [ARGS.tribod, "--config", os.path.join(ARGS.source_dir, "config/tribod.textproto"),
-             "--port", "0", "--data-dir", data_dir],
-            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
-        line = self.proc.stdout.readline()  # "tribod listening on 127.0.0.1:PORT"
-        self.address = line.split()[-1]
-
-    def stop(self):
-        self.proc.terminate()
-        self.proc.wait(timeout=30)
+from support import ARGS, Daemon, short_protocol
+from tribo_client import Client, TriboError
 
 
 class PythonClientTest(unittest.TestCase):
@@ -129,7 +104,8 @@ class PythonClientTest(unittest.TestCase):
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser()
-    parser.add_argument("--tribod", required=True)
+    parser.add_argument("--build-dir", required=True)
     parser.add_argument("--source-dir", required=True)
-    ARGS, rest = parser.parse_known_args()
+    args, rest = parser.parse_known_args()
+    ARGS.configure(args)
     unittest.main(argv=[sys.argv[0]] + rest, verbosity=2)
