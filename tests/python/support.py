@@ -2,8 +2,11 @@
 started on 127.0.0.1 with an ephemeral port and its own data directory, and a
 short protocol (3 s, 3000 samples) to keep the tests quick."""
 
+import argparse
 import os
 import subprocess
+import sys
+import unittest
 
 from tribo_client import load_protocol_file
 
@@ -61,3 +64,14 @@ def identification_short():
     with open(os.path.join(ARGS.source_dir, "config/campaigns/identification_reliability_tiny.toml"), "rb") as f:
         spec = tomllib.load(f)
     return text_format.Parse(spec["protocols"][0]["text"], protocol_pb2.Protocol())
+
+
+def main():
+    """Runs the calling test file's tests: --build-dir and --source-dir say
+    where the build and the sources are; other arguments go to unittest."""
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--build-dir", required=True)
+    parser.add_argument("--source-dir", required=True)
+    args, rest = parser.parse_known_args()
+    ARGS.configure(args)
+    unittest.main(module="__main__", argv=[sys.argv[0]] + rest, verbosity=2)

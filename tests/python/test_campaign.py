@@ -8,7 +8,6 @@ reliability map.
     /usr/bin/python3 tests/python/test_campaign.py --build-dir build --source-dir .
 (PYTHONPATH must hold client/python and build/python.)"""
 
-import argparse
 import glob
 import os
 import signal
@@ -24,6 +23,7 @@ import pandas as pd
 from google.protobuf import text_format
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import support
 from support import ARGS, short_protocol  # noqa: E402
 
 from tribo_client import sim  # noqa: E402
@@ -191,9 +191,4 @@ class ReliabilityMap(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--build-dir", required=True)
-    parser.add_argument("--source-dir", required=True)
-    args, rest = parser.parse_known_args()
-    ARGS.configure(args)
-    unittest.main(argv=[sys.argv[0]] + rest, verbosity=2)
+    support.main()

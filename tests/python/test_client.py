@@ -6,7 +6,6 @@ a recorded run, and plot a run to PNG with the example.
     /usr/bin/python3 tests/python/test_client.py --build-dir build --source-dir .
 (PYTHONPATH must hold client/python and build/python.)"""
 
-import argparse
 import os
 import subprocess
 import sys
@@ -15,6 +14,7 @@ import unittest
 
 import numpy as np
 
+import support
 from support import ARGS, Daemon, short_protocol
 from tribo_client import Client, TriboError
 
@@ -103,9 +103,4 @@ class PythonClientTest(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--build-dir", required=True)
-    parser.add_argument("--source-dir", required=True)
-    args, rest = parser.parse_known_args()
-    ARGS.configure(args)
-    unittest.main(argv=[sys.argv[0]] + rest, verbosity=2)
+    support.main()

@@ -7,7 +7,6 @@ released while C++ runs.
     /usr/bin/python3 tests/python/test_native.py --build-dir build --source-dir .
 (PYTHONPATH must hold client/python and build/python.)"""
 
-import argparse
 import json
 import os
 import subprocess
@@ -21,6 +20,7 @@ import numpy as np
 from google.protobuf import text_format
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import support
 from support import ARGS, Daemon, identification_short, short_protocol  # noqa: E402
 
 import tribo_native  # noqa: E402
@@ -148,9 +148,4 @@ class GilReleased(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--build-dir", required=True)
-    parser.add_argument("--source-dir", required=True)
-    args, rest = parser.parse_known_args()
-    ARGS.configure(args)
-    unittest.main(argv=[sys.argv[0]] + rest, verbosity=2)
+    support.main()

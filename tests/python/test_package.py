@@ -7,7 +7,6 @@ the example notebook executed; `pip install` into a venv, offline.
     /usr/bin/python3 tests/python/test_package.py --build-dir build --source-dir .
 (PYTHONPATH must hold client/python and build/python.)"""
 
-import argparse
 import os
 import shutil
 import struct
@@ -19,6 +18,7 @@ import unittest
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import support
 from support import ARGS, Daemon, short_protocol  # noqa: E402
 
 from tribo_client import CHANNELS, Client, csv_column, plots, read_run  # noqa: E402
@@ -154,9 +154,4 @@ class PipInstall(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--build-dir", required=True)
-    parser.add_argument("--source-dir", required=True)
-    args, rest = parser.parse_known_args()
-    ARGS.configure(args)
-    unittest.main(argv=[sys.argv[0]] + rest, verbosity=2)
+    support.main()
