@@ -33,13 +33,14 @@ class Axis {
 
   // One tick. After a stop every call writes a zero drive only.
   void apply(double lateral_drive_n) {
-    if (!stopped() && p_.stop_requested != nullptr && p_.stop_requested->load(std::memory_order_relaxed)) {
-      emergency_ = true;
-      if (p_.stop_acted_ns != nullptr) p_.stop_acted_ns->store(now_ns(), std::memory_order_relaxed);
-    }
+    const bool emergency_now =
+        !stopped() && p_.stop_requested != nullptr && p_.stop_requested->load(std::memory_order_relaxed);
+    if (emergency_now) emergency_ = true;
     if (!stopped() && !(std::fabs(lateral_drive_n) <= p_.max_lateral_drive_n)) refused_ = true;
     drive_ = stopped() ? 0.0 : lateral_drive_n;
     t_.write(hal::DriveCommand{0.0, drive_});
+    // Acted on: the zero drive is written.
+    if (emergency_now && p_.stop_acted_ns != nullptr) p_.stop_acted_ns->store(now_ns(), std::memory_order_relaxed);
     t_.wait_next_tick();
     t_.read(frame_);
     ++ticks_;

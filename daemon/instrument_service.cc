@@ -383,35 +383,50 @@ v1::GetGainsReply InstrumentService::gains() const {
   return reply;
 }
 
-std::optional<v1::Error> InstrumentService::rearm(v1::RearmReply& reply) {
+void InstrumentService::rearm_async(RearmDone done) {
+  const auto refuse = [&](v1::Error e) { done(std::move(e), v1::RearmReply{}); };
   std::unique_lock lock(mutex_);
   if (state_ != v1::FAULTED) {
-    return make_error(v1::WRONG_STATE, "", "re-arm is for a faulted instrument; the state is " +
-                                               v1::DaemonState_Name(state_));
+    return refuse(make_error(v1::WRONG_STATE, "", "re-arm is for a faulted instrument; the state is " +
+                                                      v1::DaemonState_Name(state_)));
   }
   if (!activity_.empty() && activity_ != "run") {
-    return make_error(v1::WRONG_STATE, "", "the instrument is busy: " + activity_ + " in progress");
+    return refuse(make_error(v1::WRONG_STATE, "", "the instrument is busy: " + activity_ + " in progress"));
   }
-  if (!transducer_) return make_error(v1::INTERNAL, "backend", "cannot create the backend");
+  if (!transducer_) return refuse(make_error(v1::INTERNAL, "backend", "cannot create the backend"));
   wait_for_activities(lock);  // a faulted run may still be handing out its stop document
   // The check reads the instrument on the loop thread, which owns the
-  // backend; this thread waits for its few ticks.
-  std::optional<std::string> problem;
-  bool done = false;
+  // backend; this thread goes back to its other clients meanwhile.
+  activity_stop_.store(false);
   activity_ = "re-arm check";
-  post_activity([this, &problem, &reply, &done] {
-    auto p = rearm_check(reply);
-    std::lock_guard inner(mutex_);
-    problem = std::move(p);
-    done = true;
+  post_activity([this, done = std::move(done)] {
+    v1::RearmReply reply;
+    std::optional<std::string> problem = rearm_check(reply);
+    std::optional<v1::Error> error;
+    {
+      std::lock_guard inner(mutex_);
+      // An emergency stop after the last tick of the check still counts.
+      if (!problem && activity_stop_.load()) problem = "stopped during the check: " + activity_stop_reason_;
+      if (problem) {
+        error = make_error(v1::WRONG_STATE, "", "cannot re-arm: " + *problem + " (fault: " + trip_reason_ + ")");
+        reply = v1::RearmReply{};
+      } else {
+        spdlog::info("re-armed after: {}", trip_reason_);
+        state_ = protocol_ ? v1::ARMED : v1::IDLE;
+      }
+      activity_.clear();  // free before the reply goes out: a client may start at once
+    }
+    done(std::move(error), reply);
   });
-  activity_cv_.wait(lock, [&] { return done && !activity_running_; });
-  if (problem) {
-    return make_error(v1::WRONG_STATE, "", "cannot re-arm: " + *problem + " (fault: " + trip_reason_ + ")");
-  }
-  spdlog::info("re-armed after: {}", trip_reason_);
-  state_ = protocol_ ? v1::ARMED : v1::IDLE;
-  return std::nullopt;
+}
+
+std::optional<v1::Error> InstrumentService::rearm(v1::RearmReply& reply) {
+  std::promise<std::pair<std::optional<v1::Error>, v1::RearmReply>> outcome;
+  auto future = outcome.get_future();
+  rearm_async([&outcome](std::optional<v1::Error> e, const v1::RearmReply& r) { outcome.set_value({std::move(e), r}); });
+  auto [error, result] = future.get();
+  reply = std::move(result);
+  return error;
 }
 
 // Reads the continuing instrument (no new session: the state it is in now)
@@ -426,6 +441,11 @@ std::optional<std::string> InstrumentService::rearm_check(v1::RearmReply& reply)
   bool changed[4] = {false, false, false, false};
   for (int k = 0; k < kRearmTicks; ++k) {
     if (k > 0) transducer_->wait_next_tick();
+    if (activity_stop_.load(std::memory_order_relaxed)) {
+      // Nothing to drive to safety: the check writes nothing.
+      estop_acted_ns_.store(monotonic_now_ns());
+      return "an emergency stop arrived during the check";
+    }
     if (transducer_->read(f) != hal::IoResult::kOk) return "the backend does not answer";
     const double v[4] = {f.lateral_position_m, f.lateral_force_n, f.normal_force_n, f.normal_displacement_m};
     if (k == 0) first = f;
@@ -473,12 +493,16 @@ std::optional<v1::Error> InstrumentService::emergency_stop(const std::string& re
     run_->emergency_reason = why;
     run_->control.emergency_stop.store(true);
     reply.set_run_was_active(true);
+    // The loop may be asleep until the next deadline: wake it to act now.
+    if (transducer_) transducer_->interrupt_wait();
   } else {
-    if (activity_ == "autotune") {
-      // The experiment sees it at its next tick and stops; the latch follows.
+    if (!activity_.empty()) {
+      // The autotune experiment or the re-arm check: it sees the flag at
+      // the tick the wake starts and stops; the latch is set here.
       activity_stop_reason_ = why;
       activity_stop_.store(true);
       reply.set_run_was_active(true);
+      if (transducer_) transducer_->interrupt_wait();
     } else {
       estop_acted_ns_.store(estop_requested_ns_.load());
     }
@@ -690,10 +714,27 @@ void InstrumentService::run_main(ActiveRun& run) {
       trip_reason_ = stop.reason();
       trip_time_s_ = outcome.trip_time_s;
     }
+    latch_late_emergency_stop(run, outcome);
   }
   spdlog::info("run {} stopped: {} ({} samples) {}", stop.run_id(), v1::ExitStatus_Name(stop.exit_status()),
                stop.sample_count(), stop.reason());
   sink_.on_run_stop(stop);
+}
+
+// An emergency stop that arrived after the loop's last tick, while the run
+// was finishing (draining, writing its stop document), was seen by no tick:
+// it still latches. The caller holds mutex_, as emergency_stop() does, so
+// every request either reached the loop or is seen here.
+void InstrumentService::latch_late_emergency_stop(ActiveRun& run, const RunOutcome& outcome) {
+  if (!run.control.emergency_stop.load() || outcome.trip.reason == TripReason::kEmergencyStop) return;
+  estop_acted_ns_.store(monotonic_now_ns());
+  if (state_ == v1::FAULTED) return;  // already latched by another trip: its reason stands
+  state_ = v1::FAULTED;
+  trip_reason_ = std::string(trip_reason_text(TripReason::kEmergencyStop)) + ": " + run.emergency_reason +
+                 " (after the run's last tick: the run had ended as " + std::string(v1::ExitStatus_Name(
+                     outcome.end == RunEnd::kCompleted ? v1::SUCCESS : v1::ABORT)) + ")";
+  trip_time_s_ = 0;
+  spdlog::warn("emergency stop after run {}'s last tick: latched", run.start.run_id());
 }
 
 // Records every sample, then publishes it: the recorder is flushed before a
@@ -773,10 +814,11 @@ void InstrumentService::shutdown(const std::string& reason) {
       run_->abort_reason = reason;
       run_->control.abort_requested.store(true);
     }
-    if (activity_ == "autotune") {
+    if (!activity_.empty() && activity_ != "run") {
       activity_stop_reason_ = reason;
       activity_stop_.store(true);
     }
+    if (transducer_ && !activity_.empty()) transducer_->interrupt_wait();
   }
   wait_until_idle();
 }

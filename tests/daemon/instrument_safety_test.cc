@@ -125,6 +125,7 @@ struct WriteRecorder : hal::Transducer {
     return inner_->write(c);
   }
   void wait_next_tick() override { inner_->wait_next_tick(); }
+  void interrupt_wait() override { inner_->interrupt_wait(); }
   std::unique_ptr<hal::Transducer> inner_;
   std::vector<hal::DriveCommand> writes;
 };
