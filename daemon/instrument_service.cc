@@ -10,12 +10,14 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "daemon/activity_recording.h"
 #include "daemon/autotune.h"
 #include "daemon/controller.h"
 #include "daemon/daemon_config.h"
 #include "daemon/protocol_validator.h"
 #include "daemon/run_loop.h"
 #include "daemon/field_bounds.h"
+#include "daemon/incomplete_run.h"
 #include "daemon/run_documents.h"
 #include "proto/run_files.h"
 #include "daemon/run_recorder.h"
@@ -159,16 +161,14 @@ InstrumentService::~InstrumentService() {
 
 // A run whose directory has no stop document was cut short (kill, crash,
 // power): the tip may still be loaded. Come up latched until a re-arm has
-// read the instrument.
+// read the instrument, naming the samples that are lost.
 void InstrumentService::latch_incomplete_previous_run() {
-  const auto runs = wire::list_recorded_runs(config_.recorder().data_dir());
-  if (runs.empty() || runs.front().finalized()) return;
-  const auto& last = runs.front();
+  const auto incomplete = find_incomplete_run(config_.recorder().data_dir());
+  if (!incomplete) return;
   state_ = v1::FAULTED;
-  trip_reason_ = "the previous run " + last.run_id() + " did not finish (" + std::to_string(last.sample_count()) +
-                 " samples on disk, no stop document): the daemon stopped during it and the instrument's "
-                 "state is unknown; check it and re-arm";
+  trip_reason_ = incomplete->reason;
   spdlog::warn("{}", trip_reason_);
+  if (!incomplete->document_error.empty()) spdlog::warn("{}", incomplete->document_error);
 }
 
 void InstrumentService::loop_main() {
@@ -548,25 +548,34 @@ void InstrumentService::autotune_async(const v1::Autotune& request, AutotuneDone
     }
     params.stop_requested = &activity_stop_;
     params.stop_acted_ns = &estop_acted_ns_;
+    // Recorded like a run: its own run directory, listed and fetchable.
+    std::string recording_error;
+    std::shared_ptr<ActivityRecording> recording = start_autotune_recording(params, recording_error);
+    if (!recording) return refuse(make_error(v1::INTERNAL, "recorder.data_dir", recording_error));
+    params.samples = &recording->queue();
+    params.samples_dropped = &recording->dropped();
     activity_stop_.store(false);
     activity_ = "autotune";
     // The experiment moves the instrument: unloaded, outside any run, from a
     // fresh session (the simulated plant at rest with the config's seed).
-    post_activity([this, params, apply = request.apply(), done = std::move(done)] {
+    post_activity([this, params, recording, apply = request.apply(), done = std::move(done)] {
       transducer_->begin_session(config_.sim().seed());
+      recording->start();
       const AutotuneResult result = relay_autotune(*transducer_, params);
+      const v1::RunStop stop = finish_autotune_recording(*recording, result);
       v1::AutotuneReply reply;
       std::optional<v1::Error> error;
+      const std::string recorded = " (recorded as run " + stop.run_id() + ")";
       if (result.emergency_stopped) {
         std::lock_guard lock(mutex_);
-        error = make_error(v1::WRONG_STATE, "", "autotune stopped: emergency stop: " + activity_stop_reason_);
+        error = make_error(v1::WRONG_STATE, "", "autotune stopped: emergency stop: " + activity_stop_reason_ + recorded);
       } else if (!result.ok) {
         if (result.command_refused) {
           std::lock_guard lock(mutex_);
           state_ = v1::FAULTED;
           trip_reason_ = std::string(trip_reason_text(TripReason::kCommandInvalid)) + " (autotune)";
         }
-        error = make_error(v1::INTERNAL, "", "autotune failed: " + result.error);
+        error = make_error(v1::INTERNAL, "", "autotune failed: " + result.error + recorded);
       } else {
         reply.set_ultimate_gain_n_per_m(result.ultimate_gain_n_per_m);
         reply.set_ultimate_period_s(result.ultimate_period_s);
@@ -590,6 +599,63 @@ void InstrumentService::autotune_async(const v1::Autotune& request, AutotuneDone
       done(std::move(error), reply);
     });
   }
+}
+
+// The caller holds mutex_ (the gains in force are read).
+std::shared_ptr<ActivityRecording> InstrumentService::start_autotune_recording(const AutotuneParams& params,
+                                                                               std::string& error) {
+  v1::Protocol protocol;
+  protocol.set_name("autotune");
+  const std::uint32_t ticks_per_sample = params.ticks_per_sample;
+  protocol.set_acquisition_rate_hz(config_.controller().loop_rate_hz() / ticks_per_sample);
+  v1::PidGains gains[4];
+  for (int i = 0; i < 4; ++i) gains[i] = gains_[static_cast<std::size_t>(i)];
+  v1::RunStart start = make_run_start(protocol, config_, LoadFunction{}, gains, config_.sim().seed(),
+                                      software_version_, v1::RunAnnotations{});
+  start.set_start_time_utc(utc_timestamp_iso8601());
+  v1::RunDescriptor descriptor = make_descriptor(LoadFunction{});
+  descriptor.clear_duration_s();
+  for (const char* name : kAutotuneSegmentNames) {
+    start.add_segments()->set_name(name);
+    descriptor.add_segment_names(name);
+  }
+  auto recording = ActivityRecording::create(config_.recorder().data_dir(), start, descriptor, error);
+  if (!recording) return nullptr;
+  spdlog::info("autotune recorded as run {}", recording->run_id());
+  return std::shared_ptr<ActivityRecording>(std::move(recording));
+}
+
+// The stop document: SUCCESS with the result, FAULT after an emergency stop
+// or a refused command (with the fault), ABORT when the experiment gave up.
+v1::RunStop InstrumentService::finish_autotune_recording(ActivityRecording& recording, const AutotuneResult& result) {
+  v1::RunStop stop;
+  stop.set_cycle_count(result.ticks);
+  std::optional<v1::Fault> fault;
+  if (result.ok) {
+    stop.set_exit_status(v1::SUCCESS);
+    stop.set_reason(fmt::format("Ku {:g} N/m, Pu {:g} s, amplitude {:g} m; proposed kp {:g} ki {:g} kd {:g}",
+                                result.ultimate_gain_n_per_m, result.ultimate_period_s, result.amplitude_m,
+                                result.proposed.kp, result.proposed.ki, result.proposed.kd));
+  } else if (result.emergency_stopped || result.command_refused) {
+    stop.set_exit_status(v1::FAULT);
+    std::string reason = result.error;
+    if (result.emergency_stopped) {
+      std::lock_guard lock(mutex_);
+      reason = std::string(trip_reason_text(TripReason::kEmergencyStop)) + ": " + activity_stop_reason_ + " (" +
+               result.error + ")";
+    }
+    stop.set_reason(reason);
+    fault.emplace();
+    fault->set_time_s(static_cast<double>(result.ticks) * transducer_->period_s());
+    fault->set_reason(reason);
+  } else {
+    stop.set_exit_status(v1::ABORT);
+    stop.set_reason("autotune failed: " + result.error);
+  }
+  const v1::RunStop written = recording.finish(stop, fault ? &*fault : nullptr);
+  spdlog::info("autotune run {} stopped: {} ({} samples) {}", written.run_id(),
+               v1::ExitStatus_Name(written.exit_status()), written.sample_count(), written.reason());
+  return written;
 }
 
 std::optional<v1::Error> InstrumentService::autotune(const v1::Autotune& request, v1::AutotuneReply& reply) {

@@ -32,6 +32,9 @@
 namespace tribo::daemon {
 
 struct RunOutcome;
+struct AutotuneParams;
+struct AutotuneResult;
+class ActivityRecording;
 
 // Receives run documents in order: start, descriptor, sample blocks
 // interleaved with segment events (an event follows the samples before its
@@ -118,6 +121,8 @@ class InstrumentService {
   // On the loop thread: reads the continuing instrument over several ticks.
   std::optional<std::string> rearm_check(v1::RearmReply& reply);
   void latch_incomplete_previous_run();
+  std::shared_ptr<ActivityRecording> start_autotune_recording(const AutotuneParams& params, std::string& error);
+  v1::RunStop finish_autotune_recording(ActivityRecording& recording, const AutotuneResult& result);
 
   const v1::DaemonConfig config_;
   const std::string software_version_;
