@@ -384,8 +384,11 @@ v1::GetGainsReply InstrumentService::gains() const {
 }
 
 void InstrumentService::rearm_async(RearmDone done) {
-  const auto refuse = [&](v1::Error e) { done(std::move(e), v1::RearmReply{}); };
   std::unique_lock lock(mutex_);
+  const auto refuse = [&](v1::Error e) {
+    lock.unlock();  // done may call the service again
+    done(std::move(e), v1::RearmReply{});
+  };
   if (state_ != v1::FAULTED) {
     return refuse(make_error(v1::WRONG_STATE, "", "re-arm is for a faulted instrument; the state is " +
                                                       v1::DaemonState_Name(state_)));
