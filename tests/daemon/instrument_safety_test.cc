@@ -424,6 +424,18 @@ TEST(Autotune, IsRecordedLikeARun) {
     hi = std::max(hi, run->samples.lateral_position_m(i));
   }
   EXPECT_GT(hi - lo, reply.oscillation_amplitude_m()) << "no relay oscillation recorded";
+  // Listed and fetched through the archive, as `tribo list` and `tribo fetch` do.
+  RunArchive archive(f.dir.path());
+  const v1::ListRunsReply listing = archive.list_runs(v1::ListRuns{});
+  ASSERT_EQ(listing.runs_size(), 1);
+  EXPECT_EQ(listing.runs(0).protocol_name(), "autotune");
+  v1::FetchSamples fetch;
+  fetch.set_run_id(listed.run_id());
+  fetch.set_max_samples(100);
+  v1::FetchSamplesReply fetched;
+  ASSERT_FALSE(archive.fetch_samples(fetch, fetched));
+  ASSERT_EQ(sample_count(fetched.samples()), 100);
+  EXPECT_EQ(fetched.samples().lateral_position_m(99), run->samples.lateral_position_m(99));
   // An experiment stopped by an emergency stop is recorded as a FAULT with its fault.
   f.sink.clear();
   std::promise<std::optional<v1::Error>> outcome;
