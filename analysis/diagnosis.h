@@ -53,6 +53,17 @@ struct DiagnosisOptions {
   int max_candidates_per_round = 10;
   int max_rounds = 6;
   unsigned threads = 0;  // candidates fitted at once (0: one per core); the result does not depend on it
+  // Leave base.state_from_rest to the data: fit the base model both ways and
+  // keep the one with the lower held-out error over the passes (the holds
+  // are not compared: with the state from the force they are not modelled).
+  bool choose_state_from_rest = false;
+};
+
+// The evidence for the state each pass starts from, when it was chosen.
+struct PassStartChoice {
+  double heldout_rms_modelled_holds = 0;  // N, over held-out pass samples
+  double heldout_rms_state_from_rest = 0;
+  bool state_from_rest = false;           // the choice
 };
 
 struct ErrorStats {
@@ -105,6 +116,7 @@ struct RejectedEffect {
 struct Diagnosis {
   MotionSegmentation motion;
   LugreFit base;
+  std::optional<PassStartChoice> pass_start;
   FitResult final_fit;
   std::vector<AcceptedEffect> accepted;
   std::vector<RejectedEffect> rejected;

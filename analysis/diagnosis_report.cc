@@ -93,6 +93,12 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
                      {"starts_refined", d.base.starts_refined},
                      {"converged", d.base.result.converged},
                      {"warnings", d.base.result.warnings}};
+  if (d.pass_start) {
+    j["base_model"]["pass_start_state"] = {
+        {"chosen", d.pass_start->state_from_rest ? "from the force at rest" : "modelled through the holds"},
+        {"heldout_pass_rms_modelled_holds", d.pass_start->heldout_rms_modelled_holds},
+        {"heldout_pass_rms_state_from_rest", d.pass_start->heldout_rms_state_from_rest}};
+  }
 
   Json& accepted = j["accepted_effects"] = Json::array();
   for (const auto& a : d.accepted) {
@@ -151,6 +157,11 @@ std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
          s.loop_variance_explained);
   }
   line("base model (LuGre):");
+  if (d.pass_start) {
+    line("  each pass starts %s (held-out pass RMS %.4g with the holds modelled, %.4g from the force at rest)",
+         d.pass_start->state_from_rest ? "from the force at rest" : "from the state modelled through the holds",
+         d.pass_start->heldout_rms_modelled_holds, d.pass_start->heldout_rms_state_from_rest);
+  }
   for (const auto& p : d.base.result.estimates) {
     line("  %-20s %12.5g +- %-10.3g %s%s", p.name.c_str(), p.value, p.std_error, p.unit.c_str(), p.determined ? "" : "  (not determined)");
   }

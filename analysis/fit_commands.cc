@@ -65,6 +65,7 @@ DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r)
   options.base.stribeck_exponent = r.stribeck_exponent;
   options.segmentation.segment_by_reference = r.tribo_run;
   options.base.state_from_rest = r.tribo_run;
+  options.choose_state_from_rest = !r.tribo_run;
   options.candidates = r.candidates;
   const auto t0 = std::chrono::steady_clock::now();
   try {

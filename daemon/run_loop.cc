@@ -176,7 +176,7 @@ bool RunLoop::tick() {
   if (supervisor_.tripped()) flags |= v1::SAFETY_TRIPPED;
   record(Sample{static_cast<double>(tick_) * period_s_, sp_.segment, out.normal_setpoint_n,
                 frame_.normal_force_n, frame_.normal_displacement_m, out.lateral_setpoint_m,
-                frame_.lateral_position_m, frame_.lateral_force_n, flags},
+                frame_.recorded_lateral_position_m(), frame_.lateral_force_n, flags},
          sp_.ticks_per_sample);
   const std::uint64_t t5 = monotonic_ns();
 

@@ -40,7 +40,7 @@ IoResult SimTransducer::read(SensorFrame& frame) {
   const sim::Measurement m =
       faults_->empty() ? instrument_->measurement() : faults_->corrupt(instrument_->measurement());
   frame = SensorFrame{m.normal_force_n, m.normal_displacement_m, m.lateral_force_n,
-                      m.lateral_position_m, status_bits_};
+                      m.lateral_position_m, status_bits_, m.lateral_position_record_noise_m};
   return IoResult::kOk;
 }
 

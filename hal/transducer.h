@@ -20,6 +20,17 @@ struct SensorFrame {
   double lateral_force_n = 0;
   double lateral_position_m = 0;
   std::uint32_t status_bits = 0;  // backend-specific health bits (SensorStatus)
+  // Readout noise that the record carries on top of lateral_position_m and
+  // the loop does not see (the simulated instrument's acquisition chain,
+  // Table 3.2's 10 nm floor). 0 for a backend whose record is its loop reading.
+  double lateral_position_record_noise_m = 0;
+
+  // The lateral position as recorded. Without record noise exactly the
+  // loop's reading (x + 0 would turn -0 into +0).
+  double recorded_lateral_position_m() const {
+    return lateral_position_record_noise_m == 0 ? lateral_position_m
+                                                : lateral_position_m + lateral_position_record_noise_m;
+  }
 };
 
 enum SensorStatus : std::uint32_t {

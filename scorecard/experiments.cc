@@ -77,6 +77,37 @@ std::vector<double> smooth(const std::vector<double>& v, std::size_t half) {
   return out;
 }
 
+// The noise of the velocity a 1 kHz record (means of 1 ms of ticks) gives
+// by central differences, from the ticks [from, end): its RMS about its own
+// 21 ms moving average, so that the motion (the tip still settling after
+// break-away) is not counted as noise.
+double record_velocity_noise(const std::vector<double>& position, double dt, std::size_t from) {
+  const std::size_t per = static_cast<std::size_t>(std::max<long>(1, std::lround(1e-3 / dt)));
+  std::vector<double> record;
+  for (std::size_t k = from; k + per <= position.size(); k += per) record.push_back(mean(position, k, k + per));
+  if (record.size() < 3) return 0;
+  std::vector<double> v;
+  for (std::size_t k = 1; k + 1 < record.size(); ++k) {
+    v.push_back((record[k + 1] - record[k - 1]) / (2 * static_cast<double>(per) * dt));
+  }
+  const std::vector<double> trend = smooth(v, 10);
+  double ss = 0;
+  for (std::size_t k = 0; k < v.size(); ++k) ss += (v[k] - trend[k]) * (v[k] - trend[k]);
+  return std::sqrt(ss / static_cast<double>(v.size()));
+}
+
+// RMS about the mean of each block of `block` samples.
+double block_rms(const std::vector<double>& v, std::size_t block) {
+  double ss = 0;
+  std::size_t n = 0;
+  for (std::size_t b = 0; b + block <= v.size(); b += block) {
+    const double m = mean(v, b, b + block);
+    for (std::size_t k = b; k < b + block; ++k) ss += (v[k] - m) * (v[k] - m);
+    n += block;
+  }
+  return n > 0 ? std::sqrt(ss / static_cast<double>(n)) : 0.0;
+}
+
 }  // namespace
 
 Breakaway run_breakaway(const v1::DaemonConfig& config, const BreakawayProtocol& p, std::uint64_t seed) {
@@ -88,7 +119,7 @@ Breakaway run_breakaway(const v1::DaemonConfig& config, const BreakawayProtocol&
   std::vector<double> before;
   for (long k = 0; k < std::lround(0.05 / dt); ++k) {
     loop.step(p.load_n, kStartM);
-    before.push_back(loop.measured().lateral_position_m);
+    before.push_back(loop.measured().recorded_lateral_position_m());
   }
   const double x0 = mean(before, 0, before.size());
   const double move_s = std::min(p.travel_m / p.velocity_m_per_s, p.max_motion_s);
@@ -99,8 +130,9 @@ Breakaway run_breakaway(const v1::DaemonConfig& config, const BreakawayProtocol&
     loop.step(p.load_n, setpoint);
     const sim::Measurement& m = loop.measured();
     force[k] = m.lateral_force_n + m.normal_force_n * tilt;
-    position[k] = m.lateral_position_m;
-    lag[k] = setpoint - m.lateral_position_m;
+    // The position as the instrument records it (with its readout noise).
+    position[k] = m.recorded_lateral_position_m();
+    lag[k] = setpoint - position[k];
   }
   // 5 ms windows: the force averaged as a 1 kHz record with a few points per
   // feature would be, the velocity differenced over 5 ms of position.
@@ -143,6 +175,7 @@ Breakaway run_breakaway(const v1::DaemonConfig& config, const BreakawayProtocol&
   }
   b.overshoot = vmax / p.velocity_m_per_s;
   b.peak_acceleration_m_per_s2 = amax;
+  b.velocity_noise_m_per_s = record_velocity_noise(position, dt, ticks / 2);
   return b;
 }
 
@@ -193,6 +226,47 @@ double held_force_drift_n(const v1::DaemonConfig& config, double load_n, double 
     hi = std::max(hi, sum / static_cast<double>(per_second));
   }
   return hi - lo;
+}
+
+NoiseFloors noise_at_rest(const v1::DaemonConfig& config, double load_n, double hold_s, std::uint64_t seed) {
+  LockStep loop(config, seed);
+  prepare(loop, load_n, kLoadAtS + kLoadRampS + 2.0);
+  std::vector<double> x, f, n, z;
+  for (long k = 0; k < std::lround(hold_s / loop.dt_s()); ++k) {
+    loop.step(load_n, kStartM);
+    const sim::Measurement& m = loop.measured();
+    x.push_back(m.recorded_lateral_position_m());
+    f.push_back(m.lateral_force_n);
+    n.push_back(m.normal_force_n);
+    z.push_back(m.normal_displacement_m);
+  }
+  const auto block = static_cast<std::size_t>(std::max<long>(1, std::lround(0.1 / loop.dt_s())));
+  return NoiseFloors{block_rms(x, block), block_rms(f, block), block_rms(n, block), block_rms(z, block)};
+}
+
+double stick_slip_ratio(const v1::DaemonConfig& config, double loop_rate_hz, double velocity, std::uint64_t seed) {
+  v1::DaemonConfig c = config;
+  c.mutable_controller()->set_loop_rate_hz(loop_rate_hz);
+  if (loop_rate_hz < 100) {
+    auto* g = c.mutable_controller()->mutable_lateral_displacement();
+    g->set_kp(0);
+    g->set_ki(500);
+    g->set_kd(0);
+    g->set_derivative_filter_hz(0);
+  }
+  constexpr double kLoadN = 1e-3, kScratchS = 20.0;
+  LockStep loop(c, seed);
+  const double go_s = kLoadAtS + kLoadRampS + 2.0, dt = loop.dt_s();
+  prepare(loop, kLoadN, go_s);
+  const auto ticks = std::lround(kScratchS / dt), per_100ms = std::max<long>(1, std::lround(0.1 / dt));
+  std::vector<double> x;
+  for (long k = 0; k < ticks; ++k) {
+    loop.step(kLoadN, kStartM + velocity * static_cast<double>(k + 1) * dt);
+    x.push_back(loop.truth().lateral.position_m);
+  }
+  double advance = 0;
+  for (long k = ticks / 2; k < ticks; ++k) advance = std::max(advance, x[k] - x[k - per_100ms]);
+  return advance / (velocity * static_cast<double>(per_100ms) * dt);
 }
 
 double steady_friction_n(const v1::DaemonConfig& config, double load_n, double velocity, std::uint64_t seed) {

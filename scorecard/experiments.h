@@ -25,6 +25,10 @@ struct Breakaway {
   double steady_n = 0;         // mean friction over the last 30 % of the motion
   double overshoot = 0;        // peak measured velocity / commanded velocity
   double peak_acceleration_m_per_s2 = 0;
+  // Noise of the recorded velocity over the last half of the motion: a 1 kHz
+  // record (1 ms means of the ticks) differenced centrally, RMS about its
+  // 21 ms moving average.
+  double velocity_noise_m_per_s = 0;
 };
 
 struct BreakawayProtocol {
@@ -51,6 +55,28 @@ Passes run_passes(const v1::DaemonConfig& config, double load_n, double velocity
 // The tip held still under load (Fig. 3.12): peak-to-peak of the 1 s means
 // of the measured lateral force over hold_s, after a 20 s settling.
 double held_force_drift_n(const v1::DaemonConfig& config, double load_n, double hold_s, std::uint64_t seed);
+
+// Table 3.2's noise floors as the record shows them: the tip held at rest
+// under load_n for hold_s (after a 2 s rest), each channel's RMS about its
+// 0.1 s means (the noise above ~10 Hz; the slower wander is Fig. 3.12's drift).
+struct NoiseFloors {
+  double lateral_position_m = 0;  // recorded
+  double lateral_force_n = 0;
+  double normal_force_n = 0;
+  double normal_displacement_m = 0;
+};
+
+NoiseFloors noise_at_rest(const v1::DaemonConfig& config, double load_n, double hold_s, std::uint64_t seed);
+
+// A scratch of 20 s at velocity under 1 mN with the position loop at
+// loop_rate_hz (below 100 Hz: integral action only, ki = 500 N/(m s), as
+// P or D at that rate against the 54 Hz plant is unstable). Returns the tip's
+// largest true advance per 0.1 s over the second half, over the commanded
+// advance: ~1 for smooth sliding, >> 1 for stick-slip. The tip's true motion,
+// not the record: at 0.05 um/s the commanded advance per 0.1 s (5 nm) is
+// below the record's 10 nm floor.
+double stick_slip_ratio(const v1::DaemonConfig& config, double loop_rate_hz, double velocity_m_per_s,
+                        std::uint64_t seed);
 
 // Steady friction (tilt-corrected, +x) at one velocity after a 2 s rest.
 double steady_friction_n(const v1::DaemonConfig& config, double load_n, double velocity_m_per_s,

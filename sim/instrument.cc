@@ -19,6 +19,7 @@ enum NoiseStream : std::uint64_t {
   kLateralPositionLowFrequency = 5,
   kSampleCreep = 6,
   kSampleSite = 7,
+  kLateralPositionRecord = 8,
 };
 
 }  // namespace
@@ -34,6 +35,7 @@ SimInstrument::SimInstrument(const InstrumentParams& params, std::uint64_t seed)
       lateral_force_noise_(derive_seed(seed, kLateralForceNoise)),
       normal_force_noise_(derive_seed(seed, kNormalForceNoise)),
       normal_displacement_noise_(derive_seed(seed, kNormalDisplacementNoise)),
+      lateral_position_record_noise_(derive_seed(seed, kLateralPositionRecord)),
       sample_creep_(params.sample.drift.enabled ? params.sample.drift.velocity_rms_m_per_s : 0.0,
                     params.sample.drift.correlation_time_s, derive_seed(seed, kSampleCreep)),
       wear_(params.sample.wear) {
@@ -140,6 +142,11 @@ void SimInstrument::sample_sensors(const DriveInput& drive, double dt_s) {
   measurement_.lateral_position_m = x.position_m;
   measurement_.lateral_sense_voltage_v = x.voltage_v;
   measurement_.lateral_adc_counts = x.counts;
+  // Drawn only when configured: a config without it keeps its samples bit-identical.
+  if (s.lateral_position_record_noise_m > 0) {
+    measurement_.lateral_position_record_noise_m =
+        s.lateral_position_record_noise_m * lateral_position_record_noise_.gaussian();
+  }
   // The transducer infers the force on the tip from what it believes its
   // drive applies and from its spring, both at the measured position.
   const double applied = params_.lateral_drive.enabled

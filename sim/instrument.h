@@ -85,6 +85,16 @@ struct Measurement {
   // The lateral position before linearisation, for diagnostics.
   double lateral_sense_voltage_v = 0;
   std::int64_t lateral_adc_counts = 0;
+  // The readout noise the record carries on top of lateral_position_m
+  // (SensorSpecs::lateral_position_record_noise_m); the loop never sees it.
+  double lateral_position_record_noise_m = 0;
+
+  // The lateral position as the instrument records it.
+  // (Without record noise exactly lateral_position_m: x + 0 would turn -0 into +0.)
+  double recorded_lateral_position_m() const {
+    return lateral_position_record_noise_m == 0 ? lateral_position_m
+                                                : lateral_position_m + lateral_position_record_noise_m;
+  }
 };
 
 // The true state, for tests and diagnostics only.
@@ -145,6 +155,7 @@ class SimInstrument {
   NoiseSource lateral_force_noise_;
   NoiseSource normal_force_noise_;
   NoiseSource normal_displacement_noise_;
+  NoiseSource lateral_position_record_noise_;
   FirstOrderGaussMarkov sample_creep_;
   WearTrack wear_;
   double settled_force_n_ = 0, settled_surface_m_ = 0;

@@ -21,6 +21,11 @@ struct SensorSpecs {
   ChannelSpec normal_force_n;
   ChannelSpec normal_displacement_m;
   double normal_displacement_drift_m_per_s = 0;  // thermal drift of the Z sensor's zero
+  // White readout noise of the recorded lateral position, RMS per loop
+  // sample: the acquisition chain adds it to the record, after the point
+  // where the position loop takes its reading (Table 3.2's 10 nm floor;
+  // docs/simulated_instrument.md, "Sensors at Table 3.2's floors"). 0: none.
+  double lateral_position_record_noise_m = 0;
 };
 
 }  // namespace tribo::sim

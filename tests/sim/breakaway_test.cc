@@ -62,9 +62,13 @@ TEST(Breakaway, PlainLugreHasNoSpikeAt9810uN) {
   for (double v : {4e-6, 18e-6, 36e-6}) EXPECT_FALSE(breakaway(config, 9810e-6, v).spike);
 }
 
-// §5.3.1: the tip's velocity overshoots about 3x after break-away.
+// §5.3.1: the tip's velocity overshoots about 3x after break-away. Without
+// the record's readout noise, which adds its own peaks to the 5 ms
+// differences (2.75x here, 3.07x with it): the tip's overshoot, not the noise's.
 TEST(Breakaway, VelocityOvershootsAtLeastTwiceAt18umPerS) {
-  EXPECT_GE(breakaway(fitted(), 9810e-6, 18e-6).overshoot, 2.0);
+  v1::DaemonConfig config = fitted();
+  config.mutable_sim()->mutable_sensors()->set_lateral_position_record_noise_m(0);
+  EXPECT_GE(breakaway(config, 9810e-6, 18e-6).overshoot, 2.0);
 }
 
 // Fig. 4.22: the spike grows with the rest before the motion (3000 uN).
