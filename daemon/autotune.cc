@@ -88,9 +88,10 @@ class Axis {
     if (p_.samples == nullptr) return;
     std::uint32_t flags = read == hal::IoResult::kOk ? 0u : static_cast<std::uint32_t>(v1::SENSOR_INVALID);
     if (stopped()) flags |= v1::SAFE_UNLOAD;
+    // The lateral position as a run records it (with the record's readout noise, if any).
     const Sample tick{static_cast<double>(ticks_) * dt_, segment_, 0.0, frame_.normal_force_n,
-                      frame_.normal_displacement_m, setpoint_m_, frame_.lateral_position_m, frame_.lateral_force_n,
-                      flags};
+                      frame_.normal_displacement_m, setpoint_m_, frame_.recorded_lateral_position_m(),
+                      frame_.lateral_force_n, flags};
     Sample out;
     if (!acquisition_.add(tick, std::max<std::uint32_t>(1, p_.ticks_per_sample), out)) return;
     if (!p_.samples->try_push(out) && p_.samples_dropped != nullptr) {
