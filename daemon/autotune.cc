@@ -1,5 +1,8 @@
 #include "daemon/autotune.h"
 
+#include "daemon/acquisition.h"
+#include "tribo/v1/api.pb.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -33,16 +36,24 @@ class Axis {
 
   // One tick. After a stop every call writes a zero drive only.
   void apply(double lateral_drive_n) {
-    if (!stopped() && p_.stop_requested != nullptr && p_.stop_requested->load(std::memory_order_relaxed)) {
-      emergency_ = true;
-      if (p_.stop_acted_ns != nullptr) p_.stop_acted_ns->store(now_ns(), std::memory_order_relaxed);
-    }
+    const bool emergency_now =
+        !stopped() && p_.stop_requested != nullptr && p_.stop_requested->load(std::memory_order_relaxed);
+    if (emergency_now) emergency_ = true;
     if (!stopped() && !(std::fabs(lateral_drive_n) <= p_.max_lateral_drive_n)) refused_ = true;
     drive_ = stopped() ? 0.0 : lateral_drive_n;
     t_.write(hal::DriveCommand{0.0, drive_});
+    // Acted on: the zero drive is written.
+    if (emergency_now && p_.stop_acted_ns != nullptr) p_.stop_acted_ns->store(now_ns(), std::memory_order_relaxed);
     t_.wait_next_tick();
-    t_.read(frame_);
+    const hal::IoResult read = t_.read(frame_);
     ++ticks_;
+    record(read);
+  }
+
+  // What the next ticks record: the segment and the lateral setpoint.
+  void set_phase(std::uint32_t segment, double setpoint_m) {
+    segment_ = segment;
+    setpoint_m_ = setpoint_m;
   }
 
   // Moves the PID setpoint from `from` to `to` at the move speed, then holds
@@ -56,6 +67,7 @@ class Axis {
     std::uint64_t n = 0;
     for (std::uint64_t k = 0; k < move_ticks + hold_ticks && !out_of_travel() && !stopped(); ++k) {
       const double r = k < move_ticks ? from + distance * static_cast<double>(k + 1) / static_cast<double>(move_ticks) : to;
+      setpoint_m_ = r;
       apply(pid_update(p_.present, r, position(), 0.0, dt_, s));
       if (k + window >= move_ticks + hold_ticks) {
         sum += drive_;
@@ -71,8 +83,27 @@ class Axis {
                std::chrono::steady_clock::now().time_since_epoch()).count();
   }
 
+  // The tick as the run loop records one (time: the reading's, after the wait).
+  void record(hal::IoResult read) {
+    if (p_.samples == nullptr) return;
+    std::uint32_t flags = read == hal::IoResult::kOk ? 0u : static_cast<std::uint32_t>(v1::SENSOR_INVALID);
+    if (stopped()) flags |= v1::SAFE_UNLOAD;
+    // The lateral position as a run records it (with the record's readout noise, if any).
+    const Sample tick{static_cast<double>(ticks_) * dt_, segment_, 0.0, frame_.normal_force_n,
+                      frame_.normal_displacement_m, setpoint_m_, frame_.recorded_lateral_position_m(),
+                      frame_.lateral_force_n, flags};
+    Sample out;
+    if (!acquisition_.add(tick, std::max<std::uint32_t>(1, p_.ticks_per_sample), out)) return;
+    if (!p_.samples->try_push(out) && p_.samples_dropped != nullptr) {
+      p_.samples_dropped->fetch_add(1, std::memory_order_relaxed);
+    }
+  }
+
   hal::Transducer& t_;
   const AutotuneParams& p_;
+  Acquisition acquisition_;
+  std::uint32_t segment_ = 0;
+  double setpoint_m_ = 0;
   bool emergency_ = false, refused_ = false;
   double dt_;
   hal::SensorFrame frame_;
@@ -127,6 +158,7 @@ AutotuneResult relay_autotune(hal::Transducer& transducer, const AutotuneParams&
                                        : "command refused: a non-finite or out-of-range lateral drive";
     return r;
   };
+  axis.set_phase(0, start);
   const double bias = axis.move(pid, start, p.position_m, kHoldS);
   if (axis.stopped()) return stopped(result);
   if (axis.out_of_travel()) {
@@ -143,9 +175,15 @@ AutotuneResult relay_autotune(hal::Transducer& transducer, const AutotuneParams&
   double u = bias + d;
   std::vector<double> switch_times;  // switches to +d
   std::vector<double> periods, amplitudes;  // per cycle
+  // At most one switch per two ticks: reserved here, nothing allocates in the loop.
+  const std::size_t max_cycles = std::min<std::size_t>(static_cast<std::size_t>(p.max_duration_s / dt) / 2 + 2, 1u << 20);
+  switch_times.reserve(max_cycles);
+  periods.reserve(max_cycles);
+  amplitudes.reserve(max_cycles);
   double lo = axis.position(), hi = axis.position();
   const auto max_ticks = static_cast<std::uint64_t>(p.max_duration_s / dt);
   bool steady = false;
+  axis.set_phase(1, p.position_m);
   for (std::uint64_t k = 0; k < max_ticks && !steady; ++k) {
     const double e = p.position_m - axis.position();
     if (e > eps && u < bias) {
@@ -175,6 +213,7 @@ AutotuneResult relay_autotune(hal::Transducer& transducer, const AutotuneParams&
   // Back to the start with the present PID, bumplessly.
   const double end_position = axis.position();
   pid_reset(p.present, end_position, end_position, 0.0, axis.drive(), pid);
+  axis.set_phase(2, p.position_m);
   axis.move(pid, p.position_m, start, kHoldS);
   if (axis.stopped()) return stopped(result);
   result.ticks = axis.ticks();

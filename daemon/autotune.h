@@ -29,6 +29,8 @@
 #include <string>
 
 #include "daemon/pid.h"
+#include "daemon/sample_queue.h"
+#include "proto/sample_record.h"
 #include "hal/transducer.h"
 
 namespace tribo::daemon {
@@ -52,7 +54,17 @@ struct AutotuneParams {
   // The drive range a command must lie in (the supervisor's last check):
   // a non-finite or larger drive is refused and ends the experiment.
   double max_lateral_drive_n = 1e300;
+  // The experiment is recorded like a run (daemon/activity_recording.h):
+  // each tick goes through the acquisition filter, ticks_per_sample ticks a
+  // sample, into this queue (a full queue drops and counts). Null: not
+  // recorded. Segments: 0 move to position_m, 1 relay, 2 return.
+  SpscQueue<Sample>* samples = nullptr;
+  std::atomic<std::uint64_t>* samples_dropped = nullptr;
+  std::uint32_t ticks_per_sample = 10;
 };
+
+// The recorded segments' names, by segment index.
+inline constexpr const char* kAutotuneSegmentNames[] = {"move to the relay position", "relay", "return"};
 
 struct AutotuneResult {
   bool ok = false;

@@ -268,8 +268,18 @@ void ClientSession::dispatch(const v1::ClientMessage& request, v1::ServerMessage
       *reply.mutable_get_gains() = service_.gains();
       break;
     case v1::ClientMessage::kRearm:
-      error = service_.rearm(*reply.mutable_rearm());
-      break;
+      // The check reads the instrument over several ticks in the supervised
+      // loop; this thread answers other requests (an emergency stop) meanwhile.
+      deferred_ = true;
+      service_.rearm_async([self = shared_from_this(), id = request.request_id()](
+                               std::optional<v1::Error> e, const v1::RearmReply& result) {
+        v1::ServerMessage late;
+        late.set_request_id(id);
+        if (e) *late.mutable_error() = *e;
+        else *late.mutable_rearm() = result;
+        asio::post(self->socket_.get_executor(), [self, late = std::move(late)] { self->send(late); });
+      });
+      return;
     case v1::ClientMessage::kEmergencyStop:
       error = service_.emergency_stop(request.emergency_stop().reason(), *reply.mutable_emergency_stop());
       break;

@@ -10,12 +10,14 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "daemon/activity_recording.h"
 #include "daemon/autotune.h"
 #include "daemon/controller.h"
 #include "daemon/daemon_config.h"
 #include "daemon/protocol_validator.h"
 #include "daemon/run_loop.h"
 #include "daemon/field_bounds.h"
+#include "daemon/incomplete_run.h"
 #include "daemon/run_documents.h"
 #include "proto/run_files.h"
 #include "daemon/run_recorder.h"
@@ -159,16 +161,14 @@ InstrumentService::~InstrumentService() {
 
 // A run whose directory has no stop document was cut short (kill, crash,
 // power): the tip may still be loaded. Come up latched until a re-arm has
-// read the instrument.
+// read the instrument, naming the samples that are lost.
 void InstrumentService::latch_incomplete_previous_run() {
-  const auto runs = wire::list_recorded_runs(config_.recorder().data_dir());
-  if (runs.empty() || runs.front().finalized()) return;
-  const auto& last = runs.front();
+  const auto incomplete = find_incomplete_run(config_.recorder().data_dir());
+  if (!incomplete) return;
   state_ = v1::FAULTED;
-  trip_reason_ = "the previous run " + last.run_id() + " did not finish (" + std::to_string(last.sample_count()) +
-                 " samples on disk, no stop document): the daemon stopped during it and the instrument's "
-                 "state is unknown; check it and re-arm";
+  trip_reason_ = incomplete->reason;
   spdlog::warn("{}", trip_reason_);
+  if (!incomplete->document_error.empty()) spdlog::warn("{}", incomplete->document_error);
 }
 
 void InstrumentService::loop_main() {
@@ -383,35 +383,53 @@ v1::GetGainsReply InstrumentService::gains() const {
   return reply;
 }
 
-std::optional<v1::Error> InstrumentService::rearm(v1::RearmReply& reply) {
+void InstrumentService::rearm_async(RearmDone done) {
   std::unique_lock lock(mutex_);
+  const auto refuse = [&](v1::Error e) {
+    lock.unlock();  // done may call the service again
+    done(std::move(e), v1::RearmReply{});
+  };
   if (state_ != v1::FAULTED) {
-    return make_error(v1::WRONG_STATE, "", "re-arm is for a faulted instrument; the state is " +
-                                               v1::DaemonState_Name(state_));
+    return refuse(make_error(v1::WRONG_STATE, "", "re-arm is for a faulted instrument; the state is " +
+                                                      v1::DaemonState_Name(state_)));
   }
   if (!activity_.empty() && activity_ != "run") {
-    return make_error(v1::WRONG_STATE, "", "the instrument is busy: " + activity_ + " in progress");
+    return refuse(make_error(v1::WRONG_STATE, "", "the instrument is busy: " + activity_ + " in progress"));
   }
-  if (!transducer_) return make_error(v1::INTERNAL, "backend", "cannot create the backend");
+  if (!transducer_) return refuse(make_error(v1::INTERNAL, "backend", "cannot create the backend"));
   wait_for_activities(lock);  // a faulted run may still be handing out its stop document
   // The check reads the instrument on the loop thread, which owns the
-  // backend; this thread waits for its few ticks.
-  std::optional<std::string> problem;
-  bool done = false;
+  // backend; this thread goes back to its other clients meanwhile.
+  activity_stop_.store(false);
   activity_ = "re-arm check";
-  post_activity([this, &problem, &reply, &done] {
-    auto p = rearm_check(reply);
-    std::lock_guard inner(mutex_);
-    problem = std::move(p);
-    done = true;
+  post_activity([this, done = std::move(done)] {
+    v1::RearmReply reply;
+    std::optional<std::string> problem = rearm_check(reply);
+    std::optional<v1::Error> error;
+    {
+      std::lock_guard inner(mutex_);
+      // An emergency stop after the last tick of the check still counts.
+      if (!problem && activity_stop_.load()) problem = "stopped during the check: " + activity_stop_reason_;
+      if (problem) {
+        error = make_error(v1::WRONG_STATE, "", "cannot re-arm: " + *problem + " (fault: " + trip_reason_ + ")");
+        reply = v1::RearmReply{};
+      } else {
+        spdlog::info("re-armed after: {}", trip_reason_);
+        state_ = protocol_ ? v1::ARMED : v1::IDLE;
+      }
+      activity_.clear();  // free before the reply goes out: a client may start at once
+    }
+    done(std::move(error), reply);
   });
-  activity_cv_.wait(lock, [&] { return done && !activity_running_; });
-  if (problem) {
-    return make_error(v1::WRONG_STATE, "", "cannot re-arm: " + *problem + " (fault: " + trip_reason_ + ")");
-  }
-  spdlog::info("re-armed after: {}", trip_reason_);
-  state_ = protocol_ ? v1::ARMED : v1::IDLE;
-  return std::nullopt;
+}
+
+std::optional<v1::Error> InstrumentService::rearm(v1::RearmReply& reply) {
+  std::promise<std::pair<std::optional<v1::Error>, v1::RearmReply>> outcome;
+  auto future = outcome.get_future();
+  rearm_async([&outcome](std::optional<v1::Error> e, const v1::RearmReply& r) { outcome.set_value({std::move(e), r}); });
+  auto [error, result] = future.get();
+  reply = std::move(result);
+  return error;
 }
 
 // Reads the continuing instrument (no new session: the state it is in now)
@@ -426,6 +444,11 @@ std::optional<std::string> InstrumentService::rearm_check(v1::RearmReply& reply)
   bool changed[4] = {false, false, false, false};
   for (int k = 0; k < kRearmTicks; ++k) {
     if (k > 0) transducer_->wait_next_tick();
+    if (activity_stop_.load(std::memory_order_relaxed)) {
+      // Nothing to drive to safety: the check writes nothing.
+      estop_acted_ns_.store(monotonic_now_ns());
+      return "an emergency stop arrived during the check";
+    }
     if (transducer_->read(f) != hal::IoResult::kOk) return "the backend does not answer";
     const double v[4] = {f.lateral_position_m, f.lateral_force_n, f.normal_force_n, f.normal_displacement_m};
     if (k == 0) first = f;
@@ -473,12 +496,16 @@ std::optional<v1::Error> InstrumentService::emergency_stop(const std::string& re
     run_->emergency_reason = why;
     run_->control.emergency_stop.store(true);
     reply.set_run_was_active(true);
+    // The loop may be asleep until the next deadline: wake it to act now.
+    if (transducer_) transducer_->interrupt_wait();
   } else {
-    if (activity_ == "autotune") {
-      // The experiment sees it at its next tick and stops; the latch follows.
+    if (!activity_.empty()) {
+      // The autotune experiment or the re-arm check: it sees the flag at
+      // the tick the wake starts and stops; the latch is set here.
       activity_stop_reason_ = why;
       activity_stop_.store(true);
       reply.set_run_was_active(true);
+      if (transducer_) transducer_->interrupt_wait();
     } else {
       estop_acted_ns_.store(estop_requested_ns_.load());
     }
@@ -524,25 +551,34 @@ void InstrumentService::autotune_async(const v1::Autotune& request, AutotuneDone
     }
     params.stop_requested = &activity_stop_;
     params.stop_acted_ns = &estop_acted_ns_;
+    // Recorded like a run: its own run directory, listed and fetchable.
+    std::string recording_error;
+    std::shared_ptr<ActivityRecording> recording = start_autotune_recording(params, recording_error);
+    if (!recording) return refuse(make_error(v1::INTERNAL, "recorder.data_dir", recording_error));
+    params.samples = &recording->queue();
+    params.samples_dropped = &recording->dropped();
     activity_stop_.store(false);
     activity_ = "autotune";
     // The experiment moves the instrument: unloaded, outside any run, from a
     // fresh session (the simulated plant at rest with the config's seed).
-    post_activity([this, params, apply = request.apply(), done = std::move(done)] {
+    post_activity([this, params, recording, apply = request.apply(), done = std::move(done)] {
       transducer_->begin_session(config_.sim().seed());
+      recording->start();
       const AutotuneResult result = relay_autotune(*transducer_, params);
+      const v1::RunStop stop = finish_autotune_recording(*recording, result);
       v1::AutotuneReply reply;
       std::optional<v1::Error> error;
+      const std::string recorded = " (recorded as run " + stop.run_id() + ")";
       if (result.emergency_stopped) {
         std::lock_guard lock(mutex_);
-        error = make_error(v1::WRONG_STATE, "", "autotune stopped: emergency stop: " + activity_stop_reason_);
+        error = make_error(v1::WRONG_STATE, "", "autotune stopped: emergency stop: " + activity_stop_reason_ + recorded);
       } else if (!result.ok) {
         if (result.command_refused) {
           std::lock_guard lock(mutex_);
           state_ = v1::FAULTED;
           trip_reason_ = std::string(trip_reason_text(TripReason::kCommandInvalid)) + " (autotune)";
         }
-        error = make_error(v1::INTERNAL, "", "autotune failed: " + result.error);
+        error = make_error(v1::INTERNAL, "", "autotune failed: " + result.error + recorded);
       } else {
         reply.set_ultimate_gain_n_per_m(result.ultimate_gain_n_per_m);
         reply.set_ultimate_period_s(result.ultimate_period_s);
@@ -566,6 +602,63 @@ void InstrumentService::autotune_async(const v1::Autotune& request, AutotuneDone
       done(std::move(error), reply);
     });
   }
+}
+
+// The caller holds mutex_ (the gains in force are read).
+std::shared_ptr<ActivityRecording> InstrumentService::start_autotune_recording(const AutotuneParams& params,
+                                                                               std::string& error) {
+  v1::Protocol protocol;
+  protocol.set_name("autotune");
+  const std::uint32_t ticks_per_sample = params.ticks_per_sample;
+  protocol.set_acquisition_rate_hz(config_.controller().loop_rate_hz() / ticks_per_sample);
+  v1::PidGains gains[4];
+  for (int i = 0; i < 4; ++i) gains[i] = gains_[static_cast<std::size_t>(i)];
+  v1::RunStart start = make_run_start(protocol, config_, LoadFunction{}, gains, config_.sim().seed(),
+                                      software_version_, v1::RunAnnotations{});
+  start.set_start_time_utc(utc_timestamp_iso8601());
+  v1::RunDescriptor descriptor = make_descriptor(LoadFunction{});
+  descriptor.clear_duration_s();
+  for (const char* name : kAutotuneSegmentNames) {
+    start.add_segments()->set_name(name);
+    descriptor.add_segment_names(name);
+  }
+  auto recording = ActivityRecording::create(config_.recorder().data_dir(), start, descriptor, error);
+  if (!recording) return nullptr;
+  spdlog::info("autotune recorded as run {}", recording->run_id());
+  return std::shared_ptr<ActivityRecording>(std::move(recording));
+}
+
+// The stop document: SUCCESS with the result, FAULT after an emergency stop
+// or a refused command (with the fault), ABORT when the experiment gave up.
+v1::RunStop InstrumentService::finish_autotune_recording(ActivityRecording& recording, const AutotuneResult& result) {
+  v1::RunStop stop;
+  stop.set_cycle_count(result.ticks);
+  std::optional<v1::Fault> fault;
+  if (result.ok) {
+    stop.set_exit_status(v1::SUCCESS);
+    stop.set_reason(fmt::format("Ku {:g} N/m, Pu {:g} s, amplitude {:g} m; proposed kp {:g} ki {:g} kd {:g}",
+                                result.ultimate_gain_n_per_m, result.ultimate_period_s, result.amplitude_m,
+                                result.proposed.kp, result.proposed.ki, result.proposed.kd));
+  } else if (result.emergency_stopped || result.command_refused) {
+    stop.set_exit_status(v1::FAULT);
+    std::string reason = result.error;
+    if (result.emergency_stopped) {
+      std::lock_guard lock(mutex_);
+      reason = std::string(trip_reason_text(TripReason::kEmergencyStop)) + ": " + activity_stop_reason_ + " (" +
+               result.error + ")";
+    }
+    stop.set_reason(reason);
+    fault.emplace();
+    fault->set_time_s(static_cast<double>(result.ticks) * transducer_->period_s());
+    fault->set_reason(reason);
+  } else {
+    stop.set_exit_status(v1::ABORT);
+    stop.set_reason("autotune failed: " + result.error);
+  }
+  const v1::RunStop written = recording.finish(stop, fault ? &*fault : nullptr);
+  spdlog::info("autotune run {} stopped: {} ({} samples) {}", written.run_id(),
+               v1::ExitStatus_Name(written.exit_status()), written.sample_count(), written.reason());
+  return written;
 }
 
 std::optional<v1::Error> InstrumentService::autotune(const v1::Autotune& request, v1::AutotuneReply& reply) {
@@ -690,10 +783,27 @@ void InstrumentService::run_main(ActiveRun& run) {
       trip_reason_ = stop.reason();
       trip_time_s_ = outcome.trip_time_s;
     }
+    latch_late_emergency_stop(run, outcome);
   }
   spdlog::info("run {} stopped: {} ({} samples) {}", stop.run_id(), v1::ExitStatus_Name(stop.exit_status()),
                stop.sample_count(), stop.reason());
   sink_.on_run_stop(stop);
+}
+
+// An emergency stop that arrived after the loop's last tick, while the run
+// was finishing (draining, writing its stop document), was seen by no tick:
+// it still latches. The caller holds mutex_, as emergency_stop() does, so
+// every request either reached the loop or is seen here.
+void InstrumentService::latch_late_emergency_stop(ActiveRun& run, const RunOutcome& outcome) {
+  if (!run.control.emergency_stop.load() || outcome.trip.reason == TripReason::kEmergencyStop) return;
+  estop_acted_ns_.store(monotonic_now_ns());
+  if (state_ == v1::FAULTED) return;  // already latched by another trip: its reason stands
+  state_ = v1::FAULTED;
+  trip_reason_ = std::string(trip_reason_text(TripReason::kEmergencyStop)) + ": " + run.emergency_reason +
+                 " (after the run's last tick: the run had ended as " + std::string(v1::ExitStatus_Name(
+                     outcome.end == RunEnd::kCompleted ? v1::SUCCESS : v1::ABORT)) + ")";
+  trip_time_s_ = 0;
+  spdlog::warn("emergency stop after run {}'s last tick: latched", run.start.run_id());
 }
 
 // Records every sample, then publishes it: the recorder is flushed before a
@@ -773,10 +883,11 @@ void InstrumentService::shutdown(const std::string& reason) {
       run_->abort_reason = reason;
       run_->control.abort_requested.store(true);
     }
-    if (activity_ == "autotune") {
+    if (!activity_.empty() && activity_ != "run") {
       activity_stop_reason_ = reason;
       activity_stop_.store(true);
     }
+    if (transducer_ && !activity_.empty()) transducer_->interrupt_wait();
   }
   wait_until_idle();
 }

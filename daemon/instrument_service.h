@@ -7,9 +7,10 @@
 // activities, one at a time: a protocol run (its real-time loop, safety
 // supervisor and stop sequence; a drain thread records and publishes its
 // samples), the autotune relay experiment, and the re-arm check. The API
-// thread only posts: it never ticks the instrument, so an emergency stop is
-// seen by whatever activity runs at its next tick. Run documents leave
-// through RunEventSink.
+// thread only posts: it never ticks the instrument. An emergency stop sets
+// the running activity's flag and interrupts the backend's wait for the next
+// tick (hal/tick_wake.h), so the activity acts on it at once, not at the
+// next deadline. Run documents leave through RunEventSink.
 #pragma once
 
 #include <array>
@@ -29,6 +30,11 @@
 #include "tribo/v1/api.pb.h"
 
 namespace tribo::daemon {
+
+struct RunOutcome;
+struct AutotuneParams;
+struct AutotuneResult;
+class ActivityRecording;
 
 // Receives run documents in order: start, descriptor, sample blocks
 // interleaved with segment events (an event follows the samples before its
@@ -63,7 +69,13 @@ class InstrumentService {
   v1::GetGainsReply gains() const;
   // FAULTED -> ARMED (or IDLE without a protocol) once the instrument's
   // present state is safe; the reply carries the measured values the next
-  // run's setpoints start from.
+  // run's setpoints start from. The check runs as an activity of the loop;
+  // done is called from the loop thread with the outcome (immediately, on
+  // this thread, when refused). An emergency stop during the check ends it
+  // and the instrument stays FAULTED.
+  using RearmDone = std::function<void(std::optional<v1::Error>, const v1::RearmReply&)>;
+  void rearm_async(RearmDone done);
+  // The same, waiting for the outcome (tests, tools).
   std::optional<v1::Error> rearm(v1::RearmReply& reply);
   // Trips the running run's supervisor, or latches FAULTED when idle.
   std::optional<v1::Error> emergency_stop(const std::string& reason, v1::EmergencyStopReply& reply);
@@ -99,6 +111,7 @@ class InstrumentService {
   void run_main(ActiveRun& run);
   void drain_samples(ActiveRun& run);
   void join_finished_run();
+  void latch_late_emergency_stop(ActiveRun& run, const RunOutcome& outcome);
   // The supervised loop: runs posted activities one at a time.
   void loop_main();
   // Queues an activity; the caller holds mutex_ and has set activity_.
@@ -108,6 +121,8 @@ class InstrumentService {
   // On the loop thread: reads the continuing instrument over several ticks.
   std::optional<std::string> rearm_check(v1::RearmReply& reply);
   void latch_incomplete_previous_run();
+  std::shared_ptr<ActivityRecording> start_autotune_recording(const AutotuneParams& params, std::string& error);
+  v1::RunStop finish_autotune_recording(ActivityRecording& recording, const AutotuneResult& result);
 
   const v1::DaemonConfig config_;
   const std::string software_version_;
@@ -141,7 +156,9 @@ class InstrumentService {
   std::string activity_;        // "run", "autotune", "re-arm check"; empty: idle
   bool activity_running_ = false;
   bool loop_exit_ = false;
-  // Emergency stop of activities other than a run (a run has its RunControl).
+  // Emergency stop (or shutdown) of activities other than a run (a run has
+  // its RunControl): the autotune experiment and the re-arm check poll it
+  // every tick, and the backend's wait is interrupted to make that tick now.
   std::atomic<bool> activity_stop_{false};
   std::string activity_stop_reason_;  // guarded by mutex_
   std::atomic<std::int64_t> estop_requested_ns_{-1};

@@ -128,12 +128,8 @@ bool RunLoop::tick() {
       tick_ > 0 && sp_.lateral_mode == LateralMode::kDisplacement && !controller_.breakaway_hold();
   in.lateral_setpoint_m = sp_.lateral;
   in.lateral_setpoint_rate_m_per_s = sp_.lateral_rate;
-  if (const TripReason trip = supervisor_.check(in, tick_); trip != TripReason::kNone) {
-    if (trip == TripReason::kEmergencyStop) {
-      telemetry_.emergency_acted_ns.store(static_cast<std::int64_t>(t1), std::memory_order_relaxed);
-    }
-    start_stopping(RunEnd::kTripped);
-  }
+  const TripReason trip = supervisor_.check(in, tick_);
+  if (trip != TripReason::kNone) start_stopping(RunEnd::kTripped);
   if (!stopping_ && control_.abort_requested.load(std::memory_order_relaxed)) {
     start_stopping(RunEnd::kAborted);
   }
@@ -168,6 +164,10 @@ bool RunLoop::tick() {
   }
   last_write_ = transducer_.write(written_);
   const std::uint64_t t4 = monotonic_ns();
+  // Acted on: the stop sequence's first drive is written.
+  if (trip == TripReason::kEmergencyStop) {
+    telemetry_.emergency_acted_ns.store(static_cast<std::int64_t>(t4), std::memory_order_relaxed);
+  }
 
   std::uint32_t flags = out.flags;
   flags |= sample_flags_of_sensor_status(frame_.status_bits);

@@ -93,7 +93,7 @@ IoResult ModbusTransducer::start_session() {
 }
 
 IoResult ModbusTransducer::read(SensorFrame& frame) {
-  if (!pacer_) pacer_.emplace(period_s_);
+  if (!pacer_) pacer_.emplace(period_s_, &wake_);
   if (const IoResult r = prepare_link(); r != IoResult::kOk) {
     invalidate(frame);
     return r;
@@ -143,7 +143,7 @@ void ModbusTransducer::begin_session(std::uint64_t seed) {
 }
 
 void ModbusTransducer::wait_next_tick() {
-  if (!pacer_) pacer_.emplace(period_s_);
+  if (!pacer_) pacer_.emplace(period_s_, &wake_);
   pacer_->wait();
 }
 

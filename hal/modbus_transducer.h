@@ -37,6 +37,9 @@ class ModbusTransducer : public Transducer {
   IoResult read(SensorFrame& frame) override;
   IoResult write(const DriveCommand& command) override;
   void wait_next_tick() override;
+  // Ends the sleep to the next deadline; a transaction in progress runs to
+  // its end (or its timeout) first.
+  void interrupt_wait() override { wake_.wake(); }
   // Sends the session reset (seed) before the next read, where the device map
   // has a session block; the pacer starts again with the next tick.
   void begin_session(std::uint64_t seed) override;
@@ -53,6 +56,7 @@ class ModbusTransducer : public Transducer {
   RegisterMap map_;
   double period_s_;
   std::uint64_t seed_;
+  TickWake wake_;  // outlives every pacer_
   std::optional<WallClockPacer> pacer_;  // starts with the first tick
 
   std::uint64_t connections_seen_ = 0;

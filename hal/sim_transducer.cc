@@ -26,7 +26,7 @@ void SimTransducer::begin_session(std::uint64_t seed) {
   status_bits_ = 0;
   ticks_ = 0;
   pacer_.reset();
-  if (pace_to_wall_clock_) pacer_ = std::make_unique<WallClockPacer>(period_s_);
+  if (pace_to_wall_clock_) pacer_ = std::make_unique<WallClockPacer>(period_s_, &wake_);
   faults_->advance(0.0, sim::DriveInput{});
 }
 

@@ -28,6 +28,7 @@ class SimTransducer : public Transducer {
   IoResult read(SensorFrame& frame) override;
   IoResult write(const DriveCommand& command) override;
   void wait_next_tick() override;
+  void interrupt_wait() override { wake_.wake(); }
   std::uint64_t overruns() const override {
     return (pacer_ ? pacer_->overruns() : 0) + faults_->overruns();
   }
@@ -45,6 +46,7 @@ class SimTransducer : public Transducer {
   double period_s_;
   DriveCommand command_;
   std::uint32_t status_bits_ = 0;
+  TickWake wake_;  // outlives every pacer_: interrupt_wait() may come from any thread at any time
   std::unique_ptr<WallClockPacer> pacer_;
   std::unique_ptr<sim::FaultInjector> faults_;  // sim/fault_injection.h; empty: no faults
   std::uint64_t ticks_ = 0;

@@ -82,8 +82,16 @@ class Transducer {
   virtual IoResult read(SensorFrame& frame) = 0;
   virtual IoResult write(const DriveCommand& command) = 0;
 
-  // Returns at the start of the next tick.
+  // Returns at the start of the next tick, or earlier once interrupt_wait()
+  // was called (the loop then acts on what interrupted it at once).
   virtual void wait_next_tick() = 0;
+
+  // Safe from any thread while the loop runs (an emergency stop posted by
+  // the API thread): ends the present wait_next_tick() early, or the next
+  // one if the loop is not waiting now. A backend whose wait does not sleep
+  // (the simulated one, unpaced) returns at once anyway. Allocation- and
+  // lock-free (hal/tick_wake.h).
+  virtual void interrupt_wait() = 0;
 
   // Ticks whose deadline had already passed when wait_next_tick() was called.
   virtual std::uint64_t overruns() const { return 0; }

@@ -4,23 +4,13 @@
 
 namespace tribo::hal {
 
-namespace {
+WallClockPacer::WallClockPacer(double period_s, TickWake* wake)
+    : period_ns_(static_cast<std::int64_t>(std::llround(period_s * 1e9))), start_ns_(monotonic_ns()), wake_(wake) {}
 
-std::int64_t now_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
-
-}  // namespace
-
-WallClockPacer::WallClockPacer(double period_s)
-    : period_ns_(static_cast<std::int64_t>(std::llround(period_s * 1e9))), start_ns_(now_ns()) {}
-
-void WallClockPacer::wait() {
+bool WallClockPacer::wait() {
   ++tick_;
   std::int64_t deadline = start_ns_ + static_cast<std::int64_t>(tick_) * period_ns_;
-  const std::int64_t now = now_ns();
+  const std::int64_t now = monotonic_ns();
   if (now > deadline) {
     ++overruns_;
     // Skip the deadlines already missed instead of running them back to back.
@@ -28,11 +18,13 @@ void WallClockPacer::wait() {
     tick_ += missed;
     deadline = start_ns_ + static_cast<std::int64_t>(tick_) * period_ns_;
   }
+  if (wake_ != nullptr) return wake_->wait_until(deadline);
   timespec ts{};
   ts.tv_sec = deadline / 1'000'000'000;
   ts.tv_nsec = deadline % 1'000'000'000;
   while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) != 0) {
   }
+  return false;
 }
 
 }  // namespace tribo::hal

@@ -10,9 +10,11 @@
 #include <fstream>
 #include <future>
 #include <limits>
+#include <set>
 #include <string>
 
 #include "daemon/field_bounds.h"
+#include "daemon/incomplete_run.h"
 #include "daemon/run_archive.h"
 #include "daemon/run_recorder.h"
 #include "tests/daemon/service_test_support.h"
@@ -125,6 +127,7 @@ struct WriteRecorder : hal::Transducer {
     return inner_->write(c);
   }
   void wait_next_tick() override { inner_->wait_next_tick(); }
+  void interrupt_wait() override { inner_->interrupt_wait(); }
   std::unique_ptr<hal::Transducer> inner_;
   std::vector<hal::DriveCommand> writes;
 };
@@ -305,6 +308,44 @@ TEST(Restart, ComesUpLatchedAfterARunThatDidNotFinish) {
   EXPECT_EQ(f.service->status().state(), v1::ARMED);
 }
 
+TEST(Restart, NamesTheLastWholeSampleAndWhatIsLost) {
+  ServiceFixture f;
+  std::filesystem::path run_dir;
+  {
+    // A crash mid-run: 10 whole rows reached the disk, the 11th is cut short,
+    // and there is no stop document.
+    v1::RunStart start;
+    start.mutable_protocol()->set_name("crashed");
+    std::string error;
+    auto recorder = RunRecorder::create(f.dir.path(), start, error);
+    ASSERT_TRUE(recorder) << error;
+    for (int i = 0; i < 10; ++i) recorder->append(Sample{i * 1e-3, 0, 0, 1e-6 * i, 0, 0, 0, 0, 0});
+    recorder->flush();
+    run_dir = recorder->directory();
+  }
+  {
+    std::ofstream samples(run_dir / wire::kSamplesFile, std::ios::app | std::ios::binary);
+    samples << "0.010,0,0,1.0e-";  // the partial row
+  }
+  f.start();
+  const v1::StatusReply status = f.service->status();
+  EXPECT_EQ(status.state(), v1::FAULTED);
+  EXPECT_NE(status.trip_reason().find("last whole sample recorded is sequence 9"), std::string::npos)
+      << status.trip_reason();
+  EXPECT_NE(status.trip_reason().find("from sequence 10 on) is lost"), std::string::npos) << status.trip_reason();
+  // The run's directory says the same, for whoever reads the run later.
+  std::ifstream in(run_dir / kIncompleteRunFile);
+  ASSERT_TRUE(in) << "no " << kIncompleteRunFile << " in " << run_dir;
+  const std::string doc((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(doc.find("\"last_whole_sequence\": 9"), std::string::npos) << doc;
+  EXPECT_NE(doc.find("\"lost_from_sequence\": 10"), std::string::npos) << doc;
+  EXPECT_NE(doc.find("\"partial_last_row\": true"), std::string::npos) << doc;
+  // Still latched at the next start-up, until a re-arm.
+  f.service.reset();
+  f.start();
+  EXPECT_EQ(f.service->status().state(), v1::FAULTED);
+}
+
 TEST(Restart, AFinishedPreviousRunLeavesTheDaemonIdle) {
   ServiceFixture f;
   f.start();
@@ -350,6 +391,68 @@ TEST(Autotune, AnEmergencyStopEndsTheExperimentAndLatches) {
   EXPECT_FALSE(reply.has_proposed());
   EXPECT_EQ(f.service->status().state(), v1::FAULTED);
   EXPECT_GE(f.service->last_emergency_stop_latency_s(), 0);
+}
+
+TEST(Autotune, IsRecordedLikeARun) {
+  ServiceFixture f;
+  f.start();
+  v1::AutotuneReply reply;
+  const auto error = f.service->autotune(v1::Autotune{}, reply);
+  ASSERT_FALSE(error) << error->message();
+  const auto runs = wire::list_recorded_runs(f.dir.path());
+  ASSERT_EQ(runs.size(), 1u);
+  const v1::RunListing& listed = runs.front();
+  EXPECT_EQ(listed.protocol_name(), "autotune");
+  EXPECT_TRUE(listed.finalized());
+  EXPECT_EQ(listed.exit_status(), v1::SUCCESS) << listed.reason();
+  EXPECT_NE(listed.reason().find("Ku"), std::string::npos) << listed.reason();
+  std::string read_error;
+  const auto run = wire::read_run_directory(f.dir.path() / listed.run_id(), read_error);
+  ASSERT_TRUE(run) << read_error;
+  // Every recorded sample is on disk, the three phases are there, and the
+  // relay's oscillation is in the lateral position.
+  EXPECT_EQ(static_cast<std::uint64_t>(sample_count(run->samples)), run->metadata.stop().sample_count());
+  EXPECT_GT(sample_count(run->samples), 1000);
+  EXPECT_TRUE(run->metadata.has_run_descriptor());
+  EXPECT_EQ(run->metadata.run_descriptor().segment_names_size(), 3);
+  std::set<std::uint32_t> segments(run->samples.segment_index().begin(), run->samples.segment_index().end());
+  EXPECT_EQ(segments, (std::set<std::uint32_t>{0, 1, 2}));
+  double lo = 1, hi = -1;
+  for (int i = 0; i < sample_count(run->samples); ++i) {
+    if (run->samples.segment_index(i) != 1) continue;
+    lo = std::min(lo, run->samples.lateral_position_m(i));
+    hi = std::max(hi, run->samples.lateral_position_m(i));
+  }
+  EXPECT_GT(hi - lo, reply.oscillation_amplitude_m()) << "no relay oscillation recorded";
+  // Listed and fetched through the archive, as `tribo list` and `tribo fetch` do.
+  RunArchive archive(f.dir.path());
+  const v1::ListRunsReply listing = archive.list_runs(v1::ListRuns{});
+  ASSERT_EQ(listing.runs_size(), 1);
+  EXPECT_EQ(listing.runs(0).protocol_name(), "autotune");
+  v1::FetchSamples fetch;
+  fetch.set_run_id(listed.run_id());
+  fetch.set_max_samples(100);
+  v1::FetchSamplesReply fetched;
+  ASSERT_FALSE(archive.fetch_samples(fetch, fetched));
+  ASSERT_EQ(sample_count(fetched.samples()), 100);
+  EXPECT_EQ(fetched.samples().lateral_position_m(99), run->samples.lateral_position_m(99));
+  // An experiment stopped by an emergency stop is recorded as a FAULT with its fault.
+  f.sink.clear();
+  std::promise<std::optional<v1::Error>> outcome;
+  f.service->autotune_async(v1::Autotune{}, [&](std::optional<v1::Error> e, const v1::AutotuneReply&) {
+    outcome.set_value(std::move(e));
+  });
+  v1::EmergencyStopReply stopped;
+  ASSERT_FALSE(f.service->emergency_stop("test: recorded", stopped));
+  ASSERT_TRUE(outcome.get_future().get());
+  const auto after = wire::list_recorded_runs(f.dir.path());
+  ASSERT_EQ(after.size(), 2u);
+  EXPECT_EQ(after.front().protocol_name(), "autotune");
+  EXPECT_EQ(after.front().exit_status(), v1::FAULT);
+  EXPECT_NE(after.front().reason().find("test: recorded"), std::string::npos) << after.front().reason();
+  const auto metadata = wire::read_run_metadata(f.dir.path() / after.front().run_id(), read_error);
+  ASSERT_TRUE(metadata) << read_error;
+  EXPECT_EQ(metadata->faults_size(), 1);
 }
 
 // ------------------------------------------------- issue 16, daemon side

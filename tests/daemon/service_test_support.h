@@ -50,8 +50,11 @@ class RecordingSink : public RunEventSink {
     stops.push_back(stop);
   }
   void on_segment_event(const v1::SegmentEvent& event) override {
-    std::lock_guard lock(mutex_);
-    events.push_back(event);
+    {
+      std::lock_guard lock(mutex_);
+      events.push_back(event);
+    }
+    if (on_event) on_event(event);
   }
   void clear() {
     std::lock_guard lock(mutex_);
@@ -70,6 +73,8 @@ class RecordingSink : public RunEventSink {
   double at_time_s = 0;
   std::function<void()> at_time;
   bool acted = false;
+  // Called (on the service's drain thread) after each segment event.
+  std::function<void(const v1::SegmentEvent&)> on_event;
 
  private:
   std::mutex mutex_;

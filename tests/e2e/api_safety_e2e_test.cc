@@ -68,6 +68,48 @@ TEST(ApiSafety, AnEmergencyStopIsAnsweredWhileAutotuneRuns) {
   EXPECT_EQ(operator_.request(status).status().state(), v1::FAULTED);
 }
 
+TEST(ApiSafety, TheRearmCheckRunsInTheLoopAndAnEmergencyStopEndsIt) {
+  TempDir data;
+  v1::DaemonConfig config = testing::paced_config();
+  config.mutable_controller()->set_loop_rate_hz(100);  // the check's 64 ticks take 0.64 s
+  config.mutable_controller()->set_default_acquisition_rate_hz(100);
+  config.mutable_supervisor()->set_force_filter_hz(20);  // below the 100 Hz loop's Nyquist
+  config.mutable_supervisor()->set_motion_filter_hz(20);
+  DaemonProcess daemon(data.path(), testing::write_config(data, config));
+  RawClient controller(daemon.port());
+  ASSERT_TRUE(controller.request(testing::hello_message(v1::CONTROLLER)).has_hello());
+  ASSERT_TRUE(controller.request(estop_message("e2e: latch first")).has_emergency_stop());
+  v1::ClientMessage rearm;
+  rearm.set_request_id(55);
+  rearm.mutable_rearm();
+  controller.send(rearm);
+
+  // The daemon's I/O thread is not held by the check: another client sees it
+  // running and its emergency stop is answered during it.
+  RawClient operator_(daemon.port());
+  ASSERT_TRUE(operator_.request(testing::hello_message()).has_hello());
+  v1::ClientMessage status;
+  status.mutable_get_status();
+  bool seen = false;
+  for (int i = 0; i < 5000 && !seen; ++i) {  // bounded: an I/O thread held by the check never shows it
+    seen = operator_.request(status).status().activity() == "re-arm check";
+    if (!seen) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  EXPECT_TRUE(seen) << "the re-arm check was never seen running";
+  const v1::ServerMessage stopped = operator_.request(estop_message("e2e during re-arm"));
+  ASSERT_TRUE(stopped.has_emergency_stop()) << stopped.DebugString();
+
+  std::optional<v1::ServerMessage> reply;
+  while ((reply = controller.read()) && reply->request_id() != 55) {
+  }
+  ASSERT_TRUE(reply);
+  ASSERT_TRUE(reply->has_error()) << "re-armed despite the emergency stop: " << reply->DebugString();
+  EXPECT_NE(reply->error().message().find("emergency stop"), std::string::npos) << reply->error().message();
+  const v1::StatusReply after = operator_.request(status).status();
+  EXPECT_EQ(after.state(), v1::FAULTED);
+  EXPECT_NE(after.trip_reason().find("e2e during re-arm"), std::string::npos) << after.trip_reason();
+}
+
 TEST(ApiSafety, SilentConnectionsDoNotLockOutTheEmergencyStop) {
   TempDir data;
   v1::DaemonConfig config = testing::default_config();

@@ -61,6 +61,7 @@ class MappedSimTransducer : public hal::Transducer {
   }
 
   void wait_next_tick() override { sim_.wait_next_tick(); }
+  void interrupt_wait() override { sim_.interrupt_wait(); }
 
  private:
   hal::SimTransducer sim_;
