@@ -191,5 +191,39 @@ TEST(EmergencyStop, DuringTheRearmCheckEndsItAndStaysLatched) {
   EXPECT_NE(f.service->status().trip_reason().find("test: re-arm"), std::string::npos);
 }
 
+TEST(EmergencyStop, WhileIdleUnloadsWhatTheLastRunLeftLoaded) {
+  // The validator does not require a protocol to end unloaded: after this
+  // SUCCESS run the backend still holds the last segment's 1 mN drive. An
+  // emergency stop while ARMED used to latch FAULTED only, leaving the tip
+  // loaded (the re-arm check then refused: "above the unloaded threshold").
+  ServiceFixture f;
+  f.start();
+  f.run(parse_protocol(R"(
+    name: "ends loaded"
+    acquisition_rate_hz: 1000
+    segments { name: "approach" duration_s: 0.2 normal { end_uN: 0 } lateral { end_um: 2 } }
+    segments { name: "load" duration_s: 0.2 normal { end_uN: 1000 } lateral { shape: HOLD } }
+    segments { name: "hold" duration_s: 0.1 normal { shape: HOLD } lateral { shape: HOLD } }
+  )"));
+  ASSERT_EQ(f.sink.stops.size(), 1u);
+  ASSERT_EQ(f.sink.stops[0].exit_status(), v1::SUCCESS) << f.sink.stops[0].reason();
+  ASSERT_EQ(f.service->status().state(), v1::ARMED);
+  const int n = sample_count(f.sink.samples);
+  ASSERT_GT(n, 0);
+  ASSERT_GT(f.sink.samples.normal_force_n(n - 1), 0.5e-3) << "the run did not end loaded";
+
+  v1::EmergencyStopReply r;
+  ASSERT_FALSE(f.service->emergency_stop("test: idle, loaded", r));
+  expect_latched_by_emergency_stop(*f.service);  // at once: the reply does not wait for the unload
+  f.service->wait_until_idle();                  // the stop sequence has ended
+  expect_latched_by_emergency_stop(*f.service);
+  // The re-arm check reads the continuing instrument: unloaded now.
+  v1::RearmReply rearmed;
+  const auto error = f.service->rearm(rearmed);
+  ASSERT_FALSE(error) << error->message();
+  EXPECT_LT(std::fabs(rearmed.normal_force_n()), f.config.supervisor().contact_force_n());
+  EXPECT_LT(std::fabs(rearmed.normal_force_n()), 50e-6) << "not unloaded";
+}
+
 }  // namespace
 }  // namespace tribo::daemon
