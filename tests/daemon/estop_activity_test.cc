@@ -9,6 +9,7 @@
 #include <future>
 #include <thread>
 
+#include "hal/last_drive_transducer.h"
 #include "hal/tick_wake.h"
 #include "hal/wall_clock_pacer.h"
 #include "tests/daemon/service_test_support.h"
@@ -42,6 +43,33 @@ TEST(TickWake, AWakeBeforeTheWaitIsNotLostAndEndsOneWaitOnly) {
   // Consumed: the next wait runs to its (near) deadline.
   EXPECT_FALSE(wake.wait_until(hal::monotonic_ns() + 1'000'000));
   EXPECT_EQ(wake.wakes(), 1u);
+}
+
+// A backend whose writes succeed or fail on demand.
+class ScriptedWrites final : public hal::Transducer {
+ public:
+  explicit ScriptedWrites(bool* ok) : ok_(ok) {}
+  std::string_view backend_name() const override { return "scripted"; }
+  double period_s() const override { return 1e-4; }
+  hal::IoResult read(hal::SensorFrame&) override { return hal::IoResult::kOk; }
+  hal::IoResult write(const hal::DriveCommand&) override { return *ok_ ? hal::IoResult::kOk : hal::IoResult::kTimeout; }
+  void wait_next_tick() override {}
+  void interrupt_wait() override {}
+
+ private:
+  bool* ok_;
+};
+
+TEST(LastDriveTransducer, RemembersOnlyAcknowledgedDrives) {
+  bool ok = true;
+  hal::LastDriveTransducer t(std::make_unique<ScriptedWrites>(&ok));
+  EXPECT_EQ(t.last_drive().normal_force_n, 0);
+  ASSERT_EQ(t.write({1e-3, 2e-4}), hal::IoResult::kOk);
+  ok = false;
+  // Not acknowledged: the instrument still holds 1 mN, the stop starts there.
+  EXPECT_EQ(t.write({5e-3, 0}), hal::IoResult::kTimeout);
+  EXPECT_EQ(t.last_drive().normal_force_n, 1e-3);
+  EXPECT_EQ(t.last_drive().lateral_force_n, 2e-4);
 }
 
 // ------------------------------------------------ the activities
