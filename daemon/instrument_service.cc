@@ -17,6 +17,7 @@
 #include "daemon/protocol_validator.h"
 #include "daemon/run_loop.h"
 #include "daemon/field_bounds.h"
+#include "daemon/idle_stop.h"
 #include "daemon/incomplete_run.h"
 #include "daemon/run_documents.h"
 #include "proto/run_files.h"
@@ -144,7 +145,9 @@ InstrumentService::InstrumentService(v1::DaemonConfig config, std::string softwa
   gains_[v1::LOOP_NORMAL_FORCE - 1] = config_.controller().normal_force();
   gains_[v1::LOOP_NORMAL_DISPLACEMENT - 1] = config_.controller().normal_displacement();
   // The instrument: one backend for the daemon's lifetime (hal/transducer.h).
-  transducer_ = hal::make_transducer(config_, config_.sim().seed());
+  if (auto backend = hal::make_transducer(config_, config_.sim().seed())) {
+    transducer_ = std::make_unique<hal::LastDriveTransducer>(std::move(backend));
+  }
   latch_incomplete_previous_run();
   loop_thread_ = std::thread([this] { loop_main(); });
 }
@@ -393,7 +396,8 @@ void InstrumentService::rearm_async(RearmDone done) {
     return refuse(make_error(v1::WRONG_STATE, "", "re-arm is for a faulted instrument; the state is " +
                                                       v1::DaemonState_Name(state_)));
   }
-  if (!activity_.empty() && activity_ != "run") {
+  // A run or an idle stop sequence ends by itself: the check reads the instrument after it.
+  if (!activity_.empty() && activity_ != "run" && activity_ != "stop sequence") {
     return refuse(make_error(v1::WRONG_STATE, "", "the instrument is busy: " + activity_ + " in progress"));
   }
   if (!transducer_) return refuse(make_error(v1::INTERNAL, "backend", "cannot create the backend"));
@@ -508,6 +512,9 @@ std::optional<v1::Error> InstrumentService::emergency_stop(const std::string& re
       if (transducer_) transducer_->interrupt_wait();
     } else {
       estop_acted_ns_.store(estop_requested_ns_.load());
+      // Nothing runs, but the instrument may still hold a drive (a protocol
+      // need not end unloaded): unload it, as a faulted run would.
+      post_idle_stop();
     }
     state_ = v1::FAULTED;
     trip_reason_ = std::string(trip_reason_text(TripReason::kEmergencyStop)) + ": " + why;
@@ -515,6 +522,21 @@ std::optional<v1::Error> InstrumentService::emergency_stop(const std::string& re
   }
   spdlog::warn("emergency stop: {}", printable_prefix(why, 200));
   return std::nullopt;
+}
+
+void InstrumentService::post_idle_stop() {
+  if (!transducer_) return;
+  activity_ = "stop sequence";
+  post_activity([this] {
+    // On the loop thread: the drive the last activity left is final here.
+    const hal::DriveCommand from = transducer_->last_drive();
+    if (from.normal_force_n == 0 && from.lateral_force_n == 0) return;  // nothing held
+    const IdleStopOutcome out = run_idle_stop(*transducer_, run_loop_config_from(config_), from, &estop_acted_ns_);
+    spdlog::warn("emergency stop while idle: unloaded from normal {:g} N, lateral {:g} N in {} ticks{}{}",
+                 from.normal_force_n, from.lateral_force_n, out.ticks,
+                 out.command_refused ? "; a drive was refused, the rest not written" : "",
+                 out.failed_writes ? fmt::format("; {} writes failed", out.failed_writes) : "");
+  });
 }
 
 void InstrumentService::autotune_async(const v1::Autotune& request, AutotuneDone done) {
@@ -804,6 +826,7 @@ void InstrumentService::latch_late_emergency_stop(ActiveRun& run, const RunOutco
                      outcome.end == RunEnd::kCompleted ? v1::SUCCESS : v1::ABORT)) + ")";
   trip_time_s_ = 0;
   spdlog::warn("emergency stop after run {}'s last tick: latched", run.start.run_id());
+  post_idle_stop();  // a completed run may have left the tip loaded
 }
 
 // Records every sample, then publishes it: the recorder is flushed before a

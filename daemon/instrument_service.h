@@ -26,6 +26,7 @@
 #include <thread>
 
 #include "daemon/load_function.h"
+#include "hal/last_drive_transducer.h"
 #include "hal/transducer.h"
 #include "tribo/v1/api.pb.h"
 
@@ -77,7 +78,9 @@ class InstrumentService {
   void rearm_async(RearmDone done);
   // The same, waiting for the outcome (tests, tools).
   std::optional<v1::Error> rearm(v1::RearmReply& reply);
-  // Trips the running run's supervisor, or latches FAULTED when idle.
+  // Trips the running run's supervisor (or stops the running activity), or
+  // when idle latches FAULTED and posts the safe stop sequence from the drive
+  // the instrument holds (daemon/idle_stop.h); the reply does not wait for it.
   std::optional<v1::Error> emergency_stop(const std::string& reason, v1::EmergencyStopReply& reply);
   // Relay autotune of the lateral displacement loop; not while running. It
   // runs as an activity of the loop; done is called from the loop thread
@@ -121,6 +124,8 @@ class InstrumentService {
   // On the loop thread: reads the continuing instrument over several ticks.
   std::optional<std::string> rearm_check(v1::RearmReply& reply);
   void latch_incomplete_previous_run();
+  // Posts the stop sequence from the last drive written; mutex_ held.
+  void post_idle_stop();
   std::shared_ptr<ActivityRecording> start_autotune_recording(const AutotuneParams& params, std::string& error);
   v1::RunStop finish_autotune_recording(ActivityRecording& recording, const AutotuneResult& result);
 
@@ -148,12 +153,14 @@ class InstrumentService {
   v1::BackendHealth last_backend_health_;
   std::string recording_error_;  // of the current or last run; empty: healthy
 
-  // The backend: created once, owned by the loop thread while an activity runs.
-  std::unique_ptr<hal::Transducer> transducer_;
+  // The backend: created once, owned by the loop thread while an activity
+  // runs; it remembers the last drive written, from which an idle emergency
+  // stop unloads.
+  std::unique_ptr<hal::LastDriveTransducer> transducer_;
   std::thread loop_thread_;
   std::condition_variable activity_cv_;  // with mutex_
   std::deque<std::function<void()>> pending_;
-  std::string activity_;        // "run", "autotune", "re-arm check"; empty: idle
+  std::string activity_;        // "run", "autotune", "re-arm check", "stop sequence"; empty: idle
   bool activity_running_ = false;
   bool loop_exit_ = false;
   // Emergency stop (or shutdown) of activities other than a run (a run has

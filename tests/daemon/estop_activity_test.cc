@@ -9,6 +9,7 @@
 #include <future>
 #include <thread>
 
+#include "hal/last_drive_transducer.h"
 #include "hal/tick_wake.h"
 #include "hal/wall_clock_pacer.h"
 #include "tests/daemon/service_test_support.h"
@@ -42,6 +43,33 @@ TEST(TickWake, AWakeBeforeTheWaitIsNotLostAndEndsOneWaitOnly) {
   // Consumed: the next wait runs to its (near) deadline.
   EXPECT_FALSE(wake.wait_until(hal::monotonic_ns() + 1'000'000));
   EXPECT_EQ(wake.wakes(), 1u);
+}
+
+// A backend whose writes succeed or fail on demand.
+class ScriptedWrites final : public hal::Transducer {
+ public:
+  explicit ScriptedWrites(bool* ok) : ok_(ok) {}
+  std::string_view backend_name() const override { return "scripted"; }
+  double period_s() const override { return 1e-4; }
+  hal::IoResult read(hal::SensorFrame&) override { return hal::IoResult::kOk; }
+  hal::IoResult write(const hal::DriveCommand&) override { return *ok_ ? hal::IoResult::kOk : hal::IoResult::kTimeout; }
+  void wait_next_tick() override {}
+  void interrupt_wait() override {}
+
+ private:
+  bool* ok_;
+};
+
+TEST(LastDriveTransducer, RemembersOnlyAcknowledgedDrives) {
+  bool ok = true;
+  hal::LastDriveTransducer t(std::make_unique<ScriptedWrites>(&ok));
+  EXPECT_EQ(t.last_drive().normal_force_n, 0);
+  ASSERT_EQ(t.write({1e-3, 2e-4}), hal::IoResult::kOk);
+  ok = false;
+  // Not acknowledged: the instrument still holds 1 mN, the stop starts there.
+  EXPECT_EQ(t.write({5e-3, 0}), hal::IoResult::kTimeout);
+  EXPECT_EQ(t.last_drive().normal_force_n, 1e-3);
+  EXPECT_EQ(t.last_drive().lateral_force_n, 2e-4);
 }
 
 // ------------------------------------------------ the activities
@@ -189,6 +217,40 @@ TEST(EmergencyStop, DuringTheRearmCheckEndsItAndStaysLatched) {
   EXPECT_NE(error->message().find("emergency stop"), std::string::npos) << error->message();
   expect_latched_by_emergency_stop(*f.service);
   EXPECT_NE(f.service->status().trip_reason().find("test: re-arm"), std::string::npos);
+}
+
+TEST(EmergencyStop, WhileIdleUnloadsWhatTheLastRunLeftLoaded) {
+  // The validator does not require a protocol to end unloaded: after this
+  // SUCCESS run the backend still holds the last segment's 1 mN drive. An
+  // emergency stop while ARMED used to latch FAULTED only, leaving the tip
+  // loaded (the re-arm check then refused: "above the unloaded threshold").
+  ServiceFixture f;
+  f.start();
+  f.run(parse_protocol(R"(
+    name: "ends loaded"
+    acquisition_rate_hz: 1000
+    segments { name: "approach" duration_s: 0.2 normal { end_uN: 0 } lateral { end_um: 2 } }
+    segments { name: "load" duration_s: 0.2 normal { end_uN: 1000 } lateral { shape: HOLD } }
+    segments { name: "hold" duration_s: 0.1 normal { shape: HOLD } lateral { shape: HOLD } }
+  )"));
+  ASSERT_EQ(f.sink.stops.size(), 1u);
+  ASSERT_EQ(f.sink.stops[0].exit_status(), v1::SUCCESS) << f.sink.stops[0].reason();
+  ASSERT_EQ(f.service->status().state(), v1::ARMED);
+  const int n = sample_count(f.sink.samples);
+  ASSERT_GT(n, 0);
+  ASSERT_GT(f.sink.samples.normal_force_n(n - 1), 0.5e-3) << "the run did not end loaded";
+
+  v1::EmergencyStopReply r;
+  ASSERT_FALSE(f.service->emergency_stop("test: idle, loaded", r));
+  expect_latched_by_emergency_stop(*f.service);  // at once: the reply does not wait for the unload
+  f.service->wait_until_idle();                  // the stop sequence has ended
+  expect_latched_by_emergency_stop(*f.service);
+  // The re-arm check reads the continuing instrument: unloaded now.
+  v1::RearmReply rearmed;
+  const auto error = f.service->rearm(rearmed);
+  ASSERT_FALSE(error) << error->message();
+  EXPECT_LT(std::fabs(rearmed.normal_force_n()), f.config.supervisor().contact_force_n());
+  EXPECT_LT(std::fabs(rearmed.normal_force_n()), 50e-6) << "not unloaded";
 }
 
 }  // namespace
