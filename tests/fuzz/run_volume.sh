@@ -13,6 +13,8 @@
 #                   is copied there, new inputs and findings stay there
 #   FUZZ_NICE       nice increment (default 10: the machine stays usable)
 #   FUZZ_TIMEOUT    seconds per input before libFuzzer calls it a timeout (default 10)
+#   FUZZ_MAX_SECONDS  stop a target after this long even if short of EXECUTIONS
+#                   (default 0: no limit); the shortfall is then reported as a failure
 #
 # Prints per target: executions, exec/s, wall seconds, findings (crash-,
 # leak-, timeout-, oom- files); exits 1 when any target has a finding, did not
@@ -27,6 +29,7 @@ build=${FUZZ_BUILD_DIR:-$repo/build/tests/fuzz}
 work=${FUZZ_WORK_DIR:-$(mktemp -d "${TMPDIR:-/tmp}/tribo-fuzz-volume.XXXXXX")}
 nice_by=${FUZZ_NICE:-10}
 timeout_s=${FUZZ_TIMEOUT:-10}
+max_s=${FUZZ_MAX_SECONDS:-0}
 
 status=0
 printf '%-20s %12s %10s %8s %9s  %s\n' target executions exec/s wall_s findings log
@@ -45,7 +48,7 @@ for t in $targets; do
   # The harness runs in its own directory, its temporary files (client_session's
   # data directory) under it: whatever it writes stays in the scratch dir.
   (cd "$dir" && TMPDIR="$dir" exec nice -n "$nice_by" "$bin" corpus -runs="$runs" -print_final_stats=1 \
-      -timeout="$timeout_s" -rss_limit_mb=2048 -artifact_prefix="$dir/artifacts/" >"$dir/log" 2>&1)
+      -timeout="$timeout_s" -max_total_time="$max_s" -rss_limit_mb=2048 -artifact_prefix="$dir/artifacts/" >"$dir/log" 2>&1)
   rc=$?
   wall=$(( $(date +%s) - start ))
   executed=$(sed -n 's/^stat::number_of_executed_units: *//p' "$dir/log" | tail -n 1)
