@@ -30,34 +30,40 @@ bool normal_holds(const v1::SampleBlock& b, const SegmentSpan& s) {
 
 }  // namespace
 
-std::optional<TipTiltEstimate> estimate_tip_tilt(const v1::SampleBlock& b) {
-  TipTiltEstimate e;
-  double lateral = 0, normal = 0;
-  bool slid_under_load = false;  // since the tip was last unloaded
-  for (const SegmentSpan& s : segment_spans(b)) {
-    const double peak_n = peak_normal_setpoint_n(b, s);
-    if (lateral_setpoint_moves(b, s)) {
-      if (peak_n > 0) slid_under_load = true;
-    } else if (peak_n > 0 && !slid_under_load && normal_holds(b, s) && s.last - s.first >= 3) {
-      std::uint64_t used = 0;
-      for (int i = s.first; i <= s.last; ++i) {
-        if (b.normal_force_n(i) < kFullContactFraction * peak_n) continue;
-        lateral += b.lateral_force_n(i);
-        normal += b.normal_force_n(i);
-        ++used;
-      }
-      if (used > 0) {
-        if (e.holds++ == 0) e.first_segment = b.segment_index(s.first);
-        e.samples += used;
-      }
+void TipTiltAccumulator::add(const v1::SampleBlock& b, int first, int last) {
+  const SegmentSpan s{first, last};
+  const double peak_n = peak_normal_setpoint_n(b, s);
+  if (lateral_setpoint_moves(b, s)) {
+    if (peak_n > 0) slid_under_load_ = true;
+  } else if (peak_n > 0 && !slid_under_load_ && normal_holds(b, s) && s.last - s.first >= 3) {
+    std::uint64_t used = 0;
+    for (int i = s.first; i <= s.last; ++i) {
+      if (b.normal_force_n(i) < kFullContactFraction * peak_n) continue;
+      lateral_ += b.lateral_force_n(i);
+      normal_ += b.normal_force_n(i);
+      ++used;
     }
-    if (!(b.normal_setpoint_n(s.last) > 0)) slid_under_load = false;  // unloaded: the bristles relax
+    if (used > 0) {
+      if (e_.holds++ == 0) e_.first_segment = b.segment_index(s.first);
+      e_.samples += used;
+    }
   }
-  if (e.samples == 0 || !(normal > 0)) return std::nullopt;
-  e.tan_tilt = -lateral / normal;
-  e.mean_normal_force_n = normal / static_cast<double>(e.samples);
-  e.mean_lateral_force_n = lateral / static_cast<double>(e.samples);
+  if (!(b.normal_setpoint_n(s.last) > 0)) slid_under_load_ = false;  // unloaded: the bristles relax
+}
+
+std::optional<TipTiltEstimate> TipTiltAccumulator::estimate() const {
+  if (e_.samples == 0 || !(normal_ > 0)) return std::nullopt;
+  TipTiltEstimate e = e_;
+  e.tan_tilt = -lateral_ / normal_;
+  e.mean_normal_force_n = normal_ / static_cast<double>(e.samples);
+  e.mean_lateral_force_n = lateral_ / static_cast<double>(e.samples);
   return e;
+}
+
+std::optional<TipTiltEstimate> estimate_tip_tilt(const v1::SampleBlock& b) {
+  TipTiltAccumulator tilt;
+  for (const SegmentSpan& s : segment_spans(b)) tilt.add(b, s.first, s.last);
+  return tilt.estimate();
 }
 
 double tilt_corrected_friction_n(double mean_friction_n, double velocity_m_per_s, double normal_force_n,

@@ -46,6 +46,22 @@ struct TipTiltEstimate {
 // nullopt when the run has no loaded hold before sliding.
 std::optional<TipTiltEstimate> estimate_tip_tilt(const v1::SampleBlock& samples);
 
+// The same estimate fed one segment at a time, in run order (a client that
+// streams a run to disk reads it back a segment at a time): the holds' sums
+// and the "slid under load" state carry from segment to segment, so the
+// result is bit-identical to estimate_tip_tilt over the whole run.
+class TipTiltAccumulator {
+ public:
+  // One segment span (analysis/segment_spans.h) of b.
+  void add(const v1::SampleBlock& b, int first, int last);
+  std::optional<TipTiltEstimate> estimate() const;
+
+ private:
+  TipTiltEstimate e_;
+  double lateral_ = 0, normal_ = 0;
+  bool slid_under_load_ = false;  // since the tip was last unloaded
+};
+
 // The friction of a sliding segment without the tilt's share:
 // mean_friction_n (lateral force x sgn(v)) + sgn(v) N tan(theta).
 double tilt_corrected_friction_n(double mean_friction_n, double velocity_m_per_s, double normal_force_n,

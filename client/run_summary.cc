@@ -8,8 +8,10 @@
 #include <google/protobuf/util/json_util.h>
 
 #include "analysis/run_metrics.h"
+#include "analysis/segment_spans.h"
 #include "analysis/scratch_metrics.h"
 #include "analysis/tip_tilt.h"
+#include "client/segment_reader.h"
 #include "proto/sample_record.h"
 
 namespace tribo::client {
@@ -26,7 +28,7 @@ std::string segment_label(std::uint32_t segment, std::uint32_t total, const std:
                    : fmt::format("segment {} \"{}\"", segment + 1, name);
 }
 
-std::string segment_name(const RunResult& run, std::uint32_t segment) {
+std::string segment_name(const RunDocuments& run, std::uint32_t segment) {
   // segment_index counts the unrolled segments (RunStart.segments: repeat
   // blocks expanded); older daemons sent only the protocol.
   const auto& unrolled = run.start.segments();
@@ -36,72 +38,137 @@ std::string segment_name(const RunResult& run, std::uint32_t segment) {
   return i < segments.size() ? segments[i].name() : "";
 }
 
-}  // namespace
-
-v1::RunSummary summarize_run(const RunResult& run) {
+v1::RunSummary summary_header(const RunDocuments& run, std::uint64_t sample_count) {
   v1::RunSummary s;
   s.set_run_id(run.start.run_id());
   s.set_protocol(run.start.protocol().name());
   s.set_exit_status(v1::ExitStatus_Name(run.stop.exit_status()));
   s.set_reason(run.stop.reason());
-  s.set_sample_count(static_cast<std::uint32_t>(sample_count(run.samples)));
+  s.set_sample_count(static_cast<std::uint32_t>(sample_count));
   s.set_duration_s(static_cast<double>(run.stop.cycle_count()) / run.start.loop_rate_hz());
   s.set_seed(run.start.seed());
   s.set_segment_count(static_cast<std::uint32_t>(
       run.start.segments_size() > 0 ? run.start.segments_size() : run.descriptor.segment_names_size()));
-  const auto tilt = analysis::estimate_tip_tilt(run.samples);
+  return s;
+}
+
+void set_tilt(v1::RunSummary& s, const std::optional<analysis::TipTiltEstimate>& tilt) {
+  if (!tilt) return;
+  s.set_tilt_tan(tilt->tan_tilt);
+  s.set_tilt_segment(tilt->first_segment);
+}
+
+void add_scratch(v1::RunSummary& s, const RunDocuments& run, const analysis::SlidingSegmentMetrics& m,
+                 const analysis::SlidingCheck& check, const std::optional<analysis::TipTiltEstimate>& tilt,
+                 std::uint32_t stride) {
+  v1::SlidingSummary* out = s.add_scratches();
+  out->set_segment(m.segment);
+  out->set_segment_name(segment_name(run, m.segment));
+  out->set_measured_velocity_um_s(check.measured_velocity_m_per_s * kMicro);
+  out->set_commanded_travel_um(check.commanded_travel_m * kMicro);
+  out->set_measured_travel_um(check.measured_travel_m * kMicro);
+  out->set_steady_state(check.steady);
+  out->set_not_steady_reason(check.why_not);
+  out->set_stiction_peak_found(check.stiction_peak_found);
+  out->set_velocity_um_s(m.velocity_m_per_s * kMicro);
+  out->set_normal_force_un(m.normal_force_n * kMicro);
+  out->set_mean_friction_un(m.mean_friction_n * kMicro);
+  out->set_friction_sd_un(m.friction_sd_n * kMicro);
+  out->set_mu(m.mu);
+  out->set_stiction_peak_un(m.stiction_peak_n * kMicro);
+  out->set_stiction_time_s(m.stiction_time_s);
+  out->set_steady_lag_um(m.steady_lag_m * kMicro);
+  out->set_steady_window_begin_s(m.steady_begin_s);
+  out->set_steady_window_end_s(m.end_s);
+  out->set_steady_samples(static_cast<std::uint32_t>(m.steady_samples));
   if (tilt) {
-    s.set_tilt_tan(tilt->tan_tilt);
-    s.set_tilt_segment(tilt->first_segment);
+    const double corrected_n =
+        analysis::tilt_corrected_friction_n(m.mean_friction_n, m.velocity_m_per_s, m.normal_force_n, tilt->tan_tilt);
+    out->set_mean_friction_tilt_corrected_un(corrected_n * kMicro);
+    out->set_mu_tilt_corrected(m.normal_force_n > 0 ? corrected_n / m.normal_force_n : 0.0);
   }
+  if (stride > 1) out->set_sample_stride(stride);
+}
+
+v1::OscillationSummary oscillation_summary(const RunDocuments& run, const analysis::OscillationMetrics& o,
+                                           std::uint32_t stride) {
+  v1::OscillationSummary out;
+  out.set_segment(o.segment);
+  out.set_segment_name(segment_name(run, o.segment));
+  out.set_frequency_hz(o.frequency_hz);
+  out.set_cycles(o.cycles);
+  out.set_samples(static_cast<std::uint32_t>(o.samples));
+  out.set_normal_force_un(o.normal_force_n * kMicro);
+  out.set_setpoint_amplitude_um(o.setpoint_amplitude_m * kMicro);
+  out.set_position_amplitude_um(o.position_amplitude_m * kMicro);
+  out.set_position_phase_deg(o.position_phase_deg);
+  out.set_force_amplitude_un(o.force_amplitude_n * kMicro);
+  out.set_force_phase_deg(o.force_phase_deg);
+  out.set_begin_s(o.begin_s);
+  out.set_end_s(o.end_s);
+  if (stride > 1) out.set_sample_stride(stride);
+  return out;
+}
+
+std::string thinned_note(std::uint32_t stride) {
+  return fmt::format("    (from every {}th sample: the segment has more than the {} samples the summary holds)\n",
+                     stride, kSegmentCapSamples);
+}
+
+}  // namespace
+
+v1::RunSummary summarize_run(const RunResult& run) {
+  v1::RunSummary s = summary_header(run, static_cast<std::uint64_t>(sample_count(run.samples)));
+  const auto tilt = analysis::estimate_tip_tilt(run.samples);
+  set_tilt(s, tilt);
   for (const auto& m : analysis::sliding_segment_metrics(run.samples)) {
     // An oscillation is not a scratch: its mean velocity is ~0.
     if (analysis::is_oscillation_segment(run.samples, m.segment)) continue;
-    v1::SlidingSummary* out = s.add_scratches();
-    out->set_segment(m.segment);
-    out->set_segment_name(segment_name(run, m.segment));
-    const analysis::SlidingCheck check = analysis::check_sliding(run.samples, m);
-    out->set_measured_velocity_um_s(check.measured_velocity_m_per_s * kMicro);
-    out->set_commanded_travel_um(check.commanded_travel_m * kMicro);
-    out->set_measured_travel_um(check.measured_travel_m * kMicro);
-    out->set_steady_state(check.steady);
-    out->set_not_steady_reason(check.why_not);
-    out->set_stiction_peak_found(check.stiction_peak_found);
-    out->set_velocity_um_s(m.velocity_m_per_s * kMicro);
-    out->set_normal_force_un(m.normal_force_n * kMicro);
-    out->set_mean_friction_un(m.mean_friction_n * kMicro);
-    out->set_friction_sd_un(m.friction_sd_n * kMicro);
-    out->set_mu(m.mu);
-    out->set_stiction_peak_un(m.stiction_peak_n * kMicro);
-    out->set_stiction_time_s(m.stiction_time_s);
-    out->set_steady_lag_um(m.steady_lag_m * kMicro);
-    out->set_steady_window_begin_s(m.steady_begin_s);
-    out->set_steady_window_end_s(m.end_s);
-    out->set_steady_samples(static_cast<std::uint32_t>(m.steady_samples));
-    if (tilt) {
-      const double corrected_n =
-          analysis::tilt_corrected_friction_n(m.mean_friction_n, m.velocity_m_per_s, m.normal_force_n, tilt->tan_tilt);
-      out->set_mean_friction_tilt_corrected_un(corrected_n * kMicro);
-      out->set_mu_tilt_corrected(m.normal_force_n > 0 ? corrected_n / m.normal_force_n : 0.0);
-    }
+    add_scratch(s, run, m, analysis::check_sliding(run.samples, m), tilt, 1);
   }
   for (const auto& o : analysis::oscillation_metrics(run.samples)) {
-    v1::OscillationSummary* out = s.add_oscillations();
-    out->set_segment(o.segment);
-    out->set_segment_name(segment_name(run, o.segment));
-    out->set_frequency_hz(o.frequency_hz);
-    out->set_cycles(o.cycles);
-    out->set_samples(static_cast<std::uint32_t>(o.samples));
-    out->set_normal_force_un(o.normal_force_n * kMicro);
-    out->set_setpoint_amplitude_um(o.setpoint_amplitude_m * kMicro);
-    out->set_position_amplitude_um(o.position_amplitude_m * kMicro);
-    out->set_position_phase_deg(o.position_phase_deg);
-    out->set_force_amplitude_un(o.force_amplitude_n * kMicro);
-    out->set_force_phase_deg(o.force_phase_deg);
-    out->set_begin_s(o.begin_s);
-    out->set_end_s(o.end_s);
+    *s.add_oscillations() = oscillation_summary(run, o, 1);
   }
   return s;
+}
+
+// The same analysis, a segment at a time: every analysis function called
+// here works span by span, so a segment's samples alone give the values the
+// whole run gives. Only the tilt correction needs the whole run's estimate:
+// the scratches wait for it.
+RunSummarizer::RunSummarizer(const RunDocuments& run) : run_(run) {}
+
+void RunSummarizer::add_segment(const v1::SampleBlock& samples, std::uint32_t stride) {
+  for (const auto& span : analysis::segment_spans(samples)) {
+    tilt_.add(samples, span.first, span.last);
+  }
+  for (const auto& m : analysis::sliding_segment_metrics(samples)) {
+    if (analysis::is_oscillation_segment(samples, m.segment)) continue;
+    scratches_.push_back({m, analysis::check_sliding(samples, m), stride});
+  }
+  for (const auto& o : analysis::oscillation_metrics(samples)) oscillations_.push_back(oscillation_summary(run_, o, stride));
+}
+
+v1::RunSummary RunSummarizer::finish(std::uint64_t sample_count) const {
+  v1::RunSummary s = summary_header(run_, sample_count);
+  const auto tilt = tilt_.estimate();
+  set_tilt(s, tilt);
+  for (const auto& c : scratches_) add_scratch(s, run_, c.metrics, c.check, tilt, c.stride);
+  for (const auto& o : oscillations_) *s.add_oscillations() = o;
+  return s;
+}
+
+std::optional<v1::RunSummary> summarize_recording(const RunDocuments& run, const std::filesystem::path& run_dir,
+                                                  std::uint64_t cap_samples, std::string& error,
+                                                  std::uint64_t* peak_samples_held) {
+  RunSummarizer summarizer(run);
+  SegmentReadResult read;
+  const bool ok = for_each_segment(run_dir, cap_samples, [&](const SegmentSamples& segment) {
+    summarizer.add_segment(segment.samples, segment.stride);
+  }, read, error);
+  if (peak_samples_held) *peak_samples_held = read.peak_samples_held;
+  if (!ok) return std::nullopt;
+  return summarizer.finish(read.rows);
 }
 
 std::string summary_text(const v1::RunSummary& s) {
@@ -141,6 +208,7 @@ std::string summary_text(const v1::RunSummary& s) {
                               c.stiction_time_s())
                 : "    stiction peak  none (the friction never rose above its steady mean)\n";
     text += fmt::format("    steady lag     {:9.4f} µm  (commanded minus measured position)\n", c.steady_lag_um());
+    if (c.has_sample_stride()) text += thinned_note(c.sample_stride());
   }
   for (const auto& o : s.oscillations()) {
     text += fmt::format("  {}: oscillation {:.3g} Hz x {:.0f} cycles at {:.1f} µN normal force\n",
@@ -150,6 +218,7 @@ std::string summary_text(const v1::RunSummary& s) {
                         o.position_amplitude_um(), o.setpoint_amplitude_um(), o.position_phase_deg());
     text += fmt::format("    lateral force  {:9.2f} µN amplitude, phase {:+.1f}° to the position\n",
                         o.force_amplitude_un(), o.force_phase_deg());
+    if (o.has_sample_stride()) text += thinned_note(o.sample_stride());
   }
   if (!s.saved_to().empty()) text += "  saved to   " + s.saved_to() + "\n";
   return text;

@@ -7,9 +7,11 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cerrno>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -28,6 +30,8 @@
 #include "client/hdf5_export.h"
 #include "client/protocol_check.h"
 #include "client/run_progress.h"
+#include "client/run_stream_writer.h"
+#include "client/segment_reader.h"
 #include "client/run_summary.h"
 #include "client/tribo_client.h"
 #include "client/user_messages.h"
@@ -192,6 +196,49 @@ extern "C" void on_interrupt(int) {
   }
 }
 
+// Where `tribo run` writes the run as it streams: --out, or a scratch
+// directory under $TMPDIR that goes once the summary is printed (the summary
+// is read back from it a segment at a time: client/segment_reader.h).
+class RunDirectory {
+ public:
+  bool create(const std::optional<std::string>& out, std::string& error) {
+    if (out) {
+      path_ = *out;
+      std::error_code ec;
+      created_ = !std::filesystem::exists(path_, ec);
+      return true;
+    }
+    const char* tmp = std::getenv("TMPDIR");
+    std::string pattern = std::string(tmp && *tmp ? tmp : "/tmp") + "/tribo-run.XXXXXX";
+    if (!mkdtemp(pattern.data())) {
+      error = "cannot create a scratch directory " + pattern + " for the run's samples: " + std::strerror(errno) +
+              " (set TMPDIR, or give --out)";
+      return false;
+    }
+    path_ = pattern;
+    scratch_ = true;
+    return true;
+  }
+  // A run that failed before its files were whole leaves no --out directory
+  // it made (the daemon's recording has the run).
+  ~RunDirectory() {
+    std::error_code ec;
+    if (scratch_ || (created_ && !keep_)) std::filesystem::remove_all(path_, ec);
+  }
+  void keep() { keep_ = true; }
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+  bool scratch_ = false, created_ = false, keep_ = false;
+};
+
+// TRIBO_TEST_SAMPLES_HELD set: `tribo run` says on stderr the most samples
+// it held in memory at once (tests of its bounded memory).
+void report_samples_held(std::uint64_t held) {
+  if (std::getenv("TRIBO_TEST_SAMPLES_HELD")) std::cerr << "tribo: test: samples held at most " << held << "\n";
+}
+
 int run_command(const Options& o) {
   std::optional<std::uint64_t> seed;
   if (const auto text = o.value("seed")) {
@@ -216,18 +263,25 @@ int run_command(const Options& o) {
     if (auto error = tribo::client::add_annotation(notes, kv); !error.empty()) return fail(o, error, kUsage);
   }
 
+  RunDirectory directory;
+  tribo::client::RunStreamWriter writer;
+  std::string error;
+  if (!directory.create(out, error) || !writer.open(directory.path(), error)) return fail(o, error, kFailed);
+
   const bool progress = o.progress.value_or(isatty(STDERR_FILENO) == 1);
   tribo::client::RunProgress line(stderr);
-  tribo::client::RunResult run;
+  tribo::client::RunDocuments run;
   std::string interrupt_note;
   struct sigaction action {}, previous {};
   action.sa_handler = on_interrupt;
   action.sa_flags = SA_RESTART;  // a blocking read goes on; the next document sends the abort
   sigaction(SIGINT, &action, &previous);
+  bool written = false;
   {
     tribo::client::TriboClient client(o.address, session(o, tribo::v1::CONTROLLER));
     bool abort_sent = false;
-    run = tribo::client::run_protocol(client, protocol, start, [&](const tribo::v1::ServerMessage& d) {
+    const auto on_samples = [&](const tribo::v1::SampleBlock& block) { writer.append(block); };
+    run = tribo::client::stream_run(client, protocol, start, on_samples, [&](const tribo::v1::ServerMessage& d) {
       if (progress) line.on_document(d);
       if (g_interrupts.load() == 0 || abort_sent || d.has_run_stop()) return;
       abort_sent = true;
@@ -242,30 +296,32 @@ int run_command(const Options& o) {
       if (progress) line.finish();
       std::cerr << "tribo: " << interrupt_note << "; waiting for the run to stop (Ctrl-C again to leave)\n";
     });
+    // What the stream missed is in the daemon's recording.
+    const auto fetch = [&](std::uint64_t from, std::uint64_t end,
+                           const std::function<void(const tribo::v1::SampleBlock&)>& page) {
+      tribo::client::fetch_sample_pages(client, run.run_id, from, end, page);
+    };
+    written = writer.finish(run.stop.sample_count(), fetch, run.metadata(), error);
   }
   sigaction(SIGINT, &previous, nullptr);
   line.finish();
   for (const auto& warning : run.loaded.warnings()) std::cerr << "tribo: warning: " << warning << "\n";
-  if (run.fetched_samples > 0) {
-    std::cerr << "tribo: " << run.fetched_samples
+  if (writer.fetched_samples() > 0) {
+    std::cerr << "tribo: " << writer.fetched_samples()
               << " samples missed while streaming were fetched from the daemon's recording\n";
   }
-  if (run.missing_samples > 0) {
-    std::cerr << "tribo: " << run.missing_samples << " samples are missing from the recording\n";
+  if (writer.missing_samples() > 0) {
+    std::cerr << "tribo: " << writer.missing_samples() << " samples are missing from the recording\n";
   }
-  tribo::v1::RunSummary summary = tribo::client::summarize_run(run);
-  if (out) {
-    tribo::v1::RunMetadata metadata;
-    *metadata.mutable_start() = run.start;
-    *metadata.mutable_stop() = run.stop;
-    *metadata.mutable_run_descriptor() = run.descriptor;
-    for (const auto& e : run.segment_events) *metadata.add_segment_events() = e;
-    for (const auto& f : run.faults) *metadata.add_faults() = f;
-    std::string error;
-    if (!tribo::wire::write_run_directory(*out, metadata, run.samples, error)) return fail(o, error, kFailed);
-    summary.set_saved_to(*out);
-  }
-  std::cout << (o.json ? tribo::client::summary_json(summary) + "\n" : tribo::client::summary_text(summary));
+  if (!written) return fail(o, error, kFailed);
+  directory.keep();
+  std::uint64_t summary_held = 0;
+  auto summary = tribo::client::summarize_recording(run, directory.path(), tribo::client::kSegmentCapSamples, error,
+                                                    &summary_held);
+  if (!summary) return fail(o, error, kFailed);
+  report_samples_held(std::max(writer.peak_samples_held(), summary_held));
+  if (out) summary->set_saved_to(*out);
+  std::cout << (o.json ? tribo::client::summary_json(*summary) + "\n" : tribo::client::summary_text(*summary));
   if (g_interrupts.load() > 0) {
     std::cerr << "tribo: " << (interrupt_note.empty() ? "interrupted (Ctrl-C)" : interrupt_note) << "\n";
     return kInterrupted;

@@ -203,9 +203,20 @@ RunResult run_protocol(TriboClient& client, const v1::Protocol& protocol,
   return run_protocol(client, protocol, start, on_document);
 }
 
-RunResult run_protocol(TriboClient& client, const v1::Protocol& protocol, const v1::StartRun& start_run,
-                       const std::function<void(const v1::ServerMessage&)>& on_document) {
-  RunResult result;
+v1::RunMetadata RunDocuments::metadata() const {
+  v1::RunMetadata m;
+  *m.mutable_start() = start;
+  *m.mutable_stop() = stop;
+  *m.mutable_run_descriptor() = descriptor;
+  for (const auto& e : segment_events) *m.add_segment_events() = e;
+  for (const auto& f : faults) *m.add_faults() = f;
+  return m;
+}
+
+RunDocuments stream_run(TriboClient& client, const v1::Protocol& protocol, const v1::StartRun& start_run,
+                        const std::function<void(const v1::SampleBlock&)>& on_samples,
+                        const std::function<void(const v1::ServerMessage&)>& on_document) {
+  RunDocuments result;
   v1::ClientMessage load;
   *load.mutable_load_protocol()->mutable_protocol() = protocol;
   result.loaded = client.request(load).load_protocol();
@@ -216,13 +227,13 @@ RunResult run_protocol(TriboClient& client, const v1::Protocol& protocol, const 
 
   v1::ClientMessage start;
   *start.mutable_start_run() = start_run;
-  const std::string run_id = client.request(start).start_run().run_id();
+  result.run_id = client.request(start).start_run().run_id();
+  const std::string& run_id = result.run_id;
 
   // A lease (server.control_lease_s) needs a request now and then: the
   // stream brings a document at least every 50 ms while the run goes.
   const auto lease = std::chrono::duration<double>(client.control_lease_s() / 3);
   auto next_heartbeat = std::chrono::steady_clock::now() + lease;
-  std::vector<v1::SampleBlock> blocks;
   for (;;) {
     if (client.control_lease_s() > 0 && std::chrono::steady_clock::now() >= next_heartbeat) {
       v1::ClientMessage heartbeat;
@@ -237,7 +248,7 @@ RunResult run_protocol(TriboClient& client, const v1::Protocol& protocol, const 
     } else if (event.has_run_descriptor() && event.run_descriptor().run_id() == run_id) {
       result.descriptor = event.run_descriptor();
     } else if (event.has_samples() && event.samples().run_id() == run_id) {
-      blocks.push_back(std::move(*event.mutable_samples()));
+      on_samples(event.samples());
     } else if (event.has_segment_event() && event.segment_event().run_id() == run_id) {
       result.segment_events.push_back(event.segment_event());
     } else if (event.has_fault() && event.fault().run_id() == run_id) {
@@ -249,6 +260,16 @@ RunResult run_protocol(TriboClient& client, const v1::Protocol& protocol, const 
       break;
     }
   }
+  return result;
+}
+
+RunResult run_protocol(TriboClient& client, const v1::Protocol& protocol, const v1::StartRun& start_run,
+                       const std::function<void(const v1::ServerMessage&)>& on_document) {
+  std::vector<v1::SampleBlock> blocks;
+  RunResult result;
+  static_cast<RunDocuments&>(result) = stream_run(
+      client, protocol, start_run, [&](const v1::SampleBlock& b) { blocks.push_back(b); }, on_document);
+  const std::string& run_id = result.run_id;
   // Resume: what the stream missed is in the recording.
   for (const auto& gap : result.gaps) {
     blocks.push_back(fetch_samples(client, run_id, gap.first_sequence(), gap.end_sequence()));
@@ -262,11 +283,8 @@ RunResult run_protocol(TriboClient& client, const v1::Protocol& protocol, const 
   return result;
 }
 
-v1::SampleBlock fetch_samples(TriboClient& client, const std::string& run_id, std::uint64_t from,
-                              std::uint64_t end) {
-  v1::SampleBlock out;
-  out.set_run_id(run_id);
-  out.set_first_sequence(from);
+void fetch_sample_pages(TriboClient& client, const std::string& run_id, std::uint64_t from, std::uint64_t end,
+                        const std::function<void(const v1::SampleBlock&)>& on_page) {
   while (from < end) {
     v1::ClientMessage request;
     v1::FetchSamples* fetch = request.mutable_fetch_samples();
@@ -275,11 +293,19 @@ v1::SampleBlock fetch_samples(TriboClient& client, const std::string& run_id, st
     if (end != ~std::uint64_t{0}) fetch->set_max_samples(end - from);
     const v1::ServerMessage reply = client.request(request);
     const v1::FetchSamplesReply& page = reply.fetch_samples();
-    append_block(page.samples(), out);
+    on_page(page.samples());
     if (page.next_sequence() == from) break;  // nothing more recorded
     from = page.next_sequence();
     if (page.end_of_recording()) break;
   }
+}
+
+v1::SampleBlock fetch_samples(TriboClient& client, const std::string& run_id, std::uint64_t from,
+                              std::uint64_t end) {
+  v1::SampleBlock out;
+  out.set_run_id(run_id);
+  out.set_first_sequence(from);
+  fetch_sample_pages(client, run_id, from, end, [&](const v1::SampleBlock& page) { append_block(page, out); });
   return out;
 }
 

@@ -93,21 +93,39 @@ class TriboClient {
   int event_timeout_ms_ = 0;
 };
 
-struct RunResult {
+// A run's documents as the client saw them, without its samples.
+struct RunDocuments {
+  std::string run_id;  // from the StartRun reply
   v1::LoadProtocolReply loaded;
   v1::RunStart start;
   v1::RunDescriptor descriptor;
-  v1::SampleBlock samples;  // every sample, in sequence order (gaps filled from the recording)
   std::vector<v1::SegmentEvent> segment_events;
   std::vector<v1::Fault> faults;
   std::vector<v1::GapNotice> gaps;  // what the stream missed
   v1::RunStop stop;
   std::uint64_t fetched_samples = 0;  // fetched back from the recording after gaps
   std::uint64_t missing_samples = 0;  // still missing (0 unless the recording lacks them)
+
+  // The documents as metadata.json holds them.
+  v1::RunMetadata metadata() const;
 };
 
-// Loads the protocol, subscribes, starts, and collects the run until it
-// stops; fetches whatever the stream missed from the recording. The client
+struct RunResult : RunDocuments {
+  v1::SampleBlock samples;  // every sample, in sequence order (gaps filled from the recording)
+};
+
+// Loads the protocol, subscribes, starts, and passes each streamed sample
+// block to on_samples as it arrives (in sequence order, with the holes the
+// gap notices announce) until the run stops. Holds no samples itself: the
+// caller fills the gaps from the recording (fetch_sample_pages). The client
+// must hold control; on_document sees every run document first.
+RunDocuments stream_run(TriboClient& client, const v1::Protocol& protocol, const v1::StartRun& start,
+                        const std::function<void(const v1::SampleBlock&)>& on_samples,
+                        const std::function<void(const v1::ServerMessage&)>& on_document = {});
+
+// stream_run keeping every sample in memory (tests, tools, short runs;
+// `tribo run` writes them to disk as they arrive instead): collects the run
+// until it stops; fetches whatever the stream missed from the recording. The client
 // must hold control. on_document (optional) sees every run document as it
 // arrives.
 // `start` carries the seed and the user's annotations; on_document runs on
@@ -118,8 +136,11 @@ RunResult run_protocol(TriboClient& client, const v1::Protocol& protocol,
                        std::optional<std::uint64_t> seed,
                        const std::function<void(const v1::ServerMessage&)>& on_document = {});
 
-// Samples [from, end) of a recorded run, paged (end = UINT64_MAX: to the
-// end of what is recorded now).
+// Samples [from, end) of a recorded run, page by page as the daemon sends
+// them (end = UINT64_MAX: to the end of what is recorded now).
+void fetch_sample_pages(TriboClient& client, const std::string& run_id, std::uint64_t from, std::uint64_t end,
+                        const std::function<void(const v1::SampleBlock&)>& on_page);
+// The same, gathered into one block.
 v1::SampleBlock fetch_samples(TriboClient& client, const std::string& run_id, std::uint64_t from,
                               std::uint64_t end);
 

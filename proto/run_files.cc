@@ -14,6 +14,7 @@
 
 #include <google/protobuf/util/json_util.h>
 
+#include "proto/atomic_file.h"
 #include "proto/sample_record.h"
 #include "proto/text_format_file.h"
 
@@ -31,27 +32,9 @@ std::string run_metadata_to_json(const v1::RunMetadata& metadata) {
 }
 
 bool write_file_atomically(const fs::path& path, const std::string& content) {
-  const fs::path tmp = path.string() + ".tmp";
-  // A stale or planted temporary (a symlink to a file elsewhere, say) is
-  // removed, not followed: unlink drops the link itself, and O_EXCL with
-  // O_NOFOLLOW creates a fresh file or fails.
-  ::unlink(tmp.c_str());
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
-  if (fd < 0) return false;
-  std::size_t written = 0;
-  while (written < content.size()) {
-    const ssize_t n = ::write(fd, content.data() + written, content.size() - written);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) break;
-    written += static_cast<std::size_t>(n);
-  }
-  // On disk before the rename makes it the file: a crash leaves the old or the new, whole.
-  const bool ok = written == content.size() && ::fsync(fd) == 0;
-  ::close(fd);
-  std::error_code ec;
-  if (ok) fs::rename(tmp, path, ec);
-  if (!ok || ec) ::unlink(tmp.c_str());
-  return ok && !ec;
+  AtomicFile file;
+  std::string error;
+  return file.open(path, error) && file.write(content) && file.commit();
 }
 
 bool write_run_directory(const fs::path& dir, const v1::RunMetadata& metadata,

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <csignal>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <thread>
@@ -13,6 +14,7 @@
 #include <google/protobuf/util/json_util.h>
 
 #include "proto/run_files.h"
+#include "proto/text_format_file.h"
 #include "tests/e2e/e2e_support.h"
 #include "tribo/v1/summary.pb.h"
 
@@ -370,6 +372,38 @@ TEST(TriboCli, OutAndFetchRefuseToOverwriteWithoutForce) {
   EXPECT_EQ(tribo({"fetch", run_id, "--out", first.string(), "--force"}).exit_code, 0);
   EXPECT_EQ(tribo({"run", protocol_file.string(), "--out", first.string(), "--force"}).exit_code, 0);
   EXPECT_FALSE(slurp(first / wire::kMetadataFile) == kept);
+}
+
+// Issue 13: `tribo run` kept every sample in memory (489 MB an hour at
+// 1 kHz). It writes them to --out as they arrive and reads the summary back a
+// segment at a time: a 4-minute run of 1-4 s segments (242 000 samples) is
+// held at most one fetched page (32 768) or one segment and one read page at
+// a time, and its samples.csv is the daemon's recording, byte for byte.
+TEST(TriboCli, RunStreamsToDiskHoldingOnlyAPageOfSamples) {
+  TempDir data, out;
+  DaemonProcess daemon(data.path());
+  const Cli tribo{"127.0.0.1:" + std::to_string(daemon.port())};
+  v1::Protocol protocol;
+  ASSERT_FALSE(wire::load_text_proto_file(std::string(TRIBO_SOURCE_DIR) + "/config/protocols/repeated_scratch.textproto",
+                                          protocol));
+  protocol.mutable_segments(1)->mutable_repeat()->set_count(30);
+  const auto protocol_file = out.path() / "long.textproto";
+  std::ofstream(protocol_file) << wire::to_text_proto(protocol);
+  ::setenv("TRIBO_TEST_SAMPLES_HELD", "1", 1);
+  const auto ran = tribo({"run", protocol_file.string(), "--out", (out.path() / "run").string(), "--json"});
+  ::unsetenv("TRIBO_TEST_SAMPLES_HELD");
+  ASSERT_EQ(ran.exit_code, 0) << ran.err;
+  const auto summary = parse_json<v1::RunSummary>(ran.out);
+  EXPECT_GE(summary.sample_count(), 242000u);
+  EXPECT_EQ(summary.scratches_size(), 30);
+  const std::string marker = "samples held at most ";
+  const auto at = ran.err.find(marker);
+  ASSERT_NE(at, std::string::npos) << "no report of the samples held: " << ran.err;
+  const std::uint64_t held = std::stoull(ran.err.substr(at + marker.size()));
+  EXPECT_LE(held, 32768u) << ran.err;
+  EXPECT_LT(held * 4, summary.sample_count()) << ran.err;
+  EXPECT_TRUE(slurp(out.path() / "run" / wire::kSamplesFile) == slurp(data.path() / summary.run_id() / wire::kSamplesFile));
+  EXPECT_FALSE(std::filesystem::exists(out.path() / "run" / "samples.csv.tmp"));
 }
 
 TEST(TriboCli, RunAnnotationsAreRecordedAndListed) {

@@ -108,6 +108,19 @@ def main():
         ctl, msg(2, emergency_stop=api_pb2.EmergencyStop()), msg(3, rearm=api_pb2.Rearm()),
         msg(4, get_run=api_pb2.GetRun(run_id="../../etc")), fetch))
     write("client_session", "no_hello", frames(status, short_load) + b"\x80\x80\x40")
+    # The harness's data directory holds a finished run under this id: the
+    # read paths read a real recording; a run started and left going is
+    # aborted by the harness; autotune runs as an activity.
+    seed_run = "20260101-000000-000"
+    write("client_session", "read_recording", frames(
+        obs, msg(2, get_run=api_pb2.GetRun(run_id=seed_run)),
+        msg(3, fetch_samples=api_pb2.FetchSamples(run_id=seed_run, from_sequence=2990, max_samples=50)),
+        msg(4, export_csv=api_pb2.ExportCsv(run_id=seed_run, from_sequence=0, max_samples=20)),
+        msg(5, list_runs=api_pb2.ListRuns(max_runs=2))))
+    write("client_session", "run_left_going", frames(
+        ctl, short_load, msg(3, start_run=api_pb2.StartRun(seed=9)), status,
+        msg(4, emergency_stop=api_pb2.EmergencyStop(reason="seed"))))
+    write("client_session", "autotune", frames(ctl, msg(2, autotune=api_pb2.Autotune(apply=True)), status))
 
 
 if __name__ == "__main__":
