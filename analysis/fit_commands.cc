@@ -63,7 +63,10 @@ DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r)
   options.base.fit_mass = r.fit_mass;
   options.base.load_scaled = series.has_normal() && r.load_scaling;
   options.base.stribeck_exponent = r.stribeck_exponent;
-  options.segmentation.segment_by_reference = r.tribo_run;
+  // Holds are where the command stands still whenever it is known (a tribo
+  // run, or a CSV with --reference): a velocity estimated from a noisy
+  // position starts passes early and finds passes inside long holds.
+  options.segmentation.segment_by_reference = r.tribo_run || !series.reference_m.empty();
   options.base.state_from_rest = r.tribo_run;
   options.choose_state_from_rest = !r.tribo_run;
   options.candidates = r.candidates;

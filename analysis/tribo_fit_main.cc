@@ -262,7 +262,8 @@ int main(int argc, char** argv) {
   diag->add_option("--normal", d.normal, "normal load (N); friction levels then scale with it unless --no-load-scaling");
   diag->add_option("--velocity", d.velocity, "velocity (m/s); else estimated from the position");
   diag->add_option("--acceleration", d.acceleration, "acceleration (m/s^2); else estimated");
-  diag->add_option("--reference", d.reference, "commanded position (m), kept for the plots");
+  diag->add_option("--reference", d.reference,
+                   "commanded position (m): the motion estimate follows it through the fitted loop, and holds are where it stands still");
   diag->add_option("--force-sign", d.force_sign, "multiply the force column by S (1 or -1)")->check(CLI::IsMember({1.0, -1.0}));
   diag->add_option("--force-unit", d.force_unit, "unit of the force column in the report")->capture_default_str();
   diag->add_flag("--no-load-scaling", d.no_load_scaling, "constant friction levels even with a normal channel");

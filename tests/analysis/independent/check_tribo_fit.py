@@ -10,7 +10,8 @@ the base LuGre fit's held-out NRMSE is below 0.1 and no effect is accepted.
 On the wear_in seed-3 file (friction growing with the total slip, outside
 the vocabulary): nothing is accepted and the residual is reported as
 unexplained. Measured before the pass-start choice (main e78e226): held-out
-NRMSE 0.22 and presliding_hysteresis accepted on both files.
+NRMSE 0.22 and presliding_hysteresis accepted on both files; with the
+choice but holds from the estimated speed: 0.070.
 
 usage: check_tribo_fit.py TRIBO_FIT WORK_DIR
 """
@@ -49,8 +50,8 @@ def main():
     if start != "from the force at rest":
         failures.append(f"pass start state {start!r}, expected 'from the force at rest'")
     nrmse = report["error_before"]["heldout"]["nrmse"]
-    if not nrmse < 0.1:
-        failures.append(f"base held-out NRMSE {nrmse:.3f}, expected below 0.1")
+    if not nrmse < 0.03:
+        failures.append(f"base held-out NRMSE {nrmse:.3f}, expected below 0.03")
     accepted = [a["name"] for a in report["accepted_effects"]]
     if accepted:
         failures.append(f"the clean file accepted {accepted}")
