@@ -22,6 +22,7 @@
 #include "analysis/scratch_metrics.h"
 #include "analysis/series_input.h"
 #include "proto/run_files.h"
+#include "analysis/steady_state_diagnosis.h"
 #include "analysis/stribeck_fit.h"
 
 namespace {
@@ -55,7 +56,13 @@ floor and motion-model intensity are estimated from the record (reported).)";
 constexpr const char* kStribeckFooter = R"(
 stribeck fits a steady-state curve to points (x, y[, weight]): the LuGre steady
 state F(v) = sgn(v)(Fc + (Fs - Fc) exp(-(|v|/vs)^D)) + Fv v [+ offset], or eq. 44
-mu(x) = p1 + p2 exp(-p3 x) + p4 x, globally (no initial guess), with robust weights.)";
+mu(x) = p1 + p2 exp(-p3 x) + p4 x, globally (no initial guess), with robust weights.
+With --diagnose, points are (signed velocity, friction force[, load]) on plateaus and
+the effect report decides on held-out points (leave-one-out up to 200 points, else
+10 folds): the base (Coulomb + viscous, or with the Stribeck term), then
+direction_asymmetry (levels and viscous friction per direction),
+velocity_strengthening (k ln(|v|/v_ref), k > 0) and, with --load, load_dependence
+(levels ~ load^p, p free instead of 1).)";
 
 constexpr const char* kMetricsFooter = R"(
 metrics: the scratch metrics of a recorded tribo run: per loaded sliding segment
@@ -80,9 +87,9 @@ struct DiagnoseArgs {
 };
 
 struct StribeckArgs {
-  std::string file, x, y, weight, model = "lugre";
+  std::string file, x, y, weight, load, model = "lugre";
   double stribeck_exponent = 1;
-  bool no_offset = false, json = false;
+  bool no_offset = false, json = false, diagnose = false;
 };
 
 struct MetricsArgs {
@@ -168,7 +175,35 @@ int diagnose_command(const DiagnoseArgs& a) {
   return 0;
 }
 
+// --diagnose: the effect report on steady-state points (issue 15).
+int steady_diagnosis_command(const StribeckArgs& a) {
+  std::string error;
+  const auto table = read_csv_columns(a.file, {a.x, a.y, a.weight, a.load}, error);
+  if (!table) {
+    std::cerr << "tribo-fit: " << error << "\n";
+    return 1;
+  }
+  std::vector<SteadyPoint> points;
+  for (std::size_t i = 0; i < (*table)[0].size(); ++i) {
+    points.push_back({(*table)[0][i], (*table)[1][i], (*table)[3].empty() ? 0.0 : (*table)[3][i],
+                      (*table)[2].empty() ? 1.0 : (*table)[2][i]});
+  }
+  SteadyOptions options;
+  options.stribeck_exponent = a.stribeck_exponent;
+  options.has_load = !a.load.empty();
+  try {
+    const SteadyDiagnosis d = diagnose_steady_state(points, options);
+    std::cout << (a.json ? steady_diagnosis_json(d) : steady_diagnosis_text(d));
+  } catch (const std::exception& e) {
+    std::cerr << "tribo-fit: " << a.file << ": " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
+
 int stribeck_command(const StribeckArgs& a) {
+  if (a.diagnose) return steady_diagnosis_command(a);
+  if (!a.load.empty()) return usage_error("--load needs --diagnose");
   std::string error;
   const auto table = read_csv_columns(a.file, {a.x, a.y, a.weight}, error);
   if (!table) {
@@ -291,6 +326,10 @@ int main(int argc, char** argv) {
   strib->add_option("--stribeck-exponent", s.stribeck_exponent, "Stribeck exponent D")->capture_default_str();
   strib->add_flag("--no-offset", s.no_offset, "no offset term");
   strib->add_flag("--json", s.json, "print one JSON object");
+  strib->add_flag("--diagnose", s.diagnose,
+                  "effect report: base model and candidate effects (direction_asymmetry, velocity_strengthening, "
+                  "load_dependence) decided on held-out points; --x is the signed velocity (m/s), --y the friction force (N)");
+  strib->add_option("--load", s.load, "column of the normal load (N), with --diagnose: levels scale with the load");
 
   MetricsArgs m;
   auto* metrics = app.add_subcommand("metrics", "scratch metrics of a recorded tribo run");
