@@ -77,5 +77,19 @@ TEST(TriboFitCli, DiagnoseJsonCarriesTheContractFields) {
   EXPECT_EQ(o.text.front(), '{');
 }
 
+TEST(TriboFitCli, StribeckDiagnoseJsonCarriesTheContractFields) {
+  const Output o = run("stribeck " + testing::measured_data("emps_plateaus.csv") + " --x v_m_s --y friction_n --diagnose --json");
+  ASSERT_EQ(o.exit_code, 0) << o.text;
+  for (const char* key : {"\"mode\": \"steady_state\"", "\"held_out\": \"leave-one-out\"", "\"base_evidence\"",
+                          "\"base_model\"", "\"rounds\"", "\"held_out_change\"", "\"final_model\"",
+                          "\"held_out_rms_n\"", "\"Fv_neg\"", "\"warnings\""}) {
+    EXPECT_NE(o.text.find(key), std::string::npos) << key;
+  }
+  EXPECT_NE(o.text.find("\"accepted\": [\n    \"direction_asymmetry\""), std::string::npos) << o.text;
+  EXPECT_EQ(run("stribeck " + testing::measured_data("emps_plateaus.csv") + " --x v_m_s --y friction_n --load v_m_s")
+                .exit_code, 2);
+  EXPECT_EQ(run("stribeck " + testing::measured_data("emps_plateaus.csv") + " --x v_m_s --y nope --diagnose").exit_code, 1);
+}
+
 }  // namespace
 }  // namespace tribo::analysis
