@@ -7,8 +7,10 @@
 //   Autotune       the relay experiment
 //   RearmCheck     the re-arm check reading the instrument
 //   Idle           nothing running: latched at once
-// Each is measured two ways: /0 calls the service directly, /1 sends
-// EmergencyStop through the daemon's socket API (in process, loopback).
+// Each is measured two ways: /0/* calls the service directly, /1/* sends
+// EmergencyStop through the daemon's socket API (in process, loopback); and
+// with the loop at normal priority (*/0) or SCHED_FIFO 20 (*/20,
+// controller.loop_realtime_priority; counter realtime = 1 when granted).
 // Counters:
 //   loop_us_mean, loop_us_max   the request's arrival in the service to the
 //                               loop having written the safe drive (run, stop
@@ -98,13 +100,16 @@ void measure(benchmark::State& state, Activity activity) {
   const bool socket = state.range(0) == 1;
   const auto dir = std::filesystem::temp_directory_path() / "tribo-estop-bench";
   std::filesystem::remove_all(dir);
-  const v1::DaemonConfig config = paced_config(dir);
+  v1::DaemonConfig config = paced_config(dir);
+  config.mutable_controller()->set_loop_realtime_priority(static_cast<int>(state.range(1)));
+  bool realtime = false;
   double loop_sum_us = 0, loop_max_us = 0, reply_sum_us = 0, reply_max_us = 0;
   std::int64_t n = 0;
   for (auto _ : state) {
     state.PauseTiming();
     auto d = std::make_unique<Daemon>(config, socket);
     daemon::InstrumentService& service = d->service;
+    realtime = service.status().loop_scheduling().rfind("SCHED_FIFO", 0) == 0;
     std::future<void> activity_done;
     if (activity == Activity::kRun || activity == Activity::kStopSequence) {
       v1::LoadProtocolReply loaded;
@@ -162,6 +167,7 @@ void measure(benchmark::State& state, Activity activity) {
     state.counters["reply_us_mean"] = reply_sum_us / count;
     state.counters["reply_us_max"] = reply_max_us;
   }
+  state.counters["realtime"] = realtime ? 1 : 0;
   state.counters["loop_period_us"] = 1e6 / config.controller().loop_rate_hz();
   double load[1] = {0};
   if (getloadavg(load, 1) == 1) state.counters["load_avg_1min"] = load[0];
@@ -174,11 +180,11 @@ void BM_EstopDuringAutotune(benchmark::State& s) { measure(s, Activity::kAutotun
 void BM_EstopDuringRearmCheck(benchmark::State& s) { measure(s, Activity::kRearmCheck); }
 void BM_EstopIdle(benchmark::State& s) { measure(s, Activity::kIdle); }
 
-BENCHMARK(BM_EstopDuringRun)->Arg(0)->Arg(1)->Iterations(10)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_EstopDuringStopSequence)->Arg(0)->Arg(1)->Iterations(10)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_EstopDuringAutotune)->Arg(0)->Arg(1)->Iterations(10)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_EstopDuringRearmCheck)->Arg(0)->Arg(1)->Iterations(20)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_EstopIdle)->Arg(0)->Arg(1)->Iterations(20)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_EstopDuringRun)->ArgsProduct({{0, 1}, {0, 20}})->Iterations(10)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_EstopDuringStopSequence)->ArgsProduct({{0, 1}, {0, 20}})->Iterations(10)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_EstopDuringAutotune)->ArgsProduct({{0, 1}, {0, 20}})->Iterations(10)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_EstopDuringRearmCheck)->ArgsProduct({{0, 1}, {0, 20}})->Iterations(20)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_EstopIdle)->ArgsProduct({{0, 1}, {0, 20}})->Iterations(20)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

@@ -344,6 +344,7 @@ std::string status_text(const tribo::v1::StatusReply& s) {
           (s.backend_health().healthy() ? "healthy" : "UNHEALTHY") + " (" + s.backend_health().detail() + ")\n";
   text += fmt::format("clients    {}, {} observer(s); {} gap notice(s) sent\n",
                       s.controller_connected() ? "a controller" : "no controller", s.observers(), s.gap_notices());
+  if (!s.loop_scheduling().empty()) text += "loop       " + s.loop_scheduling() + "\n";
   return text;
 }
 

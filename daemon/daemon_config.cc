@@ -113,6 +113,7 @@ std::optional<std::string> validate_daemon_config(const v1::DaemonConfig& c) {
   if (auto e = out_of_range("controller.loop_rate_hz", ctl.loop_rate_hz(), 1, 50000)) return e;
   if (auto e = out_of_range("controller.default_acquisition_rate_hz", ctl.default_acquisition_rate_hz(),
                             1e-3, ctl.loop_rate_hz())) return e;
+  if (auto e = out_of_range("controller.loop_realtime_priority", ctl.loop_realtime_priority(), 0, 99)) return e;
   if (auto e = validate_pid_gains("controller.lateral_displacement", ctl.lateral_displacement())) return e;
   if (auto e = validate_pid_gains("controller.lateral_force", ctl.lateral_force())) return e;
   if (auto e = validate_pid_gains("controller.normal_force", ctl.normal_force())) return e;

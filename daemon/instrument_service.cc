@@ -19,6 +19,7 @@
 #include "daemon/field_bounds.h"
 #include "daemon/idle_stop.h"
 #include "daemon/incomplete_run.h"
+#include "daemon/loop_scheduling.h"
 #include "daemon/run_documents.h"
 #include "proto/run_files.h"
 #include "daemon/run_recorder.h"
@@ -150,6 +151,9 @@ InstrumentService::InstrumentService(v1::DaemonConfig config, std::string softwa
   }
   latch_incomplete_previous_run();
   loop_thread_ = std::thread([this] { loop_main(); });
+  // Status reports the loop's scheduling from the first request on.
+  std::unique_lock lock(mutex_);
+  activity_cv_.wait(lock, [this] { return !loop_scheduling_.empty(); });
 }
 
 InstrumentService::~InstrumentService() {
@@ -178,7 +182,16 @@ void InstrumentService::loop_main() {
   // Linux lets an ordinary thread's absolute-deadline sleep end up to 50 µs
   // late (timer slack); the loop thread asks for 1 ns (bench: BM_PacedJitter).
   prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);
+  const bool paced = config_.backend_case() != v1::DaemonConfig::kSim || config_.controller().pace_to_wall_clock();
+  LoopScheduling scheduling = apply_loop_scheduling(config_.controller().loop_realtime_priority(), paced);
+  if (paced && config_.controller().loop_realtime_priority() > 0 && !scheduling.realtime) {
+    spdlog::warn("loop thread: {}", scheduling.description);
+  } else {
+    spdlog::info("loop thread: {}", scheduling.description);
+  }
   std::unique_lock lock(mutex_);
+  loop_scheduling_ = std::move(scheduling.description);
+  activity_cv_.notify_all();
   for (;;) {
     activity_cv_.wait(lock, [this] { return loop_exit_ || !pending_.empty(); });
     if (pending_.empty()) return;  // loop_exit_ and nothing left to do
@@ -321,6 +334,7 @@ v1::StatusReply InstrumentService::status() const {
   s.set_samples_dropped(counters.dropped);
   s.set_run_time_s(counters.time_s);
   s.set_run_duration_s(loaded_duration_s_);
+  s.set_loop_scheduling(loop_scheduling_);
   // The link's own record (issue 6) plus what the recorded samples say.
   v1::BackendHealth* health = s.mutable_backend_health();
   *health = state_ == v1::RUNNING && run_ && run_->transducer

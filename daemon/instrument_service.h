@@ -162,6 +162,7 @@ class InstrumentService {
   std::deque<std::function<void()>> pending_;
   std::string activity_;        // "run", "autotune", "re-arm check", "stop sequence"; empty: idle
   bool activity_running_ = false;
+  std::string loop_scheduling_;        // set by the loop thread as it starts
   bool loop_exit_ = false;
   // Emergency stop (or shutdown) of activities other than a run (a run has
   // its RunControl): the autotune experiment and the re-arm check poll it

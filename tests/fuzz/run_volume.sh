@@ -15,6 +15,9 @@
 #   FUZZ_TIMEOUT    seconds per input before libFuzzer calls it a timeout (default 10)
 #   FUZZ_MAX_SECONDS  stop a target after this long even if short of EXECUTIONS
 #                   (default 0: no limit); the shortfall is then reported as a failure
+#   FUZZ_JOBS       processes per target (default 1): each runs EXECUTIONS/JOBS from the
+#                   same corpus directory (libFuzzer reloads it, so each sees the
+#                   others' new inputs); executions are summed over the processes
 #
 # Prints per target: executions, exec/s, wall seconds, findings (crash-,
 # leak-, timeout-, oom- files); exits 1 when any target has a finding, did not
@@ -30,6 +33,7 @@ work=${FUZZ_WORK_DIR:-$(mktemp -d "${TMPDIR:-/tmp}/tribo-fuzz-volume.XXXXXX")}
 nice_by=${FUZZ_NICE:-10}
 timeout_s=${FUZZ_TIMEOUT:-10}
 max_s=${FUZZ_MAX_SECONDS:-0}
+jobs=${FUZZ_JOBS:-1}
 
 status=0
 printf '%-20s %12s %10s %8s %9s  %s\n' target executions exec/s wall_s findings log
@@ -47,12 +51,31 @@ for t in $targets; do
   start=$(date +%s)
   # The harness runs in its own directory, its temporary files (client_session's
   # data directory) under it: whatever it writes stays in the scratch dir.
-  (cd "$dir" && TMPDIR="$dir" exec nice -n "$nice_by" "$bin" corpus -runs="$runs" -print_final_stats=1 \
-      -timeout="$timeout_s" -max_total_time="$max_s" -rss_limit_mb=2048 -artifact_prefix="$dir/artifacts/" >"$dir/log" 2>&1)
-  rc=$?
+  per_job=$(( (runs + jobs - 1) / jobs ))
+  pids=
+  j=1
+  while [ "$j" -le "$jobs" ]; do
+    (cd "$dir" && TMPDIR="$dir" exec nice -n "$nice_by" "$bin" corpus -runs="$per_job" -print_final_stats=1 \
+        -timeout="$timeout_s" -max_total_time="$max_s" -rss_limit_mb=2048 -artifact_prefix="$dir/artifacts/" \
+        >"$dir/log.$j" 2>&1) &
+    pids="$pids $!"
+    j=$((j + 1))
+  done
+  rc=0
+  for p in $pids; do wait "$p" || rc=$?; done
   wall=$(( $(date +%s) - start ))
-  executed=$(sed -n 's/^stat::number_of_executed_units: *//p' "$dir/log" | tail -n 1)
-  rate=$(sed -n 's/^stat::average_exec_per_sec: *//p' "$dir/log" | tail -n 1)
+  executed=0
+  rate=
+  j=1
+  while [ "$j" -le "$jobs" ]; do
+    n=$(sed -n 's/^stat::number_of_executed_units: *//p' "$dir/log.$j" | tail -n 1)
+    r=$(sed -n 's/^stat::average_exec_per_sec: *//p' "$dir/log.$j" | tail -n 1)
+    if [ -z "$n" ]; then executed=; break; fi
+    executed=$((executed + n))
+    rate="${rate:+$rate+}$r"
+    j=$((j + 1))
+  done
+  cat "$dir"/log.* >"$dir/log"
   findings=$(find "$dir/artifacts" -type f \( -name 'crash-*' -o -name 'leak-*' -o -name 'timeout-*' \
       -o -name 'oom-*' \) | wc -l)
   printf '%-20s %12s %10s %8s %9s  %s\n' "$t" "${executed:-?}" "${rate:-?}" "$wall" "$findings" "$dir/log"
