@@ -7,6 +7,7 @@
 #include "analysis/tip_tilt.h"
 #include "client/run_summary.h"
 #include "tests/daemon/service_test_support.h"
+#include "tests/sim/sim_test_support.h"
 
 namespace tribo::client {
 namespace {
@@ -31,8 +32,18 @@ v1::RunSummary summarize(const v1::DaemonConfig& config, const v1::Protocol& pro
   return summarize_run(run);
 }
 
+// On the plain LuGre plant (tests/sim/sim_test_support.h), a declared plant:
+// the estimate (analysis/tip_tilt.h) reads -N tan(theta) in a loaded hold,
+// which assumes that the contact gives way to the tilt's push while the load
+// comes on, as LuGre's creep does. The default contact (issue 14) holds a
+// force below break-away (elasto-plastic presliding), so what its hold reads
+// depends on what the contact stored while loading: measured on seed 1,
+// tilted 0.0034, untilted -0.0264, difference 0.0298 against tan(1.5 deg) =
+// 0.0262 (docs/simulated_instrument.md).
+v1::DaemonConfig base_config() { return tribo::testing::plain_lugre_config(); }
+
 v1::DaemonConfig untilted_config() {
-  v1::DaemonConfig c = tribo::testing::default_config();
+  v1::DaemonConfig c = base_config();
   c.mutable_sim()->mutable_tip()->mutable_tilt_offset()->set_enabled(false);
   return c;
 }
@@ -47,8 +58,8 @@ struct StandardScratch : ::testing::Test {
   static void SetUpTestSuite() {
     const v1::Protocol plain = daemon::testing::load_protocol_file("standard_scratch.textproto");
     const v1::Protocol held = daemon::testing::load_protocol_file("standard_scratch_tilt_hold.textproto");
-    tilted = new v1::RunSummary(summarize(tribo::testing::default_config(), plain));
-    held_tilted = new v1::RunSummary(summarize(tribo::testing::default_config(), held));
+    tilted = new v1::RunSummary(summarize(base_config(), plain));
+    held_tilted = new v1::RunSummary(summarize(base_config(), held));
     held_untilted = new v1::RunSummary(summarize(untilted_config(), held));
   }
   static void TearDownTestSuite() {
@@ -76,7 +87,7 @@ TEST_F(StandardScratch, WithoutALoadedHoldTheTiltIsNotMeasured) {
 // creep the tilt's push caused while the load came on. Alone, one 5 s hold
 // measures tan(theta) to +-15 % (sd over seeds 1-8: 0.0255 +- 0.0038).
 TEST_F(StandardScratch, ALoadedHoldRecoversTheTiltAndTheFriction) {
-  const double tan_tilt = configured_tan_tilt(tribo::testing::default_config());
+  const double tan_tilt = configured_tan_tilt(base_config());
   ASSERT_TRUE(held_tilted->has_tilt_tan());
   ASSERT_TRUE(held_untilted->has_tilt_tan());
   EXPECT_EQ(held_tilted->tilt_segment(), 2u);  // "hold"

@@ -85,13 +85,21 @@ TEST(Controller, LateralForceControlTracksTheRampThenHoldsAfterBreakAway) {
   const double tilt_n = 4990e-6 * std::tan(config.sim().tip().tilt_offset().angle_deg() * M_PI / 180);
   EXPECT_GT(peak + tilt_n, 0.0996 * 4990e-6);
   EXPECT_LT(peak + tilt_n, 0.1427 * 4990e-6);
-  // Held after break-away: within 50 nm of where it was 0.1 s after it.
-  const double held = mean_between(run.samples, breakaway_t + 0.1, breakaway_t + 0.11, &Sample::lateral_position_m);
+  // Held after break-away at the point where it broke away (the hold
+  // setpoint). The default contact's friction drops after break-away and the
+  // tip overshoots that point (by 0.2 um here; §5.3.1); the displacement loop
+  // (Table 5.1's gains) brings it back within about a second, against the
+  // contact. Then within 50 nm of the setpoint (3.2 nm RMS of record noise).
+  double overshoot = 0;
   for (const Sample& s : run.samples) {
-    if (s.segment_index == 3 && s.time_s > breakaway_t + 0.1) {
-      EXPECT_NEAR(s.lateral_position_m, held, 50e-9) << s.time_s;
+    if (s.segment_index != 3 || s.time_s <= breakaway_t) continue;
+    overshoot = std::max(overshoot, s.lateral_position_m - s.lateral_setpoint_m);
+    if (s.time_s > breakaway_t + 1.5) {
+      EXPECT_NEAR(s.lateral_position_m, s.lateral_setpoint_m, 50e-9) << s.time_s;
     }
   }
+  EXPECT_LT(overshoot, 0.5e-6) << "the hold catches the tip";
+  ASSERT_LT(breakaway_t + 1.5, 13.5) << "some of the hold is left to check";
 }
 
 // Switching the lateral axis from displacement to force control, and the
@@ -159,10 +167,14 @@ TEST(Controller, SetpointWeightOnPCutsTheRampLag) {
     return mean_between(r.samples, 2, 4, &Sample::lateral_setpoint_m) -
            mean_between(r.samples, 2, 4, &Sample::lateral_position_m);
   };
+  // The default's gains (Table 5.1: kp 420, ki 7116; Appendix C's were 1394, 7167).
+  const double k = config.sim().lateral().spring_stiffness_n_per_m();
+  const double kp = config.controller().lateral_displacement().kp(), ki = config.controller().lateral_displacement().ki();
+  ASSERT_GT(kp, 0);
   const double ipd = lag(run_in_loop(config, ramp));
   config.mutable_controller()->mutable_lateral_displacement()->set_setpoint_weight_p(1);
   const double pid = lag(run_in_loop(config, ramp));
-  const double v = 2e-6, k = 116, kp = 1394, ki = 7167;
+  const double v = 2e-6;
   EXPECT_NEAR(ipd, (k + kp) / ki * v, 0.02e-6);
   EXPECT_NEAR(pid, k / ki * v, 0.01e-6);
 }

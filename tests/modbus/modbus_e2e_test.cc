@@ -15,6 +15,7 @@
 #include "proto/sample_record.h"
 #include "proto/text_format_file.h"
 #include "tests/modbus/modbus_support.h"
+#include "tests/sim/sim_test_support.h"
 #include "tests/support/safe_sequence.h"
 #include "tests/support/daemon_process.h"
 
@@ -36,8 +37,9 @@ v1::Protocol standard_scratch() {
 
 // tribod on the Modbus backend, talking to a tribo-bench with these faults.
 struct ModbusRig {
-  ModbusRig(v1::DaemonConfig config, const std::vector<v1::BenchFault>& faults = {})
-      : bench(testing::write_bench_config(dir.path(), config, faults)),
+  ModbusRig(v1::DaemonConfig config, const std::vector<v1::BenchFault>& faults = {},
+            const v1::DaemonConfig* physics = nullptr)
+      : bench(testing::write_bench_config(dir.path(), config, faults, nullptr, physics)),
         daemon(data.path(), write_daemon_config(testing::with_port(std::move(config), bench.port()))) {}
 
   std::string write_daemon_config(const v1::DaemonConfig& config) {
@@ -61,12 +63,24 @@ const v1::SlidingSummary& scratch_of(const v1::RunSummary& s) {
   return s.scratches(0);
 }
 
+// On the plain LuGre plant (tests/sim/sim_test_support.h), a declared plant,
+// in both backends: the comparison is of the Modbus path's quantisation. The
+// default contact (issue 14) carries a one-step rounding difference on for
+// longer in sliding (this scratch on it: 3.4 converter steps RMS over the
+// scratch, at most 12, 35 pm, while the friction results agree to 0.0002 uN).
+// The record's readout noise has no register (docs/simulated_instrument.md)
+// and is 0 in that plant.
 void compare_with_simulated_backend(const v1::Protocol& protocol, std::uint64_t seed) {
-  TempDir sim_data;
-  DaemonProcess sim_daemon(sim_data.path());
+  TempDir sim_data, sim_config_dir;
+  const v1::DaemonConfig plant = testing::plain_lugre_config();
+  const auto sim_config_path = sim_config_dir.path() / "tribod.textproto";
+  testing::write_text_proto(sim_config_path, plant);
+  DaemonProcess sim_daemon(sim_data.path(), sim_config_path.string());
   v1::DaemonConfig config = testing::modbus_daemon_config();
   config.mutable_modbus()->set_response_timeout_s(1.0);  // equality is the point, not timing
-  ModbusRig rig(config);
+  // The loop gains of that plant (Appendix C's) on the Modbus side too.
+  *config.mutable_controller()->mutable_lateral_displacement() = plant.controller().lateral_displacement();
+  ModbusRig rig(config, {}, &plant);
   const client::RunResult a = run(sim_daemon, protocol, seed);
   const client::RunResult b = run(rig.daemon, protocol, seed);
   ASSERT_EQ(a.stop.exit_status(), v1::SUCCESS) << a.stop.reason();
@@ -84,7 +98,7 @@ void compare_with_simulated_backend(const v1::Protocol& protocol, std::uint64_t 
   // a while, so single samples may differ by a step or two. The drive block
   // carries force setpoints, so the normal force differs by at most one
   // step of its converter and one count of the map.
-  const v1::DaemonConfig sim_config = testing::sim_daemon_config();
+  const v1::DaemonConfig& sim_config = plant;
   const auto& s = sim_config.sim().sensors();
   const hal::RegisterMap map = hal::register_map_from_config(config.modbus().register_map());
   const double dn_max = s.normal_force_resolution_n() + hal::sensor_resolution(map.sensors.normal_force, 0);

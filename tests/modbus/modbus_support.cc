@@ -87,13 +87,19 @@ int BenchProcess::terminate() {
 BenchProcess::~BenchProcess() { terminate(); }
 
 std::filesystem::path write_bench_config(const std::filesystem::path& dir, const v1::DaemonConfig& modbus_config,
-                                         const std::vector<v1::BenchFault>& faults, const v1::ModbusRtuLink* rtu) {
+                                         const std::vector<v1::BenchFault>& faults, const v1::ModbusRtuLink* rtu,
+                                         const v1::DaemonConfig* physics_config) {
   write_text_proto(dir / "tribod-modbus.textproto", modbus_config);
   v1::BenchConfig bench;
   bench.set_bind_address("127.0.0.1");
   bench.set_port(0);
   bench.set_modbus_config_file("tribod-modbus.textproto");
-  bench.set_physics_config_file(std::string(TRIBO_SOURCE_DIR) + "/config/tribod.textproto");
+  if (physics_config != nullptr) {
+    write_text_proto(dir / "physics.textproto", *physics_config);
+    bench.set_physics_config_file((dir / "physics.textproto").string());
+  } else {
+    bench.set_physics_config_file(std::string(TRIBO_SOURCE_DIR) + "/config/tribod.textproto");
+  }
   for (const auto& f : faults) *bench.add_faults() = f;
   if (rtu != nullptr) *bench.mutable_rtu() = *rtu;
   const auto path = dir / "tribo-bench.textproto";

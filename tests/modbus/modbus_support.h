@@ -44,11 +44,12 @@ class BenchProcess {
 };
 
 // A bench config in dir that serves modbus_config (written next to it) with
-// the physics of config/tribod.textproto and the given faults; over TCP, or
-// over RTU on rtu's device if given.
+// the physics of config/tribod.textproto (or of physics_config, written next
+// to it, if given) and the given faults; over TCP, or over RTU on rtu's device if given.
 std::filesystem::path write_bench_config(const std::filesystem::path& dir, const v1::DaemonConfig& modbus_config,
                                          const std::vector<v1::BenchFault>& faults = {},
-                                         const v1::ModbusRtuLink* rtu = nullptr);
+                                         const v1::ModbusRtuLink* rtu = nullptr,
+                                         const v1::DaemonConfig* physics_config = nullptr);
 
 // The daemon config pointed at a bench on this port.
 v1::DaemonConfig with_port(v1::DaemonConfig config, std::uint16_t port);

@@ -114,8 +114,11 @@ TEST(ModbusQuantisation, ShippedMapKeepsTheFrictionAndASixteenBitMapBiasesIt) {
   const double lsb = config.sim().sensors().lateral_force_resolution_n();
   const double tolerance = lsb / std::sqrt(static_cast<double>(reference.steady_samples));
   EXPECT_NEAR(through_map.mean_friction_n, reference.mean_friction_n, tolerance);
-  // The coarse map fails that comparison by far: more than 1 % low.
-  EXPECT_LT(through_coarse_map.mean_friction_n, reference.mean_friction_n * 0.99);
+  // The coarse map fails that comparison by far: its 0.5 nm steps, inside the
+  // position loop, dither the contact and move the friction by more than 1 %
+  // (measured: +2.3 % with the default contact, -5 % with plain LuGre, which
+  // loses friction under dither).
+  EXPECT_GT(std::fabs(through_coarse_map.mean_friction_n / reference.mean_friction_n - 1), 0.01);
 }
 
 }  // namespace

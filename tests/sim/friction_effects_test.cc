@@ -18,10 +18,12 @@
 namespace tribo::sim {
 namespace {
 
-using testing::default_config;
+// The plant under test is declared: plain LuGre (tests/sim/sim_test_support.h),
+// not the default instrument.
+using testing::plain_lugre_config;
 using testing::LoopSetpoints;
 
-InstrumentParams defaults() { return instrument_params_from_config(default_config().sim()); }
+InstrumentParams defaults() { return instrument_params_from_config(plain_lugre_config().sim()); }
 
 // The contact alone, the tip moved along a prescribed path; the contact
 // states are integrated with explicit steps far below their time constants.
@@ -184,7 +186,7 @@ TEST(FrictionEffects, PreslidingHysteresisHasReturnPointMemory) {
 
 // Closed loop, noise-free sensors.
 v1::DaemonConfig quiet() {
-  v1::DaemonConfig config = default_config();
+  v1::DaemonConfig config = plain_lugre_config();
   testing::silence_sensors(config);
   return config;
 }
@@ -388,10 +390,10 @@ HeldForce hold_at_7mn(v1::DaemonConfig config, double breakaway_ratio, bool cree
 }
 
 TEST(FrictionEffects, OnlyAnElasticContactHoldsItsForceAndShowsTheCreep) {
-  const double sigma0 = default_config().sim().friction().contact_stiffness_n_per_m();
-  const HeldForce silent = hold_at_7mn(quiet(), 0, false), plain = hold_at_7mn(default_config(), 0, false),
-                  plain_creep = hold_at_7mn(default_config(), 0, true), elastic = hold_at_7mn(default_config(), 0.8, false),
-                  elastic_creep = hold_at_7mn(default_config(), 0.8, true);
+  const double sigma0 = plain_lugre_config().sim().friction().contact_stiffness_n_per_m();
+  const HeldForce silent = hold_at_7mn(quiet(), 0, false), plain = hold_at_7mn(plain_lugre_config(), 0, false),
+                  plain_creep = hold_at_7mn(plain_lugre_config(), 0, true), elastic = hold_at_7mn(plain_lugre_config(), 0.8, false),
+                  elastic_creep = hold_at_7mn(plain_lugre_config(), 0.8, true);
   const double rigid = sigma0 * elastic_creep.creep_m;  // a rigidly held tip on an elastic contact
   auto drifted = [](const HeldForce& with, const HeldForce& without) {
     return (with.end_n - with.start_n) - (without.end_n - without.start_n);

@@ -154,6 +154,7 @@ TEST(SimConfig, DefaultIsValidAndErrorsNameFieldValueAndLimit) {
   EXPECT_EQ(*unstable, "sim.integrator.max_h_lambda = 2: must be in (0, 1.8]");
 
   v1::SimConfig off = c;  // parameters of a disabled effect are not checked
+  off.mutable_friction()->mutable_dwell_stiction()->set_enabled(false);  // on in the default
   off.mutable_friction()->mutable_dwell_stiction()->set_time_constant_s(-1);
   EXPECT_EQ(validate_sim_config(off), std::nullopt);
   off.mutable_friction()->mutable_dwell_stiction()->set_enabled(true);

@@ -30,7 +30,9 @@
 namespace tribo::sim {
 namespace {
 
-using testing::default_config;
+// The plant under test is declared: plain LuGre (tests/sim/sim_test_support.h),
+// not the default instrument.
+using testing::plain_lugre_config;
 
 struct Case {
   const char* name;
@@ -70,7 +72,7 @@ daemon::Setpoints setpoints(const Case& c, double t) {
 }
 
 v1::DaemonConfig config_for(const Case& c) {
-  v1::DaemonConfig config = default_config();
+  v1::DaemonConfig config = plain_lugre_config();
   testing::silence_sensors(config);
   config.mutable_controller()->set_loop_rate_hz(c.loop_rate_hz);
   config.mutable_sim()->mutable_integrator()->set_max_substeps(100000);

@@ -12,7 +12,9 @@
 namespace tribo::sim {
 namespace {
 
-using testing::default_config;
+// The plant under test is declared: plain LuGre (tests/sim/sim_test_support.h),
+// not the default instrument.
+using testing::plain_lugre_config;
 
 // Dissertation §2 (eqs. 9-13), written out here independently of sim/: the dissertation's
 // modified LuGre in steady sliding, F = Fc + (Fs - Fc) exp(-|v|/vs) + s2 v.
@@ -29,7 +31,7 @@ double stribeck_formula_n(const v1::FrictionParams& f, double load_n, double v) 
 class SteadyStateFriction : public ::testing::TestWithParam<double> {};
 
 TEST_P(SteadyStateFriction, EqualsTheStribeckFunction) {
-  v1::DaemonConfig config = default_config();
+  v1::DaemonConfig config = plain_lugre_config();
   testing::silence_sensors(config);
   const double v = GetParam();
   const double load = 2e-3;

@@ -16,7 +16,9 @@
 namespace tribo::sim {
 namespace {
 
-using testing::default_config;
+// The plant under test is declared: plain LuGre (tests/sim/sim_test_support.h),
+// not the default instrument.
+using testing::plain_lugre_config;
 
 struct EnergyCase {
   const char* name;
@@ -71,7 +73,7 @@ class EnergyWithoutDrive : public ::testing::TestWithParam<EnergyCase> {};
 // law it stays within rounding, and those cases are below.
 TEST_P(EnergyWithoutDrive, NeverGrows) {
   const EnergyCase& c = GetParam();
-  InstrumentParams params = instrument_params_from_config(default_config().sim());
+  InstrumentParams params = instrument_params_from_config(plain_lugre_config().sim());
   c.adjust(params);
   const LateralPlant plant{params.lateral, params.friction};
   LateralInputs in;
@@ -128,7 +130,7 @@ INSTANTIATE_TEST_SUITE_P(
 // The loop gains for a loop rate: the default I-PD at 10 kHz and above; a
 // gentler one below, where kd dt / m = 5 at 1 kHz would be unstable.
 v1::DaemonConfig config_at(double loop_rate_hz) {
-  v1::DaemonConfig config = default_config();
+  v1::DaemonConfig config = plain_lugre_config();
   config.mutable_controller()->set_loop_rate_hz(loop_rate_hz);
   if (loop_rate_hz < 1e4) {
     auto* g = config.mutable_controller()->mutable_lateral_displacement();

@@ -91,8 +91,11 @@ TEST(RecordNoise, ZeroRecordsTheLoopReadingBitForBit) {
   const Trace tr = rest_at_1mN(with_record_noise(0), 1);
   ASSERT_FALSE(tr.loop.empty());
   EXPECT_EQ(std::memcmp(tr.loop.data(), tr.recorded.data(), tr.loop.size() * sizeof(double)), 0);
-  EXPECT_EQ(testing::default_config().sim().sensors().lateral_position_record_noise_m(), 0)
-      << "the default keeps its samples";
+  // Since issue 14 the default records Table 3.2's 10 nm floor; plain LuGre
+  // (config/instruments/lugre_plain.textproto) keeps the loop's reading, and its samples.
+  EXPECT_EQ(testing::default_config().sim().sensors().lateral_position_record_noise_m(), 10e-9);
+  EXPECT_EQ(testing::plain_lugre_config().sim().sensors().lateral_position_record_noise_m(), 0)
+      << "lugre_plain keeps its samples";
 }
 
 // Through the daemon's real-time loop: the recorded samples carry the noise.

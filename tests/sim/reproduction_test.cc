@@ -91,7 +91,10 @@ double mean_over(const Trace& tr, const std::vector<double>& v, double from_s, d
 // (§4.4). Friction from a forward and a backward pass, (F+ - F-) / 2, which
 // cancels the tilt's -N tan(theta) as an experimenter would.
 TEST(Reproduction, FrictionIsLinearInLoadWithTheMeasuredMu) {
-  const v1::DaemonConfig config = default_config();
+  // The model's mu: without the spot-to-spot variation of the sample (on in
+  // the default, one draw of 1.3 % RMS per seed; FiveSeedsSpreadLikeTheDissertationsRuns).
+  v1::DaemonConfig config = default_config();
+  config.mutable_sim()->mutable_sample()->mutable_heterogeneity()->set_enabled(false);
   // The I-PD loop lags (kp + k) v0 / ki = 2.8 um behind at 13.5 um/s and
   // settles with a 0.2 s time constant: 10 um passes (0.74 s) with a 1 s
   // hold between them, averaged over the last 30 % of each pass.
@@ -124,8 +127,9 @@ TEST(Reproduction, FrictionIsLinearInLoadWithTheMeasuredMu) {
   }
   const double slope = sxy / sxx, intercept = my - slope * mx, r2 = sxy * sxy / (sxx * syy);
   std::printf("  fit: mu = %.4f, intercept %.2f uN, R^2 %.6f\n", slope, intercept * 1e6, r2);
-  // The model's mu is Fc/N = 0.0996 (+ the Stribeck term, 1e-5 at 13.5 um/s);
-  // the sensor noise averages out to well under 1 %.
+  // The model's steady mu at 13.5 um/s is 0.0996 (Fc/N + (a - b) ln(1 + v/V*)
+  // of the rate-and-state contact, set so); the sensor noise averages out to
+  // well under 1 %.
   EXPECT_NEAR(slope, 0.0996, 0.01 * 0.0996);
   EXPECT_NEAR(intercept, 0.0, 2e-6);
   EXPECT_GT(r2, 0.9999);
@@ -135,7 +139,7 @@ TEST(Reproduction, FrictionIsLinearInLoadWithTheMeasuredMu) {
 // Seeds change only the noise in the simulated instrument, which spreads the
 // means by < 0.1 % (0.066 % with the 3 nm position wander the tip follows); the
 // rest comes from the sample, spot to spot (sample.heterogeneity, 1.3 % RMS,
-// off by default). The standard deviation of five draws lies within
+// on in the default since issue 14). The standard deviation of five draws lies within
 // [0.35, 1.67] sigma with 95 % probability.
 TEST(Reproduction, FiveSeedsSpreadLikeTheDissertationsRuns) {
   v1::DaemonConfig config = default_config();
@@ -158,6 +162,7 @@ TEST(Reproduction, FiveSeedsSpreadLikeTheDissertationsRuns) {
     return std::sqrt(ss / 4) / mean;
   };
   double mean_noise = 0, mean_sites = 0;
+  config.mutable_sim()->mutable_sample()->mutable_heterogeneity()->set_enabled(false);
   const double noise_only = spread(config, &mean_noise);
   config.mutable_sim()->mutable_sample()->mutable_heterogeneity()->set_enabled(true);
   const double with_sites = spread(config, &mean_sites);
@@ -198,14 +203,13 @@ TEST(Reproduction, StictionRiseIsEarlierAtHigherVelocity) {
                 v * 1e6, t_rise, steady * 1e6, peak * 1e6, 100 * spike.back(), overshoot.back());
   }
   for (std::size_t i = 1; i < rise.size(); ++i) EXPECT_LT(rise[i], rise[i - 1]) << "velocity index " << i;
-  // Not reproduced (README): the dissertation's spike grows with velocity
-  // (Table 5.1 at 9810 uN: +30, +43, +56 % over the sliding friction at 4,
-  // 18, 36 um/s) and the tip overshoots ~3x; this plant (Appendix C's LuGre)
-  // under this loop shows a spike of a few % (falling with velocity) and
-  // little overshoot -- as does Appendix C's own model integrated by scipy
-  // (bench/lsoda_compare.py). Asserted: it stays so, so that a change that
-  // produces spikes is noticed and documented.
-  for (double s : spike) EXPECT_LT(s, 0.1);
+  // The dissertation's spike grows with velocity (Table 5.1 at 9810 uN: +30,
+  // +43, +56 % over the sliding friction at 4, 18, 36 um/s). The default
+  // contact (issue 14) reproduces the trend: +22.7, +28.9, +32.6 % measured
+  // (+6.5 % at 0.2 um/s). Plain LuGre (Appendix C's form) under Appendix C's
+  // loop gave a few %, falling with velocity (Breakaway.PlainLugreHasNoSpikeAt9810uN).
+  for (std::size_t i = 2; i < spike.size(); ++i) EXPECT_GT(spike[i], spike[i - 1]) << "velocity index " << i;
+  for (std::size_t i = 1; i < spike.size(); ++i) EXPECT_GT(spike[i], 0.1) << "velocity index " << i;
 }
 
 // Fig. 4.22: a longer rest before motion gives a larger spike. Plain LuGre
@@ -318,11 +322,14 @@ TEST(Reproduction, StretchTimeAndDistanceAndTheTable51Formulas) {
   EXPECT_LT(rows[1].ts, rows[0].ts) << "stretch time shrinks with velocity";
   EXPECT_LT(rows[3].ts, rows[2].ts);
   // Eq. 33 recovers the loop's position stiffness from the lag: with the
-  // simulated ki, ki dl / v0 = kp + k_spring, within 20 % of kp (8 % here).
-  // Eq. 28 does not recover ki (README): it assumes the tip stays put while
-  // the integrator ramps, but the LuGre contact creeps and the P term and
-  // the spring take part of the ramp, so it lands at ~40 % of ki.
-  for (const Row& r : rows) EXPECT_NEAR(g.ki() * r.dl / r.v, g.kp(), 0.2 * g.kp());
+  // simulated ki, ki dl / v0 = kp + k_spring (536 N/m with the default's
+  // gains from Table 5.1; measured 536-552). Eq. 28 does not recover ki with
+  // the 95 %-of-steady stretch time used here: it assumes the tip stays put
+  // while the integrator ramps, but the P term and the spring take part of the
+  // ramp (61-77 % of ki with the default contact, ~40 % with plain LuGre,
+  // which creeps).
+  const double k_spring = config.sim().lateral().spring_stiffness_n_per_m();
+  for (const Row& r : rows) EXPECT_NEAR(g.ki() * r.dl / r.v, g.kp() + k_spring, 0.05 * (g.kp() + k_spring));
 }
 
 // §5.2: during loading with no motion the tilted tip makes the transducer
@@ -399,9 +406,15 @@ TEST(Reproduction, DepthFollowsHertzForTheFiftyMicronTip) {
 // Oscillation: the standard deviation of the (tilt-corrected) friction over
 // the second half of a 20 s scratch, relative to the model's F_ss; and the
 // tip's largest advance per 0.1 s relative to the commanded one (a slip).
+//
+// On plain LuGre (testing::plain_lugre_config): its Stribeck drop (mu 0.143 ->
+// 0.0996 over 1.2 um/s) is what sticks and slips under the slow loop. The
+// default contact's steady friction does not weaken with velocity (a - b > 0,
+// flat as §4.4.3 measured) and it slides stably under the 10 Hz loop: the
+// scorecard's stick_slip rows, docs/simulated_instrument.md.
 TEST(Reproduction, SlowFeedbackOscillatesAtLowVelocityAndTheDefaultLoopDoesNot) {
   auto wobble = [](double loop_rate_hz, double v, double* slip) {
-    v1::DaemonConfig config = default_config();
+    v1::DaemonConfig config = testing::plain_lugre_config();
     config.mutable_controller()->set_loop_rate_hz(loop_rate_hz);
     if (loop_rate_hz < 100) {
       auto* g = config.mutable_controller()->mutable_lateral_displacement();

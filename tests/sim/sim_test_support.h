@@ -23,6 +23,23 @@ inline v1::DaemonConfig default_config() {
   return config;
 }
 
+// The plain LuGre plant: config/instruments/lugre_plain.textproto (tribod's
+// default before issue 14, Appendix C's loop gains) with the default's position
+// ADC range (excitation 3.5 V; lugre_plain keeps the 5 V that saturated at
+// +13.77 um), i.e. the old default bit for bit. Tests of the LuGre plant, of
+// its optional effects one at a time and of the integrator use it: they test
+// the plant model on a declared plant, not the default instrument (whose
+// contact adds elasto-plastic presliding, rate-and-state and dwell:
+// tests/sim/breakaway_test.cc).
+inline v1::DaemonConfig plain_lugre_config() {
+  v1::DaemonConfig config;
+  const std::string path = std::string(TRIBO_SOURCE_DIR) + "/config/instruments/lugre_plain.textproto";
+  if (auto error = daemon::load_daemon_config(path, config)) throw std::runtime_error(*error);
+  config.mutable_sim()->mutable_lateral()->mutable_sensing()->set_excitation_voltage_v(
+      default_config().sim().lateral().sensing().excitation_voltage_v());
+  return config;
+}
+
 // No sensor noise, drift or quantisation anywhere: the sensors report the truth
 // (as the instrument's electronics see it).
 inline void silence_sensors(v1::DaemonConfig& config) {
