@@ -39,6 +39,14 @@ struct RunLoopConfig {
   // true: when the queue is full, wait for the consumer (the simulated plant
   // waits with us); false: count the sample as dropped and go on.
   bool backpressure = true;
+  // true: each tick times its stages (six clock reads) for status requests
+  // (RunTelemetry::timing); tribod's runs do. false: the loop reads no clock
+  // at all (an acted-on emergency stop excepted): unpaced in-process runs
+  // (tribo_native.simulate, campaigns), where ~6 x 25 ns a tick is a third
+  // of the simulated instrument's own cost (issue 17).
+  bool time_stages = true;
+  // The clock read for the stage times; a test counts its reads through it.
+  std::uint64_t (*clock_ns)() = &monotonic_ns;
 };
 
 RunLoopConfig run_loop_config_from(const v1::DaemonConfig& config);
@@ -105,6 +113,8 @@ class RunLoop {
   void start_stopping(RunEnd end);
   void finish();
   void record(const Sample& tick_sample, std::uint32_t ticks_per_sample);
+  // The stage clock when timing stages, else 0 without reading any clock.
+  std::uint64_t now_ns() const;
 
   hal::Transducer& transducer_;
   SegmentRunner runner_;
