@@ -104,6 +104,7 @@ bool RunLoop::tick() {
     finish();
     return false;
   }
+  timed_ = config_.time_stages_every != 0 && tick_ % config_.time_stages_every == 0;
   const std::uint64_t t0 = now_ns();
 
   const hal::IoResult read = transducer_.read(frame_);
@@ -166,7 +167,7 @@ bool RunLoop::tick() {
   const std::uint64_t t4 = now_ns();
   // Acted on: the stop sequence's first drive is written.
   if (trip == TripReason::kEmergencyStop) {
-    const std::uint64_t acted = config_.time_stages ? t4 : config_.clock_ns();
+    const std::uint64_t acted = timed_ ? t4 : config_.clock_ns();
     telemetry_.emergency_acted_ns.store(static_cast<std::int64_t>(acted), std::memory_order_relaxed);
   }
 
@@ -182,22 +183,22 @@ bool RunLoop::tick() {
   const std::uint64_t t5 = now_ns();
 
   TickTiming& timing = telemetry_.timing;
-  if (config_.time_stages) {
+  if (timed_) {
     timing.record(Stage::kRead, t1 - t0);
     timing.record(Stage::kSupervise, t2 - t1);
     timing.record(Stage::kControl, t3 - t2);
     timing.record(Stage::kWrite, t4 - t3);
     timing.record(Stage::kRecord, t5 - t4);
     timing.record(Stage::kTick, t5 - t0);
+    timing.count_tick();  // the means are over the timed ticks
   }
-  timing.count_tick();
   ++tick_;
   telemetry_.cycles.store(tick_, std::memory_order_relaxed);
   transducer_.wait_next_tick();
   return true;
 }
 
-std::uint64_t RunLoop::now_ns() const { return config_.time_stages ? config_.clock_ns() : 0; }
+std::uint64_t RunLoop::now_ns() const { return timed_ ? config_.clock_ns() : 0; }
 
 RunOutcome execute_run(hal::Transducer& transducer, const LoadFunction& load_function,
                        const RunLoopConfig& config, SpscQueue<Sample>& queue, RunControl& control,

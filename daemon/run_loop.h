@@ -32,6 +32,9 @@
 
 namespace tribo::daemon {
 
+// tribod's unpaced simulated runs time one tick in this many.
+inline constexpr std::uint32_t kUnpacedTimingInterval = 1024;
+
 struct RunLoopConfig {
   ControllerParams controller;
   SupervisorParams supervisor;
@@ -39,12 +42,14 @@ struct RunLoopConfig {
   // true: when the queue is full, wait for the consumer (the simulated plant
   // waits with us); false: count the sample as dropped and go on.
   bool backpressure = true;
-  // true: each tick times its stages (six clock reads) for status requests
-  // (RunTelemetry::timing); tribod's runs do. false: the loop reads no clock
-  // at all (an acted-on emergency stop excepted): unpaced in-process runs
-  // (tribo_native.simulate, campaigns), where ~6 x 25 ns a tick is a third
-  // of the simulated instrument's own cost (issue 17).
-  bool time_stages = true;
+  // The loop times the stages (six clock reads) of one tick in this many for
+  // status requests (RunTelemetry::timing: maxima and means over the timed
+  // ticks). 1: every tick (tribod's paced loops); kUnpacedTimingInterval:
+  // tribod's simulated backend unpaced; 0: never, no clock read at all (an
+  // acted-on emergency stop excepted): in-process runs (tribo_native.simulate,
+  // campaigns). Six reads cost ~150 ns a tick, as much as half the simulated
+  // instrument itself (issue 17).
+  std::uint32_t time_stages_every = 1;
   // The clock read for the stage times; a test counts its reads through it.
   std::uint64_t (*clock_ns)() = &monotonic_ns;
 };
@@ -113,7 +118,7 @@ class RunLoop {
   void start_stopping(RunEnd end);
   void finish();
   void record(const Sample& tick_sample, std::uint32_t ticks_per_sample);
-  // The stage clock when timing stages, else 0 without reading any clock.
+  // The stage clock on a timed tick, else 0 without reading any clock.
   std::uint64_t now_ns() const;
 
   hal::Transducer& transducer_;
@@ -132,6 +137,7 @@ class RunLoop {
   bool finished_ = false;
   bool stopping_ = false;
   std::uint64_t tick_ = 0;
+  bool timed_ = false;  // this tick times its stages
   hal::SensorFrame frame_;
   double last_lateral_position_m_ = 0;
   double last_normal_displacement_m_ = 0;

@@ -1,7 +1,8 @@
-// An unpaced run reads no clock (issue 17): with time_stages off the loop
+// An unpaced run reads no clock (issue 17): with time_stages_every 0 the loop
 // never calls its clock, and its samples are those of a timed run bit for
-// bit; with time_stages on (tribod) it reads six times a tick, which is what
-// makes the count meaningful.
+// bit; timing every tick (tribod's paced loops) it reads six times a tick,
+// which is what makes the count meaningful; tribod's unpaced simulated runs
+// time one tick in kUnpacedTimingInterval.
 #include <gtest/gtest.h>
 
 #include <cstdint>
@@ -20,10 +21,11 @@ struct ClockedRun {
   std::vector<Sample> samples;
   std::uint64_t cycles = 0;
   std::uint64_t reads = 0;
+  std::uint64_t timed_ticks = 0;
   StageSnapshot tick_stage;
 };
 
-ClockedRun run_standard_scratch(bool time_stages) {
+ClockedRun run_standard_scratch(std::uint32_t time_stages_every) {
   const v1::DaemonConfig config = tribo::testing::default_config();
   const ProtocolCheck check = validate_protocol(testing::load_protocol_file("standard_scratch.textproto"), config);
   if (!check.ok()) throw std::runtime_error(check.errors.front().message);
@@ -32,7 +34,7 @@ ClockedRun run_standard_scratch(bool time_stages) {
   RunControl control;
   RunTelemetry telemetry;
   RunLoopConfig loop_config = run_loop_config_from(config);
-  loop_config.time_stages = time_stages;
+  loop_config.time_stages_every = time_stages_every;
   loop_config.clock_ns = &counting_clock;
   RunLoop loop(*transducer, check.load_function, loop_config, queue, control, telemetry);
   ClockedRun run;
@@ -43,24 +45,35 @@ ClockedRun run_standard_scratch(bool time_stages) {
   }
   run.reads = clock_reads;
   run.cycles = telemetry.cycles.load();
+  run.timed_ticks = telemetry.timing.ticks();
   run.tick_stage = telemetry.timing.snapshot(Stage::kTick);
   return run;
 }
 
 TEST(RunLoopClock, AnUntimedRunReadsNoClockAndRecordsTheSameSamples) {
-  const ClockedRun untimed = run_standard_scratch(false);
-  const ClockedRun timed = run_standard_scratch(true);
+  const ClockedRun untimed = run_standard_scratch(0);
+  const ClockedRun timed = run_standard_scratch(1);
   EXPECT_EQ(untimed.cycles, 20000u);
   EXPECT_EQ(untimed.reads, 0u);
   EXPECT_EQ(untimed.tick_stage.total_ns, 0u);
   EXPECT_EQ(timed.reads, 6 * timed.cycles);
+  EXPECT_EQ(timed.timed_ticks, timed.cycles);
   EXPECT_GT(timed.tick_stage.total_ns, 0u);
   ASSERT_EQ(untimed.samples.size(), timed.samples.size());
   EXPECT_TRUE(untimed.samples == timed.samples);
 }
 
-TEST(RunLoopClock, TribodTimesItsStages) {
-  EXPECT_TRUE(run_loop_config_from(tribo::testing::default_config()).time_stages);
+TEST(RunLoopClock, TribodsUnpacedRunsTimeOneTickInTheInterval) {
+  const ClockedRun sampled = run_standard_scratch(kUnpacedTimingInterval);
+  const std::uint64_t timed = (sampled.cycles + kUnpacedTimingInterval - 1) / kUnpacedTimingInterval;  // ticks 0, N, 2N...
+  EXPECT_EQ(sampled.timed_ticks, timed);
+  EXPECT_EQ(sampled.reads, 6 * timed);
+  EXPECT_GT(sampled.tick_stage.max_ns, 0u);
+  EXPECT_TRUE(sampled.samples == run_standard_scratch(0).samples);
+}
+
+TEST(RunLoopClock, PacedLoopsTimeEveryTick) {
+  EXPECT_EQ(run_loop_config_from(tribo::testing::default_config()).time_stages_every, 1u);
 }
 
 }  // namespace
