@@ -8,7 +8,8 @@
 // on the code before the speed work (main at 64008b3). Any change of a
 // floating-point operation in the plant, the sensors or the controller moves
 // the hash. The configs are named files, never "the default": the default
-// changes, the pinned files do not.
+// changes, the pinned files do not (the default of main at 64008b3 is frozen
+// in tests/data/sample_pin/tribod_64008b3.textproto).
 #include <gtest/gtest.h>
 
 #include <bit>
@@ -135,8 +136,8 @@ TEST_P(SamplePin, SamplesAreBitIdenticalToThePinnedRun) {
 INSTANTIATE_TEST_SUITE_P(
     NamedConfigs, SamplePin,
     ::testing::Values(
-        Pin{"config/tribod.textproto", "stop_start", kStopStart, 0xb9d85adde8ff3970ULL, 41000},
-        Pin{"config/tribod.textproto", "scratch", kScratch, 0x387e758942eeb47aULL, 40000},
+        Pin{"tests/data/sample_pin/tribod_64008b3.textproto", "stop_start", kStopStart, 0xb9d85adde8ff3970ULL, 41000},
+        Pin{"tests/data/sample_pin/tribod_64008b3.textproto", "scratch", kScratch, 0x387e758942eeb47aULL, 40000},
         Pin{"config/instruments/lugre_plain.textproto", "stop_start", kStopStart, 0x69f2a703601eecd7ULL, 41000},
         Pin{"config/instruments/lugre_plain.textproto", "scratch", kScratch, 0x30cde30c9f50f546ULL, 40000},
         Pin{"config/instruments/dissertation_fit.textproto", "stop_start", kStopStart, 0xf8ee9c7aa414a808ULL, 41000},
