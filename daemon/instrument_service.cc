@@ -289,6 +289,9 @@ std::optional<v1::Error> InstrumentService::start_run(std::optional<std::uint64_
   // consumer: its plant waits with it. Paced or real loops never wait.
   run->loop_config.backpressure =
       config_.backend_case() == v1::DaemonConfig::kSim && !config_.controller().pace_to_wall_clock();
+  // The same loop times its stages on one tick in kUnpacedTimingInterval:
+  // status keeps its stage times, the run its speed (issue 17).
+  if (run->loop_config.backpressure) run->loop_config.time_stages_every = kUnpacedTimingInterval;
 
   reply.set_run_id(start.run_id());
   last_run_id_ = start.run_id();

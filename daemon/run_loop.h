@@ -32,6 +32,9 @@
 
 namespace tribo::daemon {
 
+// tribod's unpaced simulated runs time one tick in this many.
+inline constexpr std::uint32_t kUnpacedTimingInterval = 1024;
+
 struct RunLoopConfig {
   ControllerParams controller;
   SupervisorParams supervisor;
@@ -39,6 +42,16 @@ struct RunLoopConfig {
   // true: when the queue is full, wait for the consumer (the simulated plant
   // waits with us); false: count the sample as dropped and go on.
   bool backpressure = true;
+  // The loop times the stages (six clock reads) of one tick in this many for
+  // status requests (RunTelemetry::timing: maxima and means over the timed
+  // ticks). 1: every tick (tribod's paced loops); kUnpacedTimingInterval:
+  // tribod's simulated backend unpaced; 0: never, no clock read at all (an
+  // acted-on emergency stop excepted): in-process runs (tribo_native.simulate,
+  // campaigns). Six reads cost ~150 ns a tick, as much as half the simulated
+  // instrument itself (issue 17).
+  std::uint32_t time_stages_every = 1;
+  // The clock read for the stage times; a test counts its reads through it.
+  std::uint64_t (*clock_ns)() = &monotonic_ns;
 };
 
 RunLoopConfig run_loop_config_from(const v1::DaemonConfig& config);
@@ -105,6 +118,8 @@ class RunLoop {
   void start_stopping(RunEnd end);
   void finish();
   void record(const Sample& tick_sample, std::uint32_t ticks_per_sample);
+  // The stage clock on a timed tick, else 0 without reading any clock.
+  std::uint64_t now_ns() const;
 
   hal::Transducer& transducer_;
   SegmentRunner runner_;
@@ -122,6 +137,7 @@ class RunLoop {
   bool finished_ = false;
   bool stopping_ = false;
   std::uint64_t tick_ = 0;
+  bool timed_ = false;  // this tick times its stages
   hal::SensorFrame frame_;
   double last_lateral_position_m_ = 0;
   double last_normal_displacement_m_ = 0;

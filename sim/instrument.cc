@@ -98,17 +98,19 @@ StepReport SimInstrument::step(const DriveInput& drive, double dt_s) {
   inputs_.tip_force_n = load * tan_tilt_;
   inputs_.sample_velocity_m_per_s = truth_.sample_velocity_m_per_s;
   inputs_.sample_offset_m = truth_.sample_offset_m;
-  limit_to_static_friction(plant_, inputs_, lateral);
+  // S at the tick's start: the first evaluation of the step reuses it.
+  const double stribeck_now = limit_to_static_friction(plant_, inputs_, lateral);
 
   // A handover first integrates its dead interval under the bias alone.
   AdvanceReport report;
   if (truth_.dead_time_s > 0) {
     LateralInputs dead = inputs_;
     dead.drive = dead_field;
-    report = advance_lateral(plant_, dead, params_.integrator, truth_.dead_time_s, lateral);
+    report = advance_lateral(plant_, dead, params_.integrator, truth_.dead_time_s, lateral, &stribeck_now);
   }
   if (truth_.dead_time_s < dt_s) {
-    const AdvanceReport rest = advance_lateral(plant_, inputs_, params_.integrator, dt_s - truth_.dead_time_s, lateral);
+    const AdvanceReport rest = advance_lateral(plant_, inputs_, params_.integrator, dt_s - truth_.dead_time_s, lateral,
+                                               truth_.dead_time_s > 0 ? nullptr : &stribeck_now);
     report = AdvanceReport{report.substeps + rest.substeps, report.split || rest.split,
                            report.capped || rest.capped, report.stopped || rest.stopped,
                            report.retried || rest.retried};
@@ -118,7 +120,7 @@ StepReport SimInstrument::step(const DriveInput& drive, double dt_s) {
   const bool stopped = report.stopped;
 
   truth_.levels = inputs_.levels;
-  truth_.friction_n = lateral_derivative(plant_, inputs_, lateral).friction_n;
+  friction_stale_ = true;  // truth() evaluates friction_n when asked
   truth_.drive_force_n = inputs_.drive.force_n(lateral.position_m);
   truth_.tip_force_n = inputs_.tip_force_n;
   truth_.snapped = stopped;

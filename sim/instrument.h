@@ -132,7 +132,16 @@ class SimInstrument {
   StepReport step(const DriveInput& drive, double dt_s);
 
   const Measurement& measurement() const { return measurement_; }
-  const InstrumentTruth& truth() const { return truth_; }
+  // friction_n is evaluated here, on the first read after a step, not in
+  // every step: only tests and diagnostics read it, and the evaluation cost
+  // ~6 % of a tick (issue 17). Same state, same inputs: the same value.
+  const InstrumentTruth& truth() const {
+    if (friction_stale_) {
+      truth_.friction_n = lateral_derivative(plant_, inputs_, truth_.lateral).friction_n;
+      friction_stale_ = false;
+    }
+    return truth_;
+  }
   const InstrumentParams& params() const { return params_; }
   const LateralPlant& plant() const { return plant_; }
   // The inputs the plant was held at during the last tick (after its dead
@@ -147,7 +156,8 @@ class SimInstrument {
   InstrumentParams params_;
   LateralPlant plant_;
   double tan_tilt_ = 0, tan_slope_ = 0;
-  InstrumentTruth truth_;
+  mutable InstrumentTruth truth_;     // friction_n filled in lazily by truth()
+  mutable bool friction_stale_ = false;
   Measurement measurement_;
   LateralInputs inputs_;
   DriveElectronics electronics_;

@@ -28,12 +28,14 @@ ContactPoint contact_point(const LateralPlant& plant, const LateralInputs& in, c
 
 // Friction force of the bristle(s) at deflection scale g; fills their rates.
 double bristle_force_n(const FrictionModel& m, double g, double v, const LateralState& s,
-                       LateralRate& r) {
+                       LateralEvaluation& e) {
   const LugreParams& p = m.lugre;
   const PreslidingHysteresisParams& h = m.presliding_hysteresis;
+  LateralRate& r = e.rate;
   if (!h.enabled) {
     const LugreOutput out = lugre_bristle(p, g, v, s.bristle_m);
     r.bristle_m = out.dz_dt_m_per_s;
+    e.plasticity = out.plasticity;
     return out.force_n;
   }
   double force = p.sigma2_n_s_per_m * v;
@@ -72,16 +74,16 @@ void hold_at_stop(const DriveField& f, const LateralState& s, LateralRate& r) {
 }  // namespace
 
 LateralEvaluation lateral_derivative(const LateralPlant& plant, const LateralInputs& in,
-                                     const LateralState& s) {
+                                     const LateralState& s, const double* stribeck_n_at_s) {
   const LateralAxisParams& axis = plant.axis;
   const FrictionModel& m = plant.friction;
   LateralEvaluation e;
   LateralRate& r = e.rate;
   const ContactPoint c = contact_point(plant, in, s);
   if (in.levels.in_contact()) {
-    const double g = stribeck_n(m, in.levels, c) / m.lugre.sigma0_n_per_m;
+    const double g = (stribeck_n_at_s ? *stribeck_n_at_s : stribeck_n(m, in.levels, c)) / m.lugre.sigma0_n_per_m;
     e.deflection_scale_m = g;
-    e.friction_n = bristle_force_n(m, g, c.velocity_m_per_s, s, r);
+    e.friction_n = bristle_force_n(m, g, c.velocity_m_per_s, s, e);
     if (m.dwell_stiction.enabled) {
       r.contact_age_s = 1.0 - std::fabs(c.velocity_m_per_s) * s.contact_age_s / m.dwell_stiction.memory_length_m;
     }
@@ -267,12 +269,13 @@ bool integrate_lateral_split(const LateralPlant& plant, const LateralInputs& in,
   return stopped;
 }
 
-void limit_to_static_friction(const LateralPlant& plant, const LateralInputs& in, LateralState& s) {
-  if (!in.levels.in_contact()) return;
+double limit_to_static_friction(const LateralPlant& plant, const LateralInputs& in, LateralState& s) {
+  if (!in.levels.in_contact()) return 0.0;
   const FrictionModel& m = plant.friction;
   const ContactPoint c = contact_point(plant, in, s);
+  const double sliding_n = stribeck_n(m, in.levels, c);
   auto limit = [&](double z, double share) {
-    const double held_n = std::max(stribeck_n(m, in.levels, c), static_friction_n(m, in.levels, c, z));
+    const double held_n = std::max(sliding_n, static_friction_n(m, in.levels, c, z));
     const double most = share * held_n / m.lugre.sigma0_n_per_m;
     return std::clamp(z, -most, most);
   };
@@ -282,6 +285,7 @@ void limit_to_static_friction(const LateralPlant& plant, const LateralInputs& in
   } else {
     for (int i = 0; i < hy.elements; ++i) s.slip_m[i] = limit(s.slip_m[i], slip_share(hy, i));
   }
+  return sliding_n;
 }
 
 double stored_energy_j(const LateralPlant& plant, const LateralInputs& in, const LateralState& s) {

@@ -109,10 +109,15 @@ struct LateralEvaluation {
   LateralRate rate;
   double friction_n = 0;
   double deflection_scale_m = 0;  // g at the evaluated point (0 out of contact)
+  double plasticity = 1;          // alpha of the single bristle (no Maxwell-slip elements)
 };
 
+// stribeck_n_at_s, if given, is stribeck_n at s's contact point for these
+// inputs' levels, already computed (limit_to_static_friction returns it): the
+// same value, not evaluated twice (issue 17: each costs one to four
+// transcendental functions).
 LateralEvaluation lateral_derivative(const LateralPlant& plant, const LateralInputs& in,
-                                     const LateralState& s);
+                                     const LateralState& s, const double* stribeck_n_at_s = nullptr);
 
 // The explicit scheme of one sub-step.
 enum class SubstepScheme { kRk4, kMidpoint };
@@ -137,7 +142,9 @@ bool integrate_lateral_split(const LateralPlant& plant, const LateralInputs& in,
 // g(0)); besides unloading, the limit acts only where a modulation (position,
 // contact age) lowers g faster than the bristle relaxes: an instant slip
 // instead of one over the next few nm.
-void limit_to_static_friction(const LateralPlant& plant, const LateralInputs& in, LateralState& s);
+// Returns S (stribeck_n) at the contact point, which the limit leaves as it
+// was (it moves only the bristles); 0 out of contact.
+double limit_to_static_friction(const LateralPlant& plant, const LateralInputs& in, LateralState& s);
 
 // Stored energy: kinetic, spring, bristle (or elements), backlash coupling,
 // and the potentials of the held drive field and tip force. With no sample

@@ -38,8 +38,9 @@ double plasticity(double r, double v, double z, double g) {
 }
 
 LugreOutput lugre_bristle(const LugreParams& p, double g, double v, double z) {
-  const double dz = v - plasticity(p.breakaway_ratio, v, z, g) * std::fabs(v) * z / g;
-  return LugreOutput{dz, p.sigma0_n_per_m * z + p.sigma1_n_s_per_m * dz + p.sigma2_n_s_per_m * v};
+  const double alpha = plasticity(p.breakaway_ratio, v, z, g);
+  const double dz = v - alpha * std::fabs(v) * z / g;
+  return LugreOutput{dz, p.sigma0_n_per_m * z + p.sigma1_n_s_per_m * dz + p.sigma2_n_s_per_m * v, alpha};
 }
 
 LugreOutput lugre_evaluate(const LugreParams& p, const FrictionLevels& levels, double v, double z) {

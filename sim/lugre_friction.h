@@ -64,6 +64,7 @@ double plasticity(double breakaway_ratio, double velocity_m_per_s, double z_m, d
 struct LugreOutput {
   double dz_dt_m_per_s = 0;
   double force_n = 0;
+  double plasticity = 1;  // alpha(z, v) of the evaluation (the step estimate reuses it)
 };
 
 // One bristle with deflection scale g: dz/dt and sigma0 z + sigma1 dz/dt + sigma2 v.

@@ -78,7 +78,8 @@ LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs&
   const double r = hy.enabled ? hy.breakaway_ratio : p.breakaway_ratio;
   if (!hy.enabled) {
     z_ratio = std::fabs(s.bristle_m) / g;
-    const double alpha = plasticity(r, v, s.bristle_m, g);
+    // alpha at g = the evaluation's own g (share_min is 1 here): the same value.
+    const double alpha = now.plasticity;
     const double along = v > 0 ? s.bristle_m / g : (v < 0 ? -s.bristle_m / g : 0.0);
     d = may_reverse ? 1.0 + z_ratio * (1.0 + shape) : std::fabs(1.0 - alpha * along) + z_ratio * shape;
   } else {
@@ -169,9 +170,10 @@ bool sane(const LateralPlant& plant, const LateralInputs& in, const LateralState
 }  // namespace
 
 AdvanceReport advance_lateral(const LateralPlant& plant, const LateralInputs& in,
-                              const IntegratorSettings& settings, double dt_s, LateralState& s) {
+                              const IntegratorSettings& settings, double dt_s, LateralState& s,
+                              const double* stribeck_n_at_s) {
   const LateralState start = s;
-  const LateralEvaluation now = lateral_derivative(plant, in, s);
+  const LateralEvaluation now = lateral_derivative(plant, in, s, stribeck_n_at_s);
   const LateralRates rates = lateral_rate_bounds(plant, in, s, now, dt_s);
   StepPlan plan = plan_substeps(rates, dt_s, settings.max_h_lambda, settings.max_substeps);
   const SubstepScheme scheme = settings.midpoint ? SubstepScheme::kMidpoint : SubstepScheme::kRk4;

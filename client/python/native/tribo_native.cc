@@ -112,6 +112,7 @@ SimulatedRun simulate_run(const v1::DaemonConfig& config, const daemon::LoadFunc
   daemon::RunTelemetry telemetry;
   daemon::RunLoopConfig loop_config = daemon::run_loop_config_from(config);
   loop_config.backpressure = true;
+  loop_config.time_stages_every = 0;  // unpaced: no clock reads (nobody asks for stage times)
   daemon::RunLoop loop(*transducer, load_function, loop_config, queue, control, telemetry);
   SimulatedRun run;
   run.samples.reserve(load_function.expected_samples() + 1024);
