@@ -175,6 +175,13 @@ FitResult fit_extension_once(const ModelData& data, const ModelParams& current, 
   return full.rss <= best.rss ? full : best;
 }
 
+// A candidate fit's relative cost, for the order the jobs start in: the
+// Jacobian's width (free parameters) and two fits for rate_state (two laws).
+double expected_fit_cost(const ModelData& data, const ModelParams& current, Effect effect) {
+  const double width = static_cast<double>(current.free_count() + effect_parameters(effect, data, current.structure).size());
+  return effect == Effect::kRateState ? 2 * width : width;
+}
+
 std::vector<ParamEstimate> parameters_of(const FitResult& fit, Effect effect) {
   std::vector<ParamEstimate> out;
   for (const auto& e : fit.estimates) {
@@ -572,7 +579,9 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
   if (options.choose_state_from_rest && !out.motion.holds.empty()) {
     std::tie(base, out.base, out.pass_start) = choose_pass_start_state(data, options, in_fit, heldout);
   } else {
-    out.base = fit_lugre(data, base, base.state_from_rest ? without_holds(data, in_fit) : in_fit, options.lugre);
+    LugreFitOptions lugre = options.lugre;
+    lugre.threads = options.threads;
+    out.base = fit_lugre(data, base, base.state_from_rest ? without_holds(data, in_fit) : in_fit, lugre);
   }
   if (base.state_from_rest) {
     // The holds only set each pass's initial state (ModelStructure::state_from_rest).
@@ -642,7 +651,16 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
     // candidate otherwise).
     std::vector<FitResult> fits(screened.size());
     std::vector<std::pair<double, double>> heldout_checks(screened.size());  // RMS after, block agreement
-    parallel_for(screened.size(), options.threads, [&](std::size_t j) {
+    // The costliest fits start first, so that the round does not end on one
+    // long fit while the other cores idle (each job still fills its own slot).
+    std::vector<std::size_t> order(screened.size());
+    for (std::size_t j = 0; j < order.size(); ++j) order[j] = j;
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+      return expected_fit_cost(data, current.fit.params, screened[a].second) >
+             expected_fit_cost(data, current.fit.params, screened[b].second);
+    });
+    parallel_for(screened.size(), options.threads, [&](std::size_t job) {
+      const std::size_t j = order[job];
       fits[j] = fit_extension(data, current.fit.params, screened[j].second, screened[j].first, in_fit, options);
       const std::vector<double> model = simulate(data, fits[j].params);
       heldout_checks[j] = {rms_over(series.force_n, model, heldout),
