@@ -87,9 +87,12 @@ double score_test(const ModelData& data, const ModelParams& current, const std::
     if (X.col(j).cwiseAbs().maxCoeff() > 0) keep.push_back(j);
   }
   if (keep.empty()) return 0.0;
-  Eigen::MatrixXd Xk(X.rows(), static_cast<Eigen::Index>(keep.size()));
-  for (std::size_t j = 0; j < keep.size(); ++j) Xk.col(static_cast<Eigen::Index>(j)) = X.col(keep[j]);
-  const Regression reg = regress(Xk, y);
+  Eigen::MatrixXd Xk;  // a copy only when a column is dropped
+  if (keep.size() < static_cast<std::size_t>(X.cols())) {
+    Xk.resize(X.rows(), static_cast<Eigen::Index>(keep.size()));
+    for (std::size_t j = 0; j < keep.size(); ++j) Xk.col(static_cast<Eigen::Index>(j)) = X.col(keep[j]);
+  }
+  const Regression reg = regress(Xk.size() > 0 ? Xk : X, y);
   if (!reg.ok) return 0.0;
   double best = 0;
   for (Eigen::Index j = 0; j < reg.coef.size(); ++j) best = std::max(best, std::fabs(reg.t(static_cast<int>(j))));
@@ -170,6 +173,13 @@ FitResult fit_extension_once(const ModelData& data, const ModelParams& current, 
   for (std::size_t k = 0; k < all.specs.size(); ++k) all.specs[k].fixed = start.specs[k].fixed;
   FitResult full = fit_model(data, all, in_fit, options.candidate_fit);
   return full.rss <= best.rss ? full : best;
+}
+
+// A candidate fit's relative cost, for the order the jobs start in: the
+// Jacobian's width (free parameters) and two fits for rate_state (two laws).
+double expected_fit_cost(const ModelData& data, const ModelParams& current, Effect effect) {
+  const double width = static_cast<double>(current.free_count() + effect_parameters(effect, data, current.structure).size());
+  return effect == Effect::kRateState ? 2 * width : width;
 }
 
 std::vector<ParamEstimate> parameters_of(const FitResult& fit, Effect effect) {
@@ -569,7 +579,9 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
   if (options.choose_state_from_rest && !out.motion.holds.empty()) {
     std::tie(base, out.base, out.pass_start) = choose_pass_start_state(data, options, in_fit, heldout);
   } else {
-    out.base = fit_lugre(data, base, base.state_from_rest ? without_holds(data, in_fit) : in_fit, options.lugre);
+    LugreFitOptions lugre = options.lugre;
+    lugre.threads = options.threads;
+    out.base = fit_lugre(data, base, base.state_from_rest ? without_holds(data, in_fit) : in_fit, lugre);
   }
   if (base.state_from_rest) {
     // The holds only set each pass's initial state (ModelStructure::state_from_rest).
@@ -588,14 +600,25 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
   for (int round = 0; round < options.max_rounds; ++round) {
     const SignatureInput input{data, current.fit.params, current.model, current.friction, in_fit};
     std::vector<std::pair<Signature, Effect>> screened;
+    // Signatures and score tests, one job per candidate (read-only inputs,
+    // one slot each), then screened in the candidates' order.
+    std::vector<Effect> open;
     for (Effect e : options.candidates) {
-      if (current.fit.params.structure.has(e)) continue;
-      Signature sig = compute_signature(e, input);
-      RejectedEffect& st = status[e];
+      if (!current.fit.params.structure.has(e)) open.push_back(e);
+    }
+    std::vector<Signature> signatures(open.size());
+    parallel_for(open.size(), options.threads, [&](std::size_t j) {
+      Signature sig = compute_signature(open[j], input);
       if (sig.applicable) {
-        sig.score_t = score_test(data, current.fit.params, current.model, e, sig, in_fit);
+        sig.score_t = score_test(data, current.fit.params, current.model, open[j], sig, in_fit);
         sig.summary += fmt("; score test t = %.1f", sig.score_t);
       }
+      signatures[j] = std::move(sig);
+    });
+    for (std::size_t j = 0; j < open.size(); ++j) {
+      const Effect e = open[j];
+      Signature& sig = signatures[j];
+      RejectedEffect& st = status[e];
       st.signature_strength = sig.applicable ? std::max(sig.strength, sig.score_t / options.score_t_threshold) : 0.0;
       if (!sig.applicable) {
         st.reason = "not applicable to these data: " + sig.summary;
@@ -623,17 +646,30 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
     const double aicc_current_eff = aicc(current.fit.rss, current.fit.n, n_eff, current.fit.k);
     const double heldout_before = rms_over(series.force_n, current.model, heldout);
     std::optional<std::size_t> best;
+    // Each job fits its candidate and checks it on the held-out passes; the
+    // candidate's model force is dropped there (one array per sample and
+    // candidate otherwise).
     std::vector<FitResult> fits(screened.size());
-    std::vector<std::vector<double>> models(screened.size());
-    parallel_for(screened.size(), options.threads, [&](std::size_t j) {
+    std::vector<std::pair<double, double>> heldout_checks(screened.size());  // RMS after, block agreement
+    // The costliest fits start first, so that the round does not end on one
+    // long fit while the other cores idle (each job still fills its own slot).
+    std::vector<std::size_t> order(screened.size());
+    for (std::size_t j = 0; j < order.size(); ++j) order[j] = j;
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+      return expected_fit_cost(data, current.fit.params, screened[a].second) >
+             expected_fit_cost(data, current.fit.params, screened[b].second);
+    });
+    parallel_for(screened.size(), options.threads, [&](std::size_t job) {
+      const std::size_t j = order[job];
       fits[j] = fit_extension(data, current.fit.params, screened[j].second, screened[j].first, in_fit, options);
-      models[j] = simulate(data, fits[j].params);
+      const std::vector<double> model = simulate(data, fits[j].params);
+      heldout_checks[j] = {rms_over(series.force_n, model, heldout),
+                           block_agreement(out.motion, heldout, series.force_n, current.model, model)};
     });
     const std::size_t first_trial = out.trials.size();
     for (std::size_t j = 0; j < screened.size(); ++j) {
       const auto& [sig, e] = screened[j];
       const FitResult& fit = fits[j];
-      const std::vector<double>& model = models[j];
       CandidateTrial trial;
       trial.effect = e;
       trial.round = round;
@@ -642,9 +678,9 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
       trial.delta_aicc = aicc(fit.rss, fit.n, n, fit.k) - aicc_current;
       trial.delta_aicc_effective = aicc(fit.rss, fit.n, n_eff, fit.k) - aicc_current_eff;
       trial.heldout_rms_before = heldout_before;
-      trial.heldout_rms_after = rms_over(series.force_n, model, heldout);
+      trial.heldout_rms_after = heldout_checks[j].first;
       trial.heldout_gain = heldout_before > 0 ? 1.0 - trial.heldout_rms_after / heldout_before : 0.0;
-      trial.block_agreement = block_agreement(out.motion, heldout, series.force_n, current.model, model);
+      trial.block_agreement = heldout_checks[j].second;
       trial.parameters = parameters_of(fit, e);
       trial.warnings = fit.warnings;
       const std::string objection = out_of_bounds(data, fit, e);

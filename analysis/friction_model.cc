@@ -122,17 +122,35 @@ T bristle_step(const T& z, double v, const T& h, const T& alpha_over_g) {
 
 double param_value(const ParamSpec& spec, double theta) { return transform(spec, theta); }
 
-std::vector<double> cubic_bspline_basis(double u, int intervals) {
-  std::vector<double> b(static_cast<std::size_t>(intervals + 3), 0.0);
+namespace {
+
+// b[0, intervals + 3): the uniform cubic B-splines at u (zero but four).
+void cubic_bspline_basis_into(double u, int intervals, double* b) {
+  std::fill(b, b + intervals + 3, 0.0);
   const double x = std::clamp(u, 0.0, 1.0) * intervals;
   const int k = std::min(static_cast<int>(x), intervals - 1);
   const double t = x - k;
   // The four non-zero uniform cubic B-splines on interval k.
-  b[static_cast<std::size_t>(k)] = (1 - t) * (1 - t) * (1 - t) / 6;
-  b[static_cast<std::size_t>(k + 1)] = (3 * t * t * t - 6 * t * t + 4) / 6;
-  b[static_cast<std::size_t>(k + 2)] = (-3 * t * t * t + 3 * t * t + 3 * t + 1) / 6;
-  b[static_cast<std::size_t>(k + 3)] = t * t * t / 6;
+  b[k] = (1 - t) * (1 - t) * (1 - t) / 6;
+  b[k + 1] = (3 * t * t * t - 6 * t * t + 4) / 6;
+  b[k + 2] = (-3 * t * t * t + 3 * t * t + 3 * t + 1) / 6;
+  b[k + 3] = t * t * t / 6;
+}
+
+// Drift functions: at most 12 knot intervals (ModelData).
+constexpr int kMaxDriftFunctions = 15;
+
+}  // namespace
+
+std::vector<double> cubic_bspline_basis(double u, int intervals) {
+  std::vector<double> b(static_cast<std::size_t>(intervals + 3), 0.0);
+  cubic_bspline_basis_into(u, intervals, b.data());
   return b;
+}
+
+void ModelData::drift_basis_at(std::size_t i, double* out) const {
+  const double t0 = series.time_s.front(), span = std::max(series.time_s.back() - t0, 1e-30);
+  cubic_bspline_basis_into((series.time_s[i] - t0) / span, drift_functions - 3, out);
 }
 
 double param_theta(const ParamSpec& spec, double value) {
@@ -235,12 +253,10 @@ ModelData::ModelData(const MeasuredSeries& s, const MotionSegmentation& m) : ser
   }
   const double t0 = s.time_s.front(), span = std::max(s.time_s.back() - t0, 1e-30);
   drift_functions = std::clamp(static_cast<int>(m.passes.size()) / 2, 3, 12) + 3;
-  drift_basis.resize(n);
   normalised_time.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
     const double u = (s.time_s[i] - t0) / span;
     normalised_time[i] = 2 * u - 1;
-    drift_basis[i] = cubic_bspline_basis(u, drift_functions - 3);
   }
 }
 
@@ -346,25 +362,22 @@ ModelParams with_effect(const ModelParams& params, Effect e, const ModelData& d,
 // few D_c in sliding, so a pass after a short hold starts from the age the
 // previous pass left (as on the instrument: sim/friction_effects.h), not
 // from zero. The record's first sample: steady sliding if moving, else new.
+// Advanced one sample at a time with the simulation (no per-sample array).
 template <class T>
-std::vector<T> contact_age(const ModelData& d, const T& memory_m) {
+T contact_age_start(const ModelData& d, const T& memory_m) {
+  const double v0 = std::fabs(d.drive_velocity[0]);
+  return v0 > 0 ? T(memory_m / v0) : T(0.0 * memory_m);
+}
+
+// The age at sample i >= 1 from the age at i - 1.
+template <class T>
+T contact_age_step(const ModelData& d, const T& memory_m, const T& previous, std::size_t i) {
   using std::exp;
   const MeasuredSeries& s = d.series;
-  const std::size_t n = s.size();
-  std::vector<T> age(n, T(0.0 * memory_m));
-  if (n == 0) return age;
-  const double v0 = std::fabs(d.drive_velocity[0]);
-  if (v0 > 0) age[0] = memory_m / v0;
-  for (std::size_t i = 1; i < n; ++i) {
-    const double h = s.time_s[i] - s.time_s[i - 1], speed = std::fabs(d.step_velocity[i]);
-    if (speed == 0.0) {
-      age[i] = age[i - 1] + h;
-      continue;
-    }
-    const T steady = memory_m / speed;
-    age[i] = steady + (age[i - 1] - steady) * exp(-(speed * h) / memory_m);
-  }
-  return age;
+  const double h = s.time_s[i] - s.time_s[i - 1], speed = std::fabs(d.step_velocity[i]);
+  if (speed == 0.0) return previous + h;
+  const T steady = memory_m / speed;
+  return steady + (previous - steady) * exp(-(speed * h) / memory_m);
 }
 
 // Ruina's slip law along the measured motion, d theta/dt = -(|v| theta / D_c)
@@ -374,30 +387,24 @@ std::vector<T> contact_age(const ModelData& d, const T& memory_m) {
 // over a speed change is the interval's. First sample: steady sliding if
 // moving, else a state of D_c / v_ref.
 template <class T>
-std::vector<T> slip_law_state(const ModelData& d, const T& memory_m) {
-  using std::exp;
-  using std::log;
-  const MeasuredSeries& s = d.series;
-  const std::size_t n = s.size();
-  std::vector<T> state(n, T(0.0 * memory_m));
-  if (n == 0) return state;
+T slip_law_start(const ModelData& d, const T& memory_m) {
   const double v0 = std::fabs(d.drive_velocity[0]);
-  state[0] = memory_m / (v0 > 0 ? v0 : d.speed_ref);
-  for (std::size_t i = 1; i < n; ++i) {
-    const double h = s.time_s[i] - s.time_s[i - 1], speed = std::fabs(d.step_velocity[i]);
-    if (speed == 0.0) {
-      state[i] = state[i - 1];
-      continue;
-    }
-    const T phi = log(speed * state[i - 1] / memory_m);
-    state[i] = memory_m / speed * exp(phi * exp(-(speed * h) / memory_m));
-  }
-  return state;
+  return memory_m / (v0 > 0 ? v0 : d.speed_ref);
 }
 
 template <class T>
-void simulate_generic(const ModelData& d, const ModelParams& p, const std::vector<T>& theta, std::vector<T>& force,
-                      std::vector<T>* friction_out) {
+T slip_law_step(const ModelData& d, const T& memory_m, const T& previous, std::size_t i) {
+  using std::exp;
+  using std::log;
+  const MeasuredSeries& s = d.series;
+  const double h = s.time_s[i] - s.time_s[i - 1], speed = std::fabs(d.step_velocity[i]);
+  if (speed == 0.0) return previous;
+  const T phi = log(speed * previous / memory_m);
+  return memory_m / speed * exp(phi * exp(-(speed * h) / memory_m));
+}
+
+template <class T>
+void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vector<T>& theta, SampleSink<T> sink) {
   using std::cos;
   using std::exp;
   using std::log;
@@ -418,7 +425,10 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
   const bool load_scaled = st.load_scaled && s.has_normal();
   const T m = mass ? val(k.mass) : T(0.0);
   const T dwell_dfs = dwell ? val(k.dwell_dfs) : T(0.0), dwell_time = dwell ? val(k.dwell_time) : T(1.0);
-  const std::vector<T> age = dwell ? contact_age(d, val(k.dwell_memory)) : std::vector<T>{};
+  const T dwell_memory = dwell ? val(k.dwell_memory) : T(1.0);
+  // The contact age and the rate-and-state variable at the sample being
+  // simulated (stribeck() is only asked about that sample).
+  T age = dwell ? contact_age_start(d, dwell_memory) : T(0.0);
   const T lag_time = lag ? val(k.lag) : T(0.0);
   const T log_coeff = logv ? val(k.logv) : T(0.0);
   const T load_exponent = load_dep ? val(k.load_exponent) : T(0.0);
@@ -430,8 +440,8 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
   const T gap = backlash ? val(k.gap) : T(0.0);
   const T rs_a = rate_state ? val(k.rs_a) : T(0.0), rs_b = rate_state ? val(k.rs_b) : T(0.0);
   const T rs_dc = rate_state ? val(k.rs_dc) : T(1.0);
-  std::vector<T> rs_state;
-  if (rate_state) rs_state = st.rate_state_slip_law ? slip_law_state(d, rs_dc) : contact_age(d, rs_dc);
+  const bool slip_law = st.rate_state_slip_law;
+  T rs_state = !rate_state ? T(0.0) : (slip_law ? slip_law_start(d, rs_dc) : contact_age_start(d, rs_dc));
   std::vector<T> drift_c;
   if (drift) {
     for (int index : k.drift) drift_c.push_back(val(index));
@@ -442,13 +452,13 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
   // S(speed) at sample i for a motion of the given sign.
   auto stribeck = [&](std::size_t i, const T& speed, double sign) -> T {
     T static_level = fs;
-    if (dwell) static_level = static_level + dwell_dfs * (age[i] / (age[i] + dwell_time));
+    if (dwell) static_level = static_level + dwell_dfs * (age / (age + dwell_time));
     const T ratio = speed / vs;
     const T shape = delta == 1.0 ? ratio : (delta == 2.0 ? T(ratio * ratio) : T(pow(ratio, delta)));
     T level = fc + (static_level - fc) * exp(-shape);
     if (logv) level = level + log_coeff * log((speed + d.speed_floor) / d.speed_ref);
     if (rate_state) {
-      level = level + rs_a * log((speed + d.speed_floor) / d.speed_ref) + rs_b * log(d.speed_ref * rs_state[i] / rs_dc);
+      level = level + rs_a * log((speed + d.speed_floor) / d.speed_ref) + rs_b * log(d.speed_ref * rs_state / rs_dc);
     }
     if (load_scaled) {
       const double normal = std::max(s.normal_force_n[i], 0.0);
@@ -482,7 +492,9 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
     if (mass) f = f + m * s.acceleration_m_per_s2[i];
     if (tilt) f = f + tilt_tan * s.normal_force_n[i];
     if (drift) {
-      for (std::size_t j = 0; j < drift_c.size(); ++j) f = f + drift_c[j] * d.drift_basis[i][j];
+      std::array<double, kMaxDriftFunctions> basis{};
+      d.drift_basis_at(i, basis.data());
+      for (std::size_t j = 0; j < drift_c.size(); ++j) f = f + drift_c[j] * basis[j];
     }
     if (periodic && st.periodic_additive) {
       const T phase = per_wavenumber * s.position_m[i];
@@ -491,8 +503,6 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
     return f;
   };
 
-  force.resize(n);
-  if (friction_out) friction_out->assign(n, T(0.0));
   const auto& v = d.drive_velocity;
   const auto& x = s.position_m;
 
@@ -560,14 +570,21 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
   for (std::size_t i = 0; i < n; ++i) {
     T friction = T(0.0 * sigma0);
     const T level_prev = level, vlag_prev = vlag;
+    if (i > 0 && dwell) {
+      const T next = contact_age_step(d, dwell_memory, age, i);
+      age = next;
+    }
+    if (i > 0 && rate_state) {
+      const T next = slip_law ? slip_law_step(d, rs_dc, rs_state, i) : contact_age_step(d, rs_dc, rs_state, i);
+      rs_state = next;
+    }
     if (i > 0) {
       if (lag) vlag = lagged_velocity(i);
       level = stribeck(i, lag ? absolute(vlag) : T(std::fabs(v[i])), sign_of(v[i]));
     }
     if (value_of(level) <= tiny) {
       z = T(0.0 * sigma0);
-      force[i] = additive(i);
-      if (friction_out) (*friction_out)[i] = T(0.0 * sigma0);
+      sink(i, additive(i), T(0.0 * sigma0));
       continue;
     }
     const T g = level / sigma0;
@@ -614,21 +631,36 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
       const T viscous = asym ? T(fv * (1.0 + asym_viscous * sign_of(vi))) : fv;
       friction = sigma0 * z + sigma1 * dz_dt + viscous * vi;
     }
-    force[i] = friction + additive(i);
-    if (friction_out) (*friction_out)[i] = friction;
+    sink(i, friction + additive(i), friction);
   }
 }
 
-template void simulate_generic<double>(const ModelData&, const ModelParams&, const std::vector<double>&,
-                                       std::vector<double>&, std::vector<double>*);
-template void simulate_generic<Dual>(const ModelData&, const ModelParams&, const std::vector<Dual>&,
-                                     std::vector<Dual>&, std::vector<Dual>*);
-template void simulate_generic<FixedDual<8>>(const ModelData&, const ModelParams&, const std::vector<FixedDual<8>>&,
-                                             std::vector<FixedDual<8>>&, std::vector<FixedDual<8>>*);
-template void simulate_generic<FixedDual<16>>(const ModelData&, const ModelParams&, const std::vector<FixedDual<16>>&,
-                                              std::vector<FixedDual<16>>&, std::vector<FixedDual<16>>*);
-template void simulate_generic<FixedDual<32>>(const ModelData&, const ModelParams&, const std::vector<FixedDual<32>>&,
-                                              std::vector<FixedDual<32>>&, std::vector<FixedDual<32>>*);
+template <class T>
+void simulate_generic(const ModelData& d, const ModelParams& p, const std::vector<T>& theta, std::vector<T>& force,
+                      std::vector<T>* friction_out) {
+  const std::size_t n = d.series.size();
+  force.resize(n);
+  if (friction_out) friction_out->assign(n, T(0.0));
+  auto store = [&](std::size_t i, const T& f, const T& friction) {
+    force[i] = f;
+    if (friction_out) (*friction_out)[i] = friction;
+  };
+  simulate_streamed<T>(d, p, theta, SampleSink<T>(store));
+}
+
+#define TRIBO_INSTANTIATE_SIMULATE(T)                                                                      \
+  template void simulate_generic<T>(const ModelData&, const ModelParams&, const std::vector<T>&, std::vector<T>&, \
+                                    std::vector<T>*);                                                             \
+  template void simulate_streamed<T>(const ModelData&, const ModelParams&, const std::vector<T>&, SampleSink<T>);
+TRIBO_INSTANTIATE_SIMULATE(double)
+TRIBO_INSTANTIATE_SIMULATE(Dual)
+TRIBO_INSTANTIATE_SIMULATE(FixedDual<4>)
+TRIBO_INSTANTIATE_SIMULATE(FixedDual<8>)
+TRIBO_INSTANTIATE_SIMULATE(FixedDual<12>)
+TRIBO_INSTANTIATE_SIMULATE(FixedDual<16>)
+TRIBO_INSTANTIATE_SIMULATE(FixedDual<24>)
+TRIBO_INSTANTIATE_SIMULATE(FixedDual<32>)
+#undef TRIBO_INSTANTIATE_SIMULATE
 
 std::vector<double> simulate(const ModelData& data, const ModelParams& params, std::vector<double>* friction) {
   std::vector<double> force;

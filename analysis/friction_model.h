@@ -95,8 +95,11 @@ struct ModelData {
   // offset is held fixed while drift is in the model. Also the normalised
   // time u in [-1, 1].
   int drift_functions = 6;
-  std::vector<std::vector<double>> drift_basis;
   std::vector<double> normalised_time;
+  // The drift functions' values at sample i into out[0, drift_functions),
+  // computed when needed: a stored table would cost drift_functions doubles
+  // per sample.
+  void drift_basis_at(std::size_t i, double* out) const;
   std::vector<double> drive_velocity;  // the measured velocity, zero inside holds
   std::vector<char> at_rest;           // inside a hold (motion segmentation)
   std::vector<double> step_velocity;   // mean velocity over (t[i-1], t[i]); [0] unused
@@ -119,6 +122,28 @@ ModelParams with_effect(const ModelParams& params, Effect effect, const ModelDat
 template <class T>
 void simulate_generic(const ModelData& data, const ModelParams& params, const std::vector<T>& theta,
                       std::vector<T>& force, std::vector<T>* friction = nullptr);
+
+// Receives each sample's model force and friction part, in time order, as
+// the simulation produces them: callers that keep only some samples or
+// reduce them (the fit's residual and Jacobian rows) need no per-sample
+// array of T (17 to 33 doubles a sample for the autodiff types).
+template <class T>
+class SampleSink {
+ public:
+  template <class F>
+  explicit SampleSink(F& f)
+      : target_(&f), call_([](void* t, std::size_t i, const T& force, const T& friction) { (*static_cast<F*>(t))(i, force, friction); }) {}
+  void operator()(std::size_t i, const T& force, const T& friction) const { call_(target_, i, force, friction); }
+
+ private:
+  void* target_;
+  void (*call_)(void*, std::size_t, const T&, const T&);
+};
+
+// simulate_generic, streamed: sink(i, force, friction) for i = 0 .. n-1.
+// The values are those simulate_generic stores, bit for bit.
+template <class T>
+void simulate_streamed(const ModelData& data, const ModelParams& params, const std::vector<T>& theta, SampleSink<T> sink);
 
 std::vector<double> simulate(const ModelData& data, const ModelParams& params,
                              std::vector<double>* friction = nullptr);

@@ -6,6 +6,8 @@
 
 #include <Eigen/Dense>
 
+#include "analysis/parallel_for.h"
+
 namespace tribo::analysis {
 
 namespace {
@@ -203,17 +205,22 @@ LugreFit fit_lugre(const ModelData& d, const ModelStructure& st, const std::vect
         ModelParams p = start;
         p.set_value("sigma0", force_level / (g_fraction * length));
         p.set_value("sigma1", damping * force_level / d.speed_ref);
-        const double rss = residual_sum_of_squares(d, p, in_fit);
-        starts.push_back({p, std::isfinite(rss) ? rss : HUGE_VAL});
+        starts.push_back({p, 0.0});
       }
     }
   }
+  parallel_for(starts.size(), options.threads, [&](std::size_t j) {
+    const double rss = residual_sum_of_squares(d, starts[j].params, in_fit);
+    starts[j].rss = std::isfinite(rss) ? rss : HUGE_VAL;
+  });
   out.starts_evaluated = static_cast<int>(starts.size());
   std::sort(starts.begin(), starts.end(), [](const Start& a, const Start& b) { return a.rss < b.rss; });
 
   bool have = false;
-  for (int s = 0; s < std::min<int>(options.refined_starts, static_cast<int>(starts.size())); ++s) {
-    FitResult r = fit_model(d, starts[static_cast<std::size_t>(s)].params, in_fit, options.fit);
+  const std::size_t refined = static_cast<std::size_t>(std::clamp<int>(options.refined_starts, 0, static_cast<int>(starts.size())));
+  std::vector<FitResult> fits(refined);
+  parallel_for(refined, options.threads, [&](std::size_t s) { fits[s] = fit_model(d, starts[s].params, in_fit, options.fit); });
+  for (FitResult& r : fits) {
     if (!both_directions) {
       r.warnings.push_back("the data slide in one direction only: the offset cannot be told from the Coulomb level "
                            "and is held at zero (the force channel is taken as zeroed)");

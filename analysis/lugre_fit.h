@@ -20,6 +20,9 @@ namespace tribo::analysis {
 struct LugreFitOptions {
   FitOptions fit;
   int refined_starts = 2;  // how many of the grid's starts get a full fit
+  // The grid's simulations and the refined fits run on up to this many
+  // threads (0: one per core); the result does not depend on it.
+  unsigned threads = 1;
 };
 
 struct LugreFit {

@@ -25,8 +25,46 @@ std::vector<std::size_t> fit_indices(const std::vector<char>& in_fit) {
   return idx;
 }
 
+// Eigen's LevenbergMarquardt keeps the m x k Jacobian and, by default, three
+// more m x k matrices per step: the QR's copy of it, the R factor (stored
+// m x k) and lmpar2's working copy of R. This solver factorises the
+// Jacobian's own storage (moved in, given back when the step ends: the next
+// step computes the Jacobian anew) and hands out only the k x k top of the
+// factor, the only rows the step reads (LMonestep.h, LMpar.h, LMqrsolv.h of
+// Eigen 3.4). The same QR on the same matrix type, bit for bit (a QR over an
+// Eigen::Ref instead, or a k x k factor, changes the last bits: other
+// alignments, other summation orders).
+class InPlaceQR : public Eigen::ColPivHouseholderQR<Eigen::MatrixXd> {
+ public:
+  using MatrixType = Eigen::MatrixXd;
+
+  explicit InPlaceQR(Eigen::MatrixXd& jacobian) : jacobian_(jacobian) {
+    m_qr.swap(jacobian_);
+    computeInPlace();
+    // The rows kept are congruent to m modulo 8 (at most 7 more than k): the
+    // factor's columns then start at the same alignment within a vector
+    // register as in the m-row matrix, and Eigen's vectorised dot products
+    // and triangular solves add in the same order.
+    const Eigen::Index m = m_qr.rows(), k = m_qr.cols();
+    r_ = m_qr.topRows(std::min(m, k + (m - k) % 8));
+  }
+  ~InPlaceQR() { m_qr.swap(jacobian_); }
+  InPlaceQR(const InPlaceQR&) = delete;
+  InPlaceQR& operator=(const InPlaceQR&) = delete;
+
+  const Eigen::MatrixXd& matrixR() const { return r_; }
+
+ private:
+  Eigen::MatrixXd& jacobian_;
+  Eigen::MatrixXd r_;
+};
+
 // Eigen's LM functor over the free parameters; residual = measured - model.
+// Residual and Jacobian rows are streamed from the simulation into the
+// solver's own vectors (no per-sample model array).
 struct ModelFunctor : Eigen::DenseFunctor<double> {
+  using QRSolver = InPlaceQR;
+
   ModelFunctor(const ModelData& d, const ModelParams& p, std::vector<std::size_t> rows, std::vector<int> free)
       : Eigen::DenseFunctor<double>(static_cast<int>(free.size()), static_cast<int>(rows.size())),
         data(d), params(p), rows(std::move(rows)), free(std::move(free)) {}
@@ -43,17 +81,19 @@ struct ModelFunctor : Eigen::DenseFunctor<double> {
   }
 
   int operator()(const Eigen::VectorXd& x, Eigen::VectorXd& fvec) const {
-    std::vector<double> model;
-    simulate_generic<double>(data, params, full_theta(x), model);
-    for (std::size_t r = 0; r < rows.size(); ++r) {
-      const double e = data.series.force_n[rows[r]] - model[rows[r]];
-      fvec[static_cast<Eigen::Index>(r)] = std::isfinite(e) ? e : 1e30;
-    }
+    std::size_t r = 0;
+    auto residual = [&](std::size_t i, const double& force, const double&) {
+      if (r >= rows.size() || rows[r] != i) return;
+      const double e = data.series.force_n[i] - force;
+      fvec[static_cast<Eigen::Index>(r++)] = std::isfinite(e) ? e : 1e30;
+    };
+    simulate_streamed<double>(data, params, full_theta(x), SampleSink<double>(residual));
     return 0;
   }
 
   int df(const Eigen::VectorXd& x, Eigen::MatrixXd& fjac) const {
-    fjac = -model_jacobian(data, params, full_theta(x), free, rows);
+    fjac.resize(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(free.size()));
+    model_jacobian_into(data, params, full_theta(x), free, rows, -1.0, fjac);
     return 0;
   }
 
@@ -79,50 +119,72 @@ std::string explain_undetermined(const std::string& name) {
   return name + " is not determined by these data (standard error larger than its scale)";
 }
 
+// d model / d theta streamed into out's rows (times sign), the model force
+// (optional) into model; the dual numbers live one sample at a time.
 template <int N>
-Eigen::MatrixXd jacobian_with(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
-                              const std::vector<int>& columns, const std::vector<std::size_t>& rows,
-                              std::vector<double>* model) {
+void jacobian_with(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
+                   const std::vector<int>& columns, const std::vector<std::size_t>& rows, double sign,
+                   Eigen::Ref<Eigen::MatrixXd> out, std::vector<double>* model) {
   using T = FixedDual<N>;
   std::vector<T> dual(theta.size());
   for (std::size_t i = 0; i < theta.size(); ++i) dual[i] = T(theta[i]);
   for (std::size_t j = 0; j < columns.size(); ++j) dual[static_cast<std::size_t>(columns[j])].derivatives()[static_cast<Eigen::Index>(j)] = 1.0;
-  std::vector<T> out;
-  simulate_generic<T>(data, params, dual, out);
-  Eigen::MatrixXd jac(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(columns.size()));
-  for (std::size_t r = 0; r < rows.size(); ++r) {
-    const auto& d = out[rows[r]].derivatives();
+  if (model) model->resize(data.series.size());
+  std::size_t r = 0;
+  auto row = [&](std::size_t i, const T& force, const T&) {
+    if (model) (*model)[i] = force.value();
+    if (r >= rows.size() || rows[r] != i) return;
+    const auto& d = force.derivatives();
     for (std::size_t j = 0; j < columns.size(); ++j) {
       const double v = d[static_cast<Eigen::Index>(j)];
-      jac(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(j)) = std::isfinite(v) ? v : 0.0;
+      out(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(j)) = sign * (std::isfinite(v) ? v : 0.0);
     }
-  }
-  if (model) {
-    model->resize(out.size());
-    for (std::size_t i = 0; i < out.size(); ++i) (*model)[i] = out[i].value();
-  }
-  return jac;
+    ++r;
+  };
+  simulate_streamed<T>(data, params, dual, SampleSink<T>(row));
 }
 
 }  // namespace
 
-Eigen::MatrixXd model_jacobian(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
-                               const std::vector<int>& columns, const std::vector<std::size_t>& rows,
-                               std::vector<double>* model) {
-  if (columns.size() <= 8) return jacobian_with<8>(data, params, theta, columns, rows, model);
-  if (columns.size() <= 16) return jacobian_with<16>(data, params, theta, columns, rows, model);
-  if (columns.size() <= 32) return jacobian_with<32>(data, params, theta, columns, rows, model);
+void model_jacobian_into(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
+                         const std::vector<int>& columns, const std::vector<std::size_t>& rows, double sign,
+                         Eigen::Ref<Eigen::MatrixXd> out, std::vector<double>* model) {
+  if (!std::is_sorted(rows.begin(), rows.end()) || std::adjacent_find(rows.begin(), rows.end()) != rows.end()) {
+    throw std::invalid_argument("model_jacobian: rows must be in time order, each once");
+  }
+  if (out.rows() != static_cast<Eigen::Index>(rows.size()) || out.cols() != static_cast<Eigen::Index>(columns.size())) {
+    throw std::invalid_argument("model_jacobian: output of the wrong size");
+  }
+  // The derivative vector's length sets the cost of every operation; each
+  // derivative is computed on its own, so the padding changes no value.
+  const std::size_t k = columns.size();
+  if (k <= 4) return jacobian_with<4>(data, params, theta, columns, rows, sign, out, model);
+  if (k <= 8) return jacobian_with<8>(data, params, theta, columns, rows, sign, out, model);
+  if (k <= 12) return jacobian_with<12>(data, params, theta, columns, rows, sign, out, model);
+  if (k <= 16) return jacobian_with<16>(data, params, theta, columns, rows, sign, out, model);
+  if (k <= 24) return jacobian_with<24>(data, params, theta, columns, rows, sign, out, model);
+  if (k <= 32) return jacobian_with<32>(data, params, theta, columns, rows, sign, out, model);
   throw std::invalid_argument("model_jacobian: more than 32 free parameters");
 }
 
-double effective_sample_count(const std::vector<double>& r) {
-  if (r.size() < 3) return static_cast<double>(r.size());
-  double num = 0, den = 0;
-  for (std::size_t i = 1; i < r.size(); ++i) num += r[i] * r[i - 1];
-  for (double e : r) den += e * e;
-  const double rho = den > 0 ? std::clamp(num / den, 0.0, 0.9999) : 0.0;
-  return std::clamp(static_cast<double>(r.size()) * (1 - rho) / (1 + rho), 1.0, static_cast<double>(r.size()));
+Eigen::MatrixXd model_jacobian(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
+                               const std::vector<int>& columns, const std::vector<std::size_t>& rows,
+                               std::vector<double>* model) {
+  Eigen::MatrixXd jac(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(columns.size()));
+  model_jacobian_into(data, params, theta, columns, rows, 1.0, jac, model);
+  return jac;
 }
+
+double effective_sample_count(const double* r, std::size_t n) {
+  if (n < 3) return static_cast<double>(n);
+  double num = 0, den = 0;
+  for (std::size_t i = 1; i < n; ++i) num += r[i] * r[i - 1];
+  for (std::size_t i = 0; i < n; ++i) den += r[i] * r[i];
+  const double rho = den > 0 ? std::clamp(num / den, 0.0, 0.9999) : 0.0;
+  return std::clamp(static_cast<double>(n) * (1 - rho) / (1 + rho), 1.0, static_cast<double>(n));
+}
+
+double effective_sample_count(const std::vector<double>& r) { return effective_sample_count(r.data(), r.size()); }
 
 double aicc(double rss, std::size_t n, double n_eff, std::size_t k) {
   const double kk = static_cast<double>(k);
@@ -131,13 +193,13 @@ double aicc(double rss, std::size_t n, double n_eff, std::size_t k) {
 }
 
 double residual_sum_of_squares(const ModelData& data, const ModelParams& params, const std::vector<char>& in_fit) {
-  const std::vector<double> model = simulate(data, params);
   double rss = 0;
-  for (std::size_t i = 0; i < model.size(); ++i) {
-    if (!in_fit[i]) continue;
-    const double e = data.series.force_n[i] - model[i];
+  auto add = [&](std::size_t i, const double& force, const double&) {
+    if (!in_fit[i]) return;
+    const double e = data.series.force_n[i] - force;
     rss += std::isfinite(e) ? e * e : 1e60;
-  }
+  };
+  simulate_streamed<double>(data, params, params.theta, SampleSink<double>(add));
   return rss;
 }
 
@@ -193,8 +255,8 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
       costs.push_back(cost);
       if (costs.size() > kStallWindow) {
         const double before = costs[costs.size() - 1 - kStallWindow];
-        const std::vector<double> r(lm.fvec().data(), lm.fvec().data() + lm.fvec().size());
-        const double gain = 0.5 * effective_sample_count(r) * (before - cost) / cost;
+        const double n_eff = effective_sample_count(lm.fvec().data(), static_cast<std::size_t>(lm.fvec().size()));
+        const double gain = 0.5 * n_eff * (before - cost) / cost;
         stalled = gain < kStallLogLikelihood;
       }
       if (static_cast<int>(lm.njev()) >= options.max_iterations) break;
@@ -210,15 +272,15 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
   result.params.theta = functor.full_theta(x);
 
   // Residual, effective sample count, AICc.
-  Eigen::VectorXd fvec(static_cast<Eigen::Index>(rows.size()));
+  // (The solver's own vectors and Jacobian are reused: it is done.)
+  Eigen::VectorXd& fvec = lm.fvec();
   functor(x, fvec);
-  std::vector<double> residual(fvec.data(), fvec.data() + fvec.size());
   result.rss = fvec.squaredNorm();
-  result.n_effective = effective_sample_count(residual);
+  result.n_effective = effective_sample_count(fvec.data(), static_cast<std::size_t>(fvec.size()));
   result.aicc = aicc(result.rss, result.n, result.n_effective, result.k);
 
   // Covariance of theta from the Jacobian at the solution.
-  Eigen::MatrixXd jac(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(free.size()));
+  Eigen::MatrixXd& jac = lm.jacobian();
   functor.df(x, jac);
   const Eigen::MatrixXd jtj = jac.transpose() * jac;
   const double dof = static_cast<double>(rows.size() - free.size());

@@ -61,11 +61,18 @@ Eigen::MatrixXd model_jacobian(const ModelData& data, const ModelParams& params,
                                const std::vector<int>& columns, const std::vector<std::size_t>& rows,
                                std::vector<double>* model = nullptr);
 
+// model_jacobian into out (rows.size() x columns.size()), each entry times
+// sign; rows strictly increasing. No per-sample array of dual numbers.
+void model_jacobian_into(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
+                         const std::vector<int>& columns, const std::vector<std::size_t>& rows, double sign,
+                         Eigen::Ref<Eigen::MatrixXd> out, std::vector<double>* model = nullptr);
+
 // Sum of squared residuals of params over the marked samples (no fitting).
 double residual_sum_of_squares(const ModelData& data, const ModelParams& params, const std::vector<char>& in_fit);
 
 // Effective sample count of a residual sequence (lag-1 autocorrelation).
 double effective_sample_count(const std::vector<double>& residual);
+double effective_sample_count(const double* residual, std::size_t n);
 
 // AICc from the fit's RSS, n, n_eff and k.
 double aicc(double rss, std::size_t n, double n_effective, std::size_t k);
