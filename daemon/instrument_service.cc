@@ -182,9 +182,8 @@ void InstrumentService::loop_main() {
   // Linux lets an ordinary thread's absolute-deadline sleep end up to 50 µs
   // late (timer slack); the loop thread asks for 1 ns (bench: BM_PacedJitter).
   prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);
-  const bool paced = config_.backend_case() != v1::DaemonConfig::kSim || config_.controller().pace_to_wall_clock();
-  LoopScheduling scheduling = apply_loop_scheduling(config_.controller().loop_realtime_priority(), paced);
-  if (paced && config_.controller().loop_realtime_priority() > 0 && !scheduling.realtime) {
+  LoopScheduling scheduling = apply_loop_scheduling(config_.controller().loop_realtime_priority(), paced());
+  if (paced() && config_.controller().loop_realtime_priority() > 0 && !scheduling.realtime) {
     spdlog::warn("loop thread: {}", scheduling.description);
   } else {
     spdlog::info("loop thread: {}", scheduling.description);
@@ -205,6 +204,11 @@ void InstrumentService::loop_main() {
     if (pending_.empty()) activity_.clear();
     activity_cv_.notify_all();
   }
+}
+
+// A real backend runs on the wall clock; the simulated one only when asked.
+bool InstrumentService::paced() const {
+  return config_.backend_case() != v1::DaemonConfig::kSim || config_.controller().pace_to_wall_clock();
 }
 
 void InstrumentService::post_activity(std::function<void()> activity) {
@@ -287,11 +291,10 @@ std::optional<v1::Error> InstrumentService::start_run(std::optional<std::uint64_
   run->loop_config = run_loop_config_from(start.config());
   // Only the simulated backend running as fast as possible may wait for the
   // consumer: its plant waits with it. Paced or real loops never wait.
-  run->loop_config.backpressure =
-      config_.backend_case() == v1::DaemonConfig::kSim && !config_.controller().pace_to_wall_clock();
-  // The same loop times its stages on one tick in kUnpacedTimingInterval:
+  run->loop_config.backpressure = !paced();
+  // An unpaced loop times its stages on one tick in kUnpacedTimingInterval:
   // status keeps its stage times, the run its speed (issue 17).
-  if (run->loop_config.backpressure) run->loop_config.time_stages_every = kUnpacedTimingInterval;
+  if (!paced()) run->loop_config.time_stages_every = kUnpacedTimingInterval;
 
   reply.set_run_id(start.run_id());
   last_run_id_ = start.run_id();

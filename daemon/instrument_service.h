@@ -118,6 +118,7 @@ class InstrumentService {
   // The supervised loop: runs posted activities one at a time.
   void loop_main();
   // Queues an activity; the caller holds mutex_ and has set activity_.
+  bool paced() const;  // the loop waits on the wall clock (never lock-step with a plant)
   void post_activity(std::function<void()> activity);
   // Waits (mutex_ held through lock) until no activity is queued or running.
   void wait_for_activities(std::unique_lock<std::mutex>& lock);
