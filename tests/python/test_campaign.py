@@ -190,6 +190,23 @@ class ReliabilityMap(unittest.TestCase):
             self.assertGreater(os.path.getsize(os.path.join(out, "confusion.png")), 5000)
             print("\n" + table.to_string() + "\n" + confusion.to_string(), file=sys.stderr)
 
+    def test_base_effects_are_found_not_false_positives(self):
+        from tribo_client.campaign.reliability import reliability_tables
+        frame = pd.DataFrame({"status": ["ok"] * 3, "effect": ["none", "direction_asymmetry", "none"],
+                              "strength": [0.0, 0.05, 0.0],
+                              "accepted_effects": ["rate_state", "rate_state;direction_asymmetry", "drift"]})
+        plain, confusion = reliability_tables(frame)
+        self.assertEqual(list(plain["false_positive_rate"]), [1.0, 1.0])  # direction_asymmetry, none
+        self.assertEqual(confusion.loc["direction_asymmetry", "rate_state"], 1.0)
+        table, confusion = reliability_tables(frame, base_effects=["rate_state"])
+        by = table.set_index("effect")
+        self.assertEqual(by.loc["direction_asymmetry", "false_positive_rate"], 0.0)
+        self.assertEqual(by.loc["direction_asymmetry", "detection_rate"], 1.0)
+        self.assertEqual(by.loc["none", "false_positive_rate"], 0.5)  # drift is not in the plant
+        self.assertEqual(by.loc["none", "found_rate_state"], 0.5)
+        self.assertEqual(confusion.loc["direction_asymmetry", "direction_asymmetry"], 1.0)
+        self.assertEqual(confusion.loc["none", "nothing"], 0.5)
+
 
 def scorecard_json(*args):
     """tribo-scorecard --json, the binary's own figures."""
