@@ -8,8 +8,8 @@
   scorecard_sweep.png  with [report] kind = "scorecard_sweep": chosen
                        observations against the grid column `x`, one line per
                        value of the grid column `lines` (optional), the
-                       dissertation's value dashed; the last panel counts the
-                       rows within issue 14's goals"""
+                       dissertation's value dashed, the base config's x dotted;
+                       the last panel counts the rows within issue 14's goals"""
 
 import json
 import os
@@ -46,11 +46,23 @@ def write_scorecard_sweep(campaign, out_dir):
     frame.to_csv(os.path.join(out_dir, "scorecard.csv"), index=False)
     report = campaign.report
     if report.get("kind") == "scorecard_sweep" and len(frame):
-        plot_sweep(frame, report, os.path.join(out_dir, "scorecard_sweep.png"), campaign.name)
+        plot_sweep(frame, report, os.path.join(out_dir, "scorecard_sweep.png"), campaign.name,
+                   _base_value(campaign.base_config_path, report["x"]))
     return frame
 
 
-def plot_sweep(frame, report, path, title):
+def _base_value(config_path, field_path):
+    """The base config's value of a field path (before the spec's overrides)."""
+    from google.protobuf import text_format
+    from tribo.v1 import daemon_config_pb2
+    with open(config_path, encoding="utf-8") as f:
+        message = text_format.Parse(f.read(), daemon_config_pb2.DaemonConfig())
+    for part in field_path.split("."):
+        message = getattr(message, part)
+    return message
+
+
+def plot_sweep(frame, report, path, title, base_x=None):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -72,6 +84,8 @@ def plot_sweep(frame, report, path, title):
             ax.plot(mean.index, mean.to_numpy(), marker="o", ms=3, lw=1,
                     label=None if value is None else f"{_short(lines)} = {value:g}")
         ax.axhline(subset["dissertation"].iloc[0], color="k", ls="--", lw=0.8, label="dissertation")
+        if base_x is not None:
+            ax.axvline(base_x, color="0.5", ls=":", lw=0.8)
         ax.set_title(f"{subset['source'].iloc[0]}: {observation}", fontsize=7)
         ax.set_ylabel(subset["unit"].iloc[0] or "-", fontsize=7)
         ax.set_xlabel(_short(x), fontsize=7)
@@ -82,6 +96,8 @@ def plot_sweep(frame, report, path, title):
         counts = part.groupby([x, "key"])["within_goal"].sum().groupby(level=0).mean()
         ax.plot(counts.index, counts.to_numpy(), marker="o", ms=3, lw=1,
                 label=None if value is None else f"{_short(lines)} = {value:g}")
+    if base_x is not None:
+        ax.axvline(base_x, color="0.5", ls=":", lw=0.8)
     goals = frame[frame["goal"] > 0].groupby("key").size()
     ax.set_title(f"rows within issue 14's goals (of {int(goals.max()) if len(goals) else 0})", fontsize=7)
     ax.set_xlabel(_short(x), fontsize=7)
