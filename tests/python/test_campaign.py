@@ -216,6 +216,19 @@ def scorecard_json(*args):
     return json.loads(result.stdout)
 
 
+class ShippedSpecs(unittest.TestCase):
+    def test_every_spec_under_config_campaigns_expands_and_validates(self):
+        expected = {"identification_reliability.toml": 130, "identification_reliability_lugre_plain.toml": 130,
+                    "identification_reliability_small.toml": 15, "identification_reliability_tiny.toml": 2,
+                    "scorecard_sweep.toml": 25, "scorecard_sweep_tiny.toml": 2}
+        specs = sorted(glob.glob(os.path.join(ARGS.source_dir, "config/campaigns/*.toml")))
+        self.assertEqual(sorted(os.path.basename(p) for p in specs), sorted(expected))
+        for spec in specs:
+            result = campaign(spec, "--dry-run", timeout=120)
+            self.assertEqual(result.returncode, 0, result.stderr)
+            self.assertIn(f": {expected[os.path.basename(spec)]} runs", result.stderr)
+
+
 class ScorecardSweep(unittest.TestCase):
     """compute = ["scorecard"]: the reproduction scorecard per config and seed."""
 
