@@ -18,7 +18,8 @@ int main(int argc, char** argv) {
   bool json = false;
   app.add_option("--config", config_path, "daemon config (its sim and controller sections are used)");
   app.add_flag("--quick", options.quick, "skip the 1000 s experiments (Fig. 4.22's longest rest, Fig. 3.12)");
-  app.add_option("--group", options.groups, "table_5_1, fig_4_22, velocity, fig_3_12, amontons, noise, stick_slip (default: all)");
+  app.add_option("--group", options.groups, "table_5_1, fig_4_22, velocity, fig_3_12, amontons, noise, stick_slip (default: all)")
+      ->check(CLI::IsMember(std::vector<std::string>(tribo::scorecard::kGroups.begin(), tribo::scorecard::kGroups.end())));
   app.add_option("--seed", options.seed, "seed of the simulated instrument");
   app.add_flag("--json", json, "print JSON instead of a table");
   CLI11_PARSE(app, argc, argv);

@@ -3,7 +3,9 @@
 // observation | dissertation | simulated | relative error.
 #pragma once
 
+#include <array>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "tribo/v1/daemon_config.pb.h"
@@ -23,6 +25,10 @@ struct Row {
   double error() const { return points ? simulated - dissertation : (simulated - dissertation) / dissertation; }
   bool within_goal() const { return goal > 0 && std::abs(error()) <= goal; }
 };
+
+// The experiment groups, in the order the scorecard runs them (ScorecardOptions::groups).
+inline constexpr std::array<std::string_view, 7> kGroups = {"table_5_1", "fig_4_22", "velocity", "fig_3_12",
+                                                            "amontons",  "noise",    "stick_slip"};
 
 struct ScorecardOptions {
   bool quick = false;  // skip the 1000 s experiments (Fig. 4.22's longest rest, Fig. 3.12)

@@ -9,6 +9,7 @@ reliability map.
 (PYTHONPATH must hold client/python and build/python.)"""
 
 import glob
+import json
 import os
 import signal
 import subprocess
@@ -188,6 +189,117 @@ class ReliabilityMap(unittest.TestCase):
             self.assertIn("nothing", confusion.columns)
             self.assertGreater(os.path.getsize(os.path.join(out, "confusion.png")), 5000)
             print("\n" + table.to_string() + "\n" + confusion.to_string(), file=sys.stderr)
+
+    def test_base_effects_are_found_not_false_positives(self):
+        from tribo_client.campaign.reliability import reliability_tables
+        frame = pd.DataFrame({"status": ["ok"] * 3, "effect": ["none", "direction_asymmetry", "none"],
+                              "strength": [0.0, 0.05, 0.0],
+                              "accepted_effects": ["rate_state", "rate_state;direction_asymmetry", "drift"]})
+        plain, confusion = reliability_tables(frame)
+        self.assertEqual(list(plain["false_positive_rate"]), [1.0, 1.0])  # direction_asymmetry, none
+        self.assertEqual(confusion.loc["direction_asymmetry", "rate_state"], 1.0)
+        table, confusion = reliability_tables(frame, base_effects=["rate_state"])
+        by = table.set_index("effect")
+        self.assertEqual(by.loc["direction_asymmetry", "false_positive_rate"], 0.0)
+        self.assertEqual(by.loc["direction_asymmetry", "detection_rate"], 1.0)
+        self.assertEqual(by.loc["none", "false_positive_rate"], 0.5)  # drift is not in the plant
+        self.assertEqual(by.loc["none", "found_rate_state"], 0.5)
+        self.assertEqual(confusion.loc["direction_asymmetry", "direction_asymmetry"], 1.0)
+        self.assertEqual(confusion.loc["none", "nothing"], 0.5)
+
+
+def scorecard_json(*args):
+    """tribo-scorecard --json, the binary's own figures."""
+    result = subprocess.run([os.path.join(ARGS.build_dir, "scorecard", "tribo-scorecard"), "--json", *args],
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    return json.loads(result.stdout)
+
+
+class ShippedSpecs(unittest.TestCase):
+    def test_every_spec_under_config_campaigns_expands_and_validates(self):
+        expected = {"identification_reliability.toml": 130, "identification_reliability_lugre_plain.toml": 130,
+                    "identification_reliability_small.toml": 15, "identification_reliability_tiny.toml": 2,
+                    "scorecard_sweep.toml": 25, "scorecard_sweep_tiny.toml": 2}
+        specs = sorted(glob.glob(os.path.join(ARGS.source_dir, "config/campaigns/*.toml")))
+        self.assertEqual(sorted(os.path.basename(p) for p in specs), sorted(expected))
+        for spec in specs:
+            result = campaign(spec, "--dry-run", timeout=120)
+            self.assertEqual(result.returncode, 0, result.stderr)
+            self.assertIn(f": {expected[os.path.basename(spec)]} runs", result.stderr)
+
+
+class ScorecardSweep(unittest.TestCase):
+    """compute = ["scorecard"]: the reproduction scorecard per config and seed."""
+
+    def test_tiny_sweep_table_equals_the_scorecard_binary(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            out = os.path.join(tmp, "out")
+            result = campaign(os.path.join(ARGS.source_dir, "config/campaigns/scorecard_sweep_tiny.toml"),
+                              "--out", out, "--workers", "2", timeout=300)
+            self.assertEqual(result.returncode, 0, result.stderr)
+            path = "sim.friction.rate_state.direct_coeff"
+            runs = pd.read_csv(os.path.join(out, "results.csv"), float_precision="round_trip")
+            self.assertEqual(sorted(runs[path]), [0.0218378, 0.03])
+            self.assertTrue((runs["status"] == "ok").all())
+            self.assertTrue(runs["scorecard_rows"].eq(37).all())  # Table 5.1: 32 rows, 4 overshoot, 1 eq. 28
+            self.assertTrue(runs["scorecard_goals"].eq(24).all())  # Fs, ts, dl of eight conditions
+            table = pd.read_csv(os.path.join(out, "scorecard.csv"), float_precision="round_trip")
+            self.assertEqual(list(table.columns),
+                             ["key", "seed", "variant", path, "source", "observation", "unit", "dissertation",
+                              "simulated", "error", "error_in_points", "goal", "within_goal"])
+            self.assertEqual(len(table), 2 * 37)
+            # The default config's row is the binary's own scorecard, figure for figure.
+            own = scorecard_json("--config", os.path.join(ARGS.source_dir, "config/tribod.textproto"),
+                                 "--group", "table_5_1", "--quick", "--seed", "1")["rows"]
+            default = table[table[path] == 0.0218378]
+            self.assertEqual(list(default["observation"]), [r["observation"] for r in own])
+            self.assertEqual(list(default["simulated"]), [r["simulated"] for r in own])
+            self.assertEqual(list(default["dissertation"]), [r["dissertation"] for r in own])
+            # The other row reruns exactly from its recorded config and seed.
+            other = runs[runs[path] == 0.03].iloc[0]
+            rerun = scorecard_json("--config", os.path.join(out, other["run_folder"], "config.textproto"),
+                                   "--group", "table_5_1", "--quick", "--seed", str(other["seed"]))["rows"]
+            self.assertEqual(list(table[table["key"] == other["key"]]["simulated"]), [r["simulated"] for r in rerun])
+            # A stronger direct effect a widens the rise of Fs from 0.2 to 36 um/s.
+            fs = table.pivot(index="observation", columns=path, values="simulated")
+            rise = fs.loc["Fs at 9810 uN, 36.0 um/s"] - fs.loc["Fs at 9810 uN, 0.2 um/s"]
+            self.assertGreater(rise[0.03], rise[0.0218378] + 50e0)
+            self.assertGreater(os.path.getsize(os.path.join(out, "scorecard_sweep.png")), 5000)
+
+    def refused(self, body, field):
+        with tempfile.TemporaryDirectory() as tmp:
+            spec = os.path.join(tmp, "spec.toml")
+            with open(spec, "w", encoding="utf-8") as f:
+                f.write(f'config = "{os.path.join(ARGS.source_dir, "config/tribod.textproto")}"\n'
+                        'compute = ["scorecard"]\n' + body)
+            out = os.path.join(tmp, "out")
+            result = campaign(spec, "--out", out, timeout=60)
+            self.assertEqual(result.returncode, 2, result.stderr)
+            self.assertIn("refused before any run", result.stderr)
+            self.assertIn(field, result.stderr)
+            self.assertFalse(os.path.exists(out), "nothing may run or be written")
+            return result.stderr
+
+    def test_bad_parameter_path_names_the_field(self):
+        stderr = self.refused('[grid]\n"sim.friction.rate_state.direct_coef" = [0.02]\n',
+                              "sim.friction.rate_state.direct_coef")
+        self.assertIn("has no field 'direct_coef'", stderr)
+
+    def test_value_the_validator_refuses_names_the_field(self):
+        self.refused('[grid]\n"sim.friction.contact_stiffness_n_per_m" = [3000, -1]\n',
+                     "contact_stiffness_n_per_m")
+
+    def test_unknown_group_is_refused(self):
+        stderr = self.refused('[scorecard]\ngroups = ["table_5_1", "table_5_2"]\n', "scorecard.groups")
+        self.assertIn("table_5_2", stderr)
+
+    def test_protocols_with_a_scorecard_only_campaign_are_refused(self):
+        self.refused('[[protocols]]\npath = "x.textproto"\n', "protocols")
+
+    def test_plot_column_must_be_swept(self):
+        self.refused('[grid]\n"sim.friction.rate_state.direct_coeff" = [0.02]\n'
+                     '[report]\nkind = "scorecard_sweep"\nx = "sim.friction.rate_state.state_coeff"\n', "report.x")
 
 
 if __name__ == "__main__":

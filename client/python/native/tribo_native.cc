@@ -10,6 +10,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -29,6 +30,7 @@
 #include "proto/run_files.h"
 #include "proto/sample_record.h"
 #include "proto/text_format_file.h"
+#include "scorecard/scorecard.h"
 #include "tribo/version.h"
 
 namespace py = pybind11;
@@ -309,6 +311,33 @@ PYBIND11_MODULE(tribo_native, m) {
   }, py::arg("samples"), py::arg("effects") = py::none(), py::arg("begin_s") = -HUGE_VAL,
      py::arg("end_s") = HUGE_VAL, py::arg("source") = "python",
      "tribo-fit diagnose --json on sample columns (JSON text).");
+
+  py::list scorecard_groups;
+  for (std::string_view g : scorecard::kGroups) scorecard_groups.append(std::string(g));
+  m.attr("scorecard_groups") = scorecard_groups;
+
+  m.def("scorecard", [](const py::handle& config, std::optional<std::vector<std::string>> groups, bool quick,
+                        std::uint64_t seed, const std::string& config_name) {
+    const v1::DaemonConfig parsed = checked_config(config);
+    if (parsed.backend_case() != v1::DaemonConfig::kSim) {
+      raise_validation("backend", "the scorecard needs the simulated backend (config field sim)");
+    }
+    scorecard::ScorecardOptions options;
+    options.quick = quick;
+    options.seed = seed;
+    if (groups) {
+      for (const std::string& g : *groups) {
+        if (std::find(scorecard::kGroups.begin(), scorecard::kGroups.end(), g) == scorecard::kGroups.end()) {
+          throw py::value_error("unknown scorecard group '" + g + "'");
+        }
+      }
+      options.groups = *groups;
+    }
+    py::gil_scoped_release release;
+    return scorecard::format_json(scorecard::run_scorecard(parsed, options), config_name);
+  }, py::arg("config"), py::arg("groups") = py::none(), py::arg("quick") = false, py::arg("seed") = 1,
+     py::arg("config_name") = "python",
+     "tribo-scorecard --json on a config (JSON text): the dissertation's experiments on the simulated instrument.");
 
   m.def("diagnose_run", [](const std::string& run_dir, std::optional<std::vector<std::string>> effects,
                            double begin_s, double end_s) {

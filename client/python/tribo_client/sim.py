@@ -141,3 +141,24 @@ def diagnose(run, effects=None, begin_s=None, end_s=None):
     else:
         text = _native.diagnose(_columns(run), effects, source=getattr(run, "path", None) or "python", **window)
     return json.loads(text)
+
+
+scorecard_groups = tuple(_native.scorecard_groups)
+
+
+def scorecard(config, groups=None, quick=False, seed=1):
+    """`tribo-scorecard --json` as Python objects: the dissertation's
+    experiments run on this config's simulated instrument (its sim and
+    controller sections), rows of observation, dissertation, simulated,
+    error (docs/simulated_instrument.md). groups: names of scorecard_groups
+    (default all); quick: without the 1000 s experiments. The GIL is released
+    while it runs."""
+    config = _message(config, daemon_config_pb2.DaemonConfig)
+    if groups is not None:
+        unknown = [g for g in groups if g not in scorecard_groups]
+        if unknown:
+            raise ValidationError(f"unknown scorecard group(s) {', '.join(unknown)} "
+                                  f"(known: {', '.join(scorecard_groups)})", "groups")
+    text = _native_call(_native.scorecard, config.SerializeToString(), None if groups is None else list(groups),
+                        bool(quick), int(seed))
+    return json.loads(text)

@@ -34,7 +34,8 @@ def main(argv=None):
 
     def validate(config_bytes, protocol_bytes):
         sim.load_config(config_bytes_message(config_bytes))
-        sim.check(config_bytes_message(config_bytes), protocol_bytes_message(protocol_bytes))
+        if protocol_bytes:  # a scorecard-only campaign has none
+            sim.check(config_bytes_message(config_bytes), protocol_bytes_message(protocol_bytes))
 
     try:
         campaign = load_spec(args.spec, validate)
@@ -53,6 +54,9 @@ def main(argv=None):
     if campaign.report.get("kind") == "identification_reliability" and len(frame):
         from .reliability import write_reliability
         write_reliability(frame, out_dir, campaign.report, campaign.name)
+    if campaign.tasks and "scorecard" in campaign.tasks[0].compute and len(frame):
+        from .scorecard_sweep import write_scorecard_sweep
+        write_scorecard_sweep(campaign, out_dir)
     if failed and "error" in frame:
         errors = frame.loc[frame["status"] != "ok", "error"]
         if len(errors):

@@ -2,12 +2,17 @@
 "identification_reliability"): runs tagged with the effect injected into the
 simulated instrument (tag `effect`, "none" for clean runs) and its `strength`,
 crossed with noise levels (a grid column); per run the diagnosis' accepted
-effects. Writes
+effects. [report] base_effects names effects the base plant holds in every
+run (the default contact's rate_state and elasto-plastic presliding): finding
+them is right, not a false positive. Writes
   reliability.csv  per effect, strength and noise: runs, detection rate (the
                    injected effect accepted), false-positive rate (any effect
-                   accepted that was not injected)
-  confusion.csv    injected effect (rows) against the effect the diagnosis
-                   names first ("nothing" when none), as fractions of the runs
+                   accepted that was neither injected nor a base effect), and
+                   per base effect the fraction of runs that found it
+                   (found_<name>)
+  confusion.csv    injected effect (rows) against the first effect the
+                   diagnosis accepts that is not a base effect ("nothing"
+                   when none), as fractions of the runs
   confusion.png    the same as a heat map (200 dpi)"""
 
 import os
@@ -21,20 +26,27 @@ def _accepted(value):
     return value.split(";")
 
 
-def reliability_tables(frame, noise_column=None):
+def reliability_tables(frame, noise_column=None, base_effects=()):
     import pandas as pd
+    base = set(base_effects)
     frame = frame[frame["status"] == "ok"].copy()
     frame["accepted"] = frame["accepted_effects"].map(_accepted)
-    frame["named_first"] = frame["accepted"].map(lambda a: a[0] if a else "nothing")
+    frame["named_first"] = frame["accepted"].map(lambda a: next((e for e in a if e not in base), "nothing"))
     frame["detected"] = [row.effect in row.accepted for row in frame.itertuples()]
-    frame["false_positive"] = [any(a != row.effect for a in row.accepted) for row in frame.itertuples()]
+    frame["false_positive"] = [any(a != row.effect and a not in base for a in row.accepted)
+                               for row in frame.itertuples()]
+    for effect in base_effects:
+        frame[f"found_{effect}"] = frame["accepted"].map(lambda a, e=effect: e in a)
     keys = ["effect", "strength"] + ([noise_column] if noise_column else [])
     grouped = frame.groupby(keys, dropna=False)
-    table = pd.DataFrame({
+    columns = {
         "runs": grouped.size(),
         "detection_rate": grouped["detected"].mean(),
         "false_positive_rate": grouped["false_positive"].mean(),
-    }).reset_index()
+    }
+    for effect in base_effects:
+        columns[f"found_{effect}"] = grouped[f"found_{effect}"].mean()
+    table = pd.DataFrame(columns).reset_index()
     table.loc[table["effect"] == "none", "detection_rate"] = np.nan  # nothing to detect
     columns = sorted(set(frame["named_first"]) - {"nothing"}) + ["nothing"]
     confusion = pd.crosstab(frame["effect"], frame["named_first"], normalize="index").reindex(
@@ -67,7 +79,7 @@ def plot_confusion(confusion, path, title):
 
 def write_reliability(frame, out_dir, report, campaign_name):
     noise_column = report.get("noise_column")
-    table, confusion = reliability_tables(frame, noise_column)
+    table, confusion = reliability_tables(frame, noise_column, report.get("base_effects", ()))
     table.to_csv(os.path.join(out_dir, "reliability.csv"), index=False)
     confusion.to_csv(os.path.join(out_dir, "confusion.csv"))
     plot_confusion(confusion, os.path.join(out_dir, "confusion.png"),

@@ -15,6 +15,7 @@ COLUMN_UNITS = {
     "seed": "", "samples": "", "simulated_s": "s", "sim_wall_s": "s", "wall_s": "s", "cpu_s": "s",
     "diagnosis_wall_s": "s", "mu_mean": "", "friction_mean_n": "N", "stiction_peak_mean_n": "N",
     "drift_mean_rate_n_per_s": "N/s", "tilt_slope": "", "heldout_rms_before": "N", "heldout_rms_after": "N",
+    "scorecard_rows": "", "scorecard_goals": "", "scorecard_within_goal": "", "scorecard_wall_s": "s",
 }
 
 

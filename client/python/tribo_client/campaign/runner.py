@@ -43,12 +43,18 @@ def record_result(out_dir, task, result):
     folder = run_dir(out_dir, task.key)
     os.makedirs(folder, exist_ok=True)
     config = daemon_config_pb2.DaemonConfig.FromString(task.config_bytes)
-    protocol = protocol_pb2.Protocol.FromString(task.protocol_bytes)
     _write_atomically(os.path.join(folder, "config.textproto"), text_format.MessageToString(config))
-    _write_atomically(os.path.join(folder, "protocol.textproto"), text_format.MessageToString(protocol))
+    if task.protocol_bytes:  # a scorecard-only run has none
+        protocol = protocol_pb2.Protocol.FromString(task.protocol_bytes)
+        _write_atomically(os.path.join(folder, "protocol.textproto"), text_format.MessageToString(protocol))
     row = dict(result["row"])
     row["run_folder"] = os.path.join("runs", task.key)
     document = {"row": row, "metrics": result.get("metrics"), "diagnosis": result.get("diagnosis")}
+    if result.get("scorecard") is not None:
+        # With the options: `tribo-scorecard --config config.textproto --seed SEED [--group G]... [--quick]`
+        # reruns it exactly.
+        document["scorecard_options"] = task.scorecard
+        document["scorecard"] = result["scorecard"]
     _write_atomically(os.path.join(folder, RESULT_FILE), json.dumps(document, default=_json_default))
 
 

@@ -18,6 +18,10 @@ bad path or value is refused up front, naming the field.
     label = "asymmetry 5%"
     tags = {effect = "direction_asymmetry", strength = 0.05}
     overrides = {"sim.friction.direction_asymmetry.enabled" = true}
+
+compute = ["scorecard"] alone runs the reproduction scorecard (tribo-scorecard)
+on each config and seed and takes no [[protocols]] (its experiments are its
+own); [scorecard] groups = [...] and quick = true choose its experiments.
 """
 
 import copy
@@ -32,7 +36,8 @@ from google.protobuf.descriptor import FieldDescriptor
 
 from tribo.v1 import daemon_config_pb2, protocol_pb2
 
-COMPUTATIONS = ("metrics", "diagnosis")
+COMPUTATIONS = ("metrics", "diagnosis", "scorecard")
+SCORECARD_OPTIONS = ("groups", "quick")
 
 
 class SpecError(ValueError):
@@ -47,7 +52,8 @@ class SpecError(ValueError):
 class RunTask:
     """One run of a campaign: everything a worker needs, and the row keys."""
 
-    def __init__(self, key, index, protocol_name, protocol_bytes, config_bytes, seed, labels, compute, diagnosis):
+    def __init__(self, key, index, protocol_name, protocol_bytes, config_bytes, seed, labels, compute, diagnosis,
+                 scorecard=None):
         self.key = key
         self.index = index
         self.protocol_name = protocol_name
@@ -57,11 +63,13 @@ class RunTask:
         self.labels = labels          # column -> value: variant, tags, overrides
         self.compute = compute
         self.diagnosis = diagnosis    # {"effects": [...], "begin_s": ..., "end_s": ...}
+        self.scorecard = scorecard or {}  # {"groups": [...], "quick": bool}; protocol_bytes b"" if none
 
 
 class Campaign:
-    def __init__(self, name, tasks, spec_path, report, base_config_path):
+    def __init__(self, name, tasks, spec_path, report, base_config_path, grid_paths=()):
         self.name = name
+        self.grid_paths = list(grid_paths)
         self.tasks = tasks
         self.spec_path = spec_path
         self.report = report
@@ -160,7 +168,7 @@ def load_spec(path, validate=None):
             raise SpecError(f"{path}: {e}") from None
     base_dir = os.path.dirname(os.path.abspath(path))
     known = {"name", "config", "seeds", "compute", "overrides", "protocols", "grid", "variants", "diagnosis",
-             "report", "description"}
+             "report", "description", "scorecard"}
     unknown = sorted(set(spec) - known)
     if unknown:
         raise SpecError(f"{path}: unknown key(s) {', '.join(unknown)} (known: {', '.join(sorted(known))})",
@@ -177,6 +185,7 @@ def load_spec(path, validate=None):
         if c not in COMPUTATIONS:
             raise SpecError(f"compute: unknown computation '{c}' (one of {', '.join(COMPUTATIONS)})", "compute")
     diagnosis = dict(spec.get("diagnosis", {}))
+    scorecard = _scorecard_options(spec, compute)
 
     protocols = []
     for i, entry in enumerate(spec.get("protocols", [])):
@@ -189,7 +198,12 @@ def load_spec(path, validate=None):
         for field_path, value in entry.get("overrides", {}).items():
             set_field(message, field_path, value)
         protocols.append((entry.get("name", message.name), message.SerializeToString()))
-    if not protocols:
+    if compute == ["scorecard"]:
+        if protocols:
+            raise SpecError("a scorecard-only campaign takes no [[protocols]]: the scorecard runs its own "
+                            "experiments on each config", "protocols")
+        protocols = [("", b"")]
+    elif not protocols:
         raise SpecError("the spec declares no [[protocols]]", "protocols")
 
     grid = spec.get("grid", {})
@@ -206,13 +220,16 @@ def load_spec(path, validate=None):
         for field_path, value in v.get("overrides", {}).items():
             set_field(copy.deepcopy(base), field_path, value)
 
+    _check_report(spec.get("report", {}), grid_paths)
+
     tasks = []
     validated = set()
     for protocol_name, protocol_bytes in protocols:
         for variant in variants:
             for combination in itertools.product(*grid_values):
                 config = copy.deepcopy(base)
-                labels = {"protocol": protocol_name, "variant": variant.get("label", "")}
+                labels = {"protocol": protocol_name, "variant": variant.get("label", "")} if protocol_bytes \
+                    else {"variant": variant.get("label", "")}
                 labels.update(variant.get("tags", {}))
                 for field_path, value in variant.get("overrides", {}).items():
                     set_field(config, field_path, value)
@@ -224,7 +241,48 @@ def load_spec(path, validate=None):
                     validate(config_bytes, protocol_bytes)
                     validated.add((config_bytes, protocol_bytes))
                 for seed in seeds:
-                    key = _key(config_bytes, protocol_bytes, seed, compute, diagnosis)
+                    # The scorecard's options join the key only when it runs (older keys stay valid).
+                    key = _key(config_bytes, protocol_bytes, seed, compute, diagnosis,
+                               *([scorecard] if scorecard else []))
                     tasks.append(RunTask(key, len(tasks), protocol_name, protocol_bytes, config_bytes, seed,
-                                         dict(labels), compute, diagnosis))
-    return Campaign(name, tasks, os.path.abspath(path), spec.get("report", {}), config_path)
+                                         dict(labels), compute, diagnosis, scorecard))
+    return Campaign(name, tasks, os.path.abspath(path), spec.get("report", {}), config_path, grid_paths)
+
+
+def _scorecard_options(spec, compute):
+    """[scorecard] groups (names of tribo-scorecard --group) and quick; {}
+    when the scorecard is not computed."""
+    options = dict(spec.get("scorecard", {}))
+    if "scorecard" not in compute:
+        if options:
+            raise SpecError("[scorecard] options given but compute does not include \"scorecard\"", "scorecard")
+        return {}
+    unknown = sorted(set(options) - set(SCORECARD_OPTIONS))
+    if unknown:
+        raise SpecError(f"scorecard: unknown option(s) {', '.join(unknown)} (known: {', '.join(SCORECARD_OPTIONS)})",
+                        f"scorecard.{unknown[0]}")
+    from tribo_client.sim import scorecard_groups  # the native module's list: one source of the names
+    groups = options.get("groups")
+    if groups is not None:
+        if not isinstance(groups, list) or not groups:
+            raise SpecError("scorecard.groups must be a non-empty list of group names", "scorecard.groups")
+        unknown = [g for g in groups if g not in scorecard_groups]
+        if unknown:
+            raise SpecError(f"scorecard.groups: unknown group(s) {', '.join(map(str, unknown))} "
+                            f"(known: {', '.join(scorecard_groups)})", "scorecard.groups")
+    if not isinstance(options.get("quick", False), bool):
+        raise SpecError("scorecard.quick must be true or false", "scorecard.quick")
+    return {"groups": list(groups) if groups is not None else None, "quick": options.get("quick", False)}
+
+
+def _check_report(report, grid_paths):
+    """A scorecard_sweep report plots against grid columns: they must exist."""
+    if report.get("kind") != "scorecard_sweep":
+        return
+    for option in ("x", "lines"):
+        value = report.get(option)
+        if value is None and option == "lines":
+            continue
+        if value not in grid_paths:
+            raise SpecError(f"report.{option} = {value!r} must be one of the [grid] paths "
+                            f"({', '.join(grid_paths) or 'none'})", f"report.{option}")

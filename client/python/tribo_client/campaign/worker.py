@@ -8,14 +8,22 @@ import numpy as np
 
 
 def execute(task):
-    """task: a RunTask. Returns {"row": {...}, "metrics": ..., "diagnosis": ...}."""
+    """task: a RunTask. Returns {"row": {...}, "metrics": ..., "diagnosis": ...,
+    "scorecard": ...}. A task without a protocol (a scorecard-only campaign)
+    simulates nothing itself: the scorecard runs its own experiments."""
     from tribo_client import sim  # imported in the worker
 
     started = time.perf_counter()
     cpu_started = time.process_time()
     row = {"key": task.key, "index": task.index, "seed": task.seed, "software_version": sim.software_version}
     row.update(task.labels)
-    out = {"row": row, "metrics": None, "diagnosis": None}
+    out = {"row": row, "metrics": None, "diagnosis": None, "scorecard": None}
+    if not task.protocol_bytes:
+        row.update(status="ok", error="")
+        _scorecard(task, row, out)
+        row["wall_s"] = time.perf_counter() - started
+        row["cpu_s"] = time.process_time() - cpu_started
+        return out
     try:
         run = sim.simulate(task.config_bytes, task.protocol_bytes, seed=task.seed)
     except Exception as e:  # noqa: BLE001 - the row records the failure, the campaign goes on
@@ -49,9 +57,31 @@ def execute(task):
         except Exception as e:  # noqa: BLE001
             row.update(status="error", error=f"diagnosis: {type(e).__name__}: {e}")
         row["diagnosis_wall_s"] = time.perf_counter() - diag_started
+    _scorecard(task, row, out)
     row["wall_s"] = time.perf_counter() - started
     row["cpu_s"] = time.process_time() - cpu_started
     return out
+
+
+def _scorecard(task, row, out):
+    """tribo-scorecard --json on the task's config and seed (sim.scorecard):
+    the full report for the run's folder and the table's scorecard_* summary
+    (rows, rows with a goal of issue 14, rows within it)."""
+    if "scorecard" not in task.compute:
+        return
+    from tribo_client import sim
+    started = time.perf_counter()
+    try:
+        report = sim.scorecard(task.config_bytes, groups=task.scorecard.get("groups"),
+                               quick=task.scorecard.get("quick", False), seed=task.seed)
+        out["scorecard"] = report
+        rows = report["rows"]
+        row["scorecard_rows"] = len(rows)
+        row["scorecard_goals"] = sum(1 for r in rows if r["goal"] > 0)
+        row["scorecard_within_goal"] = sum(1 for r in rows if r["within_goal"])
+    except Exception as e:  # noqa: BLE001
+        row.update(status="error", error=f"scorecard: {type(e).__name__}: {e}")
+    row["scorecard_wall_s"] = time.perf_counter() - started
 
 
 def _diagnosed_samples(samples, options):
