@@ -41,6 +41,29 @@ def run_one(tribo_fit, out_dir, effect, seed, extra, reuse=False):
     return effect, seed, truth, report, ""
 
 
+def truth_strength(effect, truth):
+    """The injected strength in the analysis's parameter, where the two forms
+    share one (the generator writes each effect in its own form): None
+    otherwise."""
+    strength = truth.get("strength")
+    if strength is None:
+        return None
+    if effect == "velocity_strengthening":  # levels x (1 + c ln v): c mu_c per e-fold in mu
+        return strength * truth["contact"]["mu_c"]
+    if effect in ("frictional_lag", "direction_asymmetry", "tilt_offset", "backlash"):
+        return strength
+    return None
+
+
+def minimum_detectable(report, effect):
+    """The report's minimum detectable strength of a rejected effect: (value or inf, unit) or None."""
+    for r in report.get("rejected_effects", []):
+        if r["name"] == effect and "minimum_detectable" in r:
+            m = r["minimum_detectable"]
+            return (m["value"] if m["value"] is not None else float("inf")), m["unit"], m["parameter"]
+    return None
+
+
 def coverage(report, truth):
     """(covered, total) for the base parameters whose truth is known, 95 %."""
     c = truth["contact"]
@@ -81,6 +104,7 @@ def main():
             for s in seeds:
                 jobs.append(pool.submit(run_one, tribo_fit, out_dir, e, s, extra, reuse))
     right_first = {e: 0 for e in effects}
+    below_detection = {e: 0 for e in effects}
     cov_ok = cov_n = 0
     for job in jobs:
         effect, seed, truth, report, err = job.result()
@@ -106,9 +130,18 @@ def main():
               f"held-out NRMSE {heldout[0]:.3f}->{heldout[1]:.3f} unexplained: {unexplained[:90]}")
         if detail:
             print("    coverage " + " ".join(detail))
+        mds = minimum_detectable(report, effect) if effect in VOCABULARY and not right else None
+        if mds:
+            injected = truth_strength(effect, truth)
+            below = injected is not None and injected < mds[0]
+            below_detection[effect] += below
+            print(f"    {effect} reported not identifiable below {mds[2]} = {mds[0]:.3g} {mds[1]}; injected "
+                  + (f"{injected:.3g}" if injected is not None else "(another form)")
+                  + (": below detection" if below else ""))
     print()
     for e in effects:
-        print(f"{e:24s} right {right_first[e]}/{len(seeds)}")
+        note = f" (+{below_detection[e]} missed below the reported minimum detectable strength)" if below_detection[e] else ""
+        print(f"{e:24s} right {right_first[e]}/{len(seeds)}{note}")
     total = sum(right_first.values())
     print(f"total right {total}/{len(effects) * len(seeds)}; base-parameter coverage on clean files "
           f"{cov_ok}/{cov_n}")
