@@ -568,6 +568,52 @@ std::tuple<ModelStructure, LugreFit, PassStartChoice> choose_pass_start_state(co
 
 }  // namespace
 
+namespace {
+
+// The nested contact laws, each fitted on top of the last as its extension
+// from the residual signature's starting values; a richer one is kept when it
+// lowers the held-out RMS by options.min_heldout_gain (DiagnosisOptions::choose_base_contact).
+BaseContactChoice choose_base_contact(const ModelData& data, const DiagnosisOptions& options, const std::vector<char>& in_fit,
+                                      const std::vector<char>& heldout, Current& current) {
+  BaseContactChoice choice;
+  const std::vector<double>& force = data.series.force_n;
+  double best_rms = rms_over(force, current.model, heldout);
+  choice.options.push_back({"lugre", best_rms, ""});
+  choice.chosen = "lugre";
+  Current best = current;
+  Current step = current;
+  std::string name = "lugre";
+  for (Effect e : {Effect::kPreslidingHysteresis, Effect::kRateState}) {
+    const SignatureInput input{data, step.fit.params, step.model, step.friction, in_fit};
+    const Signature sig = compute_signature(e, input);
+    const std::string law = e == Effect::kPreslidingHysteresis ? "elasto_plastic" : "rate_state";
+    if (!sig.applicable) {
+      choice.options.back().note = "+" + law + " not tried: " + sig.summary;
+      break;
+    }
+    FitResult fit = fit_extension(data, step.fit.params, e, sig, in_fit, options);
+    const std::string objection = out_of_bounds(data, fit, e);
+    step = evaluate(data, std::move(fit));
+    name += "+" + law;
+    const double rms = rms_over(force, step.model, heldout);
+    choice.options.push_back({name, rms, objection});
+    if (!objection.empty()) break;  // a law at its bound is not this contact
+    if (rms <= best_rms * (1.0 - options.min_heldout_gain)) {
+      best = step;
+      best_rms = rms;
+      choice.chosen = name;
+    }
+  }
+  if (choice.chosen != "lugre") {
+    FitResult polished = fit_model(data, best.fit.params, in_fit, options.lugre.fit);
+    if (polished.rss <= best.fit.rss) best = evaluate(data, std::move(polished));
+  }
+  current = std::move(best);
+  return choice;
+}
+
+}  // namespace
+
 Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options) {
   Diagnosis out;
   out.motion = segment_motion(series, options.segmentation);
@@ -594,8 +640,12 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
   out.before = {error_stats(series.force_n, current.model, in_fit), error_stats(series.force_n, current.model, heldout),
                 error_stats(series.force_n, current.model, everything)};
 
+  if (options.choose_base_contact) out.base_contact = choose_base_contact(data, options, in_fit, heldout, current);
+
   std::map<Effect, RejectedEffect> status;
-  for (Effect e : options.candidates) status[e] = {e, "not examined", std::nullopt, 0.0, std::nullopt};
+  for (Effect e : options.candidates) {
+    if (!current.fit.params.structure.has(e)) status[e] = {e, "not examined", std::nullopt, 0.0, std::nullopt};
+  }
 
   for (int round = 0; round < options.max_rounds; ++round) {
     const SignatureInput input{data, current.fit.params, current.model, current.friction, in_fit};

@@ -61,6 +61,25 @@ struct DiagnosisOptions {
   // For each effect not accepted: the strength this record would reveal
   // (analysis/detectability.h).
   bool minimum_detectable = true;
+  // The contact law as a decision on held-out data (issue 15, "base-model
+  // choice"): plain LuGre, LuGre with Dupont's elasto-plastic presliding, and
+  // that with the rate-and-state dependence (the simulated instrument's
+  // default contact), nested; a richer contact is kept when it lowers the
+  // held-out RMS by min_heldout_gain. The chosen contact's extensions are
+  // part of the base, not accepted effects. Off by default (tribo-fit
+  // --base-model choose).
+  bool choose_base_contact = false;
+};
+
+// The contact laws tried as the base model and the one kept.
+struct BaseContactChoice {
+  struct Option {
+    std::string name;         // "lugre", "lugre+elasto_plastic", "lugre+elasto_plastic+rate_state"
+    double heldout_rms = 0;   // force units, over the held-out samples
+    std::string note;         // why the next richer one was not tried, if so
+  };
+  std::vector<Option> options;
+  std::string chosen;
 };
 
 // The evidence for the state each pass starts from, when it was chosen.
@@ -122,6 +141,7 @@ struct Diagnosis {
   MotionSegmentation motion;
   LugreFit base;
   std::optional<PassStartChoice> pass_start;
+  std::optional<BaseContactChoice> base_contact;
   FitResult final_fit;
   std::vector<AcceptedEffect> accepted;
   std::vector<RejectedEffect> rejected;

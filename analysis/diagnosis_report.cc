@@ -93,6 +93,15 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
                      {"starts_refined", d.base.starts_refined},
                      {"converged", d.base.result.converged},
                      {"warnings", d.base.result.warnings}};
+  if (d.base_contact) {
+    Json options = Json::array();
+    for (const auto& o : d.base_contact->options) {
+      Json option = {{"name", o.name}, {"heldout_rms", o.heldout_rms}};
+      if (!o.note.empty()) option["note"] = o.note;
+      options.push_back(std::move(option));
+    }
+    j["base_model"]["contact_choice"] = {{"chosen", d.base_contact->chosen}, {"options", std::move(options)}};
+  }
   if (d.pass_start) {
     j["base_model"]["pass_start_state"] = {
         {"chosen", d.pass_start->state_from_rest ? "from the force at rest" : "modelled through the holds"},
@@ -176,6 +185,12 @@ std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
     line("  each pass starts %s (held-out pass RMS %.4g with the holds modelled, %.4g from the force at rest)",
          d.pass_start->state_from_rest ? "from the force at rest" : "from the state modelled through the holds",
          d.pass_start->heldout_rms_modelled_holds, d.pass_start->heldout_rms_state_from_rest);
+  }
+  if (d.base_contact) {
+    line("  contact law chosen on held-out data: %s", d.base_contact->chosen.c_str());
+    for (const auto& o : d.base_contact->options) {
+      line("    %-34s held-out RMS %.4g%s%s", o.name.c_str(), o.heldout_rms, o.note.empty() ? "" : "; ", o.note.c_str());
+    }
   }
   for (const auto& p : d.base.result.estimates) {
     line("  %-20s %12.5g +- %-10.3g %s%s", p.name.c_str(), p.value, p.std_error, p.unit.c_str(), p.determined ? "" : "  (not determined)");

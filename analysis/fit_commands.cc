@@ -70,6 +70,7 @@ DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r)
   options.base.state_from_rest = r.tribo_run;
   options.choose_state_from_rest = !r.tribo_run;
   options.candidates = r.candidates;
+  options.choose_base_contact = r.choose_base_contact;
   const auto t0 = std::chrono::steady_clock::now();
   try {
     out.diagnosis = diagnose(series, options);

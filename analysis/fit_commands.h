@@ -30,6 +30,7 @@ struct DiagnoseRequest {
   // each pass starts from the force measured at rest (the loop's dither
   // relaxes the contact in holds in a way the record cannot show).
   bool tribo_run = false;
+  bool choose_base_contact = false;  // --base-model choose (DiagnosisOptions::choose_base_contact)
   std::string command_line;       // recorded in the report
 };
 

@@ -79,6 +79,7 @@ struct DiagnoseArgs {
   std::string force_unit = "N";
   bool fit_mass = false, no_load_scaling = false, json = false;
   double stribeck_exponent = 1, smooth = 0;
+  std::string base_model = "lugre";
   std::string motion_estimator = "rts";
   std::string effects;
   double begin = -HUGE_VAL, end = HUGE_VAL;
@@ -157,6 +158,7 @@ int diagnose_command(const DiagnoseArgs& a) {
   request.smooth_s = a.smooth;
   request.central_differences = a.motion_estimator == "central";
   request.tribo_run = std::filesystem::is_directory(input);
+  request.choose_base_contact = a.base_model == "choose";
   request.command_line = a.command_line;
   const DiagnoseOutcome outcome = diagnose_series(std::move(*series), request);
   if (!outcome.error.empty()) {
@@ -310,6 +312,10 @@ int main(int argc, char** argv) {
                    "rts: Rauch-Tung-Striebel smoother, noise from the record (default); central: central differences")
       ->check(CLI::IsMember({"rts", "central"}))->capture_default_str();
   diag->add_option("--effects", d.effects, "comma-separated candidates (default: all)");
+  diag->add_option("--base-model", d.base_model,
+                   "lugre: the LuGre base (default); choose: LuGre, + elasto-plastic presliding, + rate-and-state, "
+                   "kept on held-out data")
+      ->check(CLI::IsMember({"lugre", "choose"}))->capture_default_str();
   diag->add_option("--begin", d.begin, "analyse only samples with t >= begin (s)");
   diag->add_option("--end", d.end, "analyse only samples with t <= end (s)");
   diag->add_flag("--json", d.json, "print one JSON object (fields: see README)");

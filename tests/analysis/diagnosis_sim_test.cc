@@ -268,6 +268,31 @@ TEST(DiagnosisSim, SampleCreepMovesTheForceLessThanTheRecordCanReveal) {
   EXPECT_LT(creep_rms_n, needed_n / std::sqrt(12.0));
 }
 
+// The contact law as a decision on held-out data (issue 15, base-model
+// choice; DiagnosisOptions::choose_base_contact): on the default instrument
+// (elasto-plastic presliding and rate-and-state, dwell off) plain LuGre
+// leaves a structured residual and a richer contact is kept; on the plain
+// LuGre instrument LuGre is kept. Neither contact is reported as an effect.
+TEST(DiagnosisSim, TheContactLawIsChosenOnHeldOutData) {
+  DiagnosisOptions options = options_for_runs();
+  options.choose_base_contact = true;
+  const MeasuredSeries fitted_contact =
+      testing::simulated_identification_run(testing::default_instrument_identification_config(), 1);
+  const Diagnosis d = diagnose(fitted_contact, options);
+  report("default instrument, contact chosen", d);
+  ASSERT_TRUE(d.base_contact);
+  for (const auto& o : d.base_contact->options) std::cout << "    contact " << o.name << ": held-out RMS " << o.heldout_rms << " N " << o.note << "\n";
+  EXPECT_NE(d.base_contact->chosen, "lugre");
+  EXPECT_LT(d.after.heldout.rms, 0.7 * d.before.heldout.rms);
+  EXPECT_FALSE(accepted(d, Effect::kPreslidingHysteresis)) << "the contact is the base, not an effect";
+  for (const auto& r : d.rejected) EXPECT_FALSE(d.final_fit.params.structure.has(r.effect)) << effect_name(r.effect);
+
+  const Diagnosis plain = diagnose_run("plain LuGre instrument, contact chosen", {}, 1, options);
+  ASSERT_TRUE(plain.base_contact);
+  EXPECT_EQ(plain.base_contact->chosen, "lugre");
+  EXPECT_TRUE(plain.accepted.empty()) << accepted_names(plain);
+}
+
 // The minimum detectable strength is a prediction the diagnosis can be held
 // to: velocity strengthening at 0.3 of what the clean record needs is not
 // found, and the documented 0.002 (found: Sim/velocity_strengthening) is

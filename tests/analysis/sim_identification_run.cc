@@ -8,18 +8,32 @@
 
 namespace tribo::testing {
 
-v1::DaemonConfig identification_config(const ConfigEdit& edit) {
-  // The contact these tests were written for: plain LuGre, tribod's default
-  // before issue 14, kept as config/instruments/lugre_plain.textproto.
+namespace {
+
+v1::DaemonConfig identification_config_from(const std::string& file, const ConfigEdit& edit) {
   v1::DaemonConfig config;
-  if (auto error = daemon::load_daemon_config(
-          std::string(TRIBO_SOURCE_DIR) + "/config/instruments/lugre_plain.textproto", config)) {
+  if (auto error = daemon::load_daemon_config(std::string(TRIBO_SOURCE_DIR) + file, config)) {
     throw std::runtime_error(*error);
   }
   config.mutable_controller()->mutable_lateral_displacement()->set_setpoint_weight_p(1.0);
   config.mutable_sim()->mutable_tip()->mutable_tilt_offset()->set_enabled(false);
   if (edit) edit(config);
   return config;
+}
+
+}  // namespace
+
+v1::DaemonConfig identification_config(const ConfigEdit& edit) {
+  // The contact these tests were written for: plain LuGre, tribod's default
+  // before issue 14, kept as config/instruments/lugre_plain.textproto.
+  return identification_config_from("/config/instruments/lugre_plain.textproto", edit);
+}
+
+v1::DaemonConfig default_instrument_identification_config(const ConfigEdit& edit) {
+  return identification_config_from("/config/tribod.textproto", [&](v1::DaemonConfig& c) {
+    c.mutable_sim()->mutable_friction()->mutable_dwell_stiction()->set_enabled(false);
+    if (edit) edit(c);
+  });
 }
 
 analysis::MeasuredSeries simulated_identification_run(const v1::DaemonConfig& config, std::uint64_t seed) {
