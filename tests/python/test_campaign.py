@@ -169,6 +169,9 @@ class RefusedSpecs(unittest.TestCase):
         self.refused('[[variants]]\nlabel = "x"\noverrides = { "sim.frction.coulomb_coeff" = 0.1 }\n',
                      "sim.frction.coulomb_coeff")
 
+    def test_unknown_base_model_names_the_field(self):
+        self.refused('[diagnosis]\nbase_model = "maxwell"\n', "diagnosis.base_model")
+
     def test_value_the_validator_refuses_names_the_field(self):
         self.refused('[grid]\n"controller.loop_rate_hz" = [10000, -1]\n', "controller.loop_rate_hz")
 
@@ -219,6 +222,7 @@ def scorecard_json(*args):
 class ShippedSpecs(unittest.TestCase):
     def test_every_spec_under_config_campaigns_expands_and_validates(self):
         expected = {"identification_reliability.toml": 130, "identification_reliability_lugre_plain.toml": 130,
+                    "identification_reliability_contact_choice.toml": 130,
                     "identification_reliability_small.toml": 15, "identification_reliability_tiny.toml": 2,
                     "scorecard_sweep.toml": 25, "scorecard_sweep_tiny.toml": 2}
         specs = sorted(glob.glob(os.path.join(ARGS.source_dir, "config/campaigns/*.toml")))
@@ -285,6 +289,9 @@ class ScorecardSweep(unittest.TestCase):
         stderr = self.refused('[grid]\n"sim.friction.rate_state.direct_coef" = [0.02]\n',
                               "sim.friction.rate_state.direct_coef")
         self.assertIn("has no field 'direct_coef'", stderr)
+
+    def test_unknown_base_model_names_the_field(self):
+        self.refused('[diagnosis]\nbase_model = "maxwell"\n', "diagnosis.base_model")
 
     def test_value_the_validator_refuses_names_the_field(self):
         self.refused('[grid]\n"sim.friction.contact_stiffness_n_per_m" = [3000, -1]\n',

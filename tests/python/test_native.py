@@ -97,6 +97,20 @@ class SimulatedRunEqualsTribod(unittest.TestCase):
         from_arrays.pop("elapsed_s", None)
         self.assertEqual(from_arrays, expected)
 
+    def test_contact_choice_equals_tribo_fit_base_model_choose(self):
+        effects = "tilt_offset"
+        cli = subprocess.run([ARGS.tribo_fit, "diagnose", self.run_dir, "--json", "--effects", effects,
+                              "--base-model", "choose"], capture_output=True, text=True, check=True)
+        expected = json.loads(cli.stdout)
+        got = sim.diagnose(self.run_dir, effects=[effects], base_model="choose")
+        for report in (expected, got):
+            del report["input"]["command"]
+            report.pop("elapsed_s", None)
+        self.assertEqual(got, expected)
+        self.assertEqual(got["base_model"]["contact_choice"]["options"][0]["name"], "lugre")
+        with self.assertRaises(ValueError):
+            sim.diagnose(self.run_dir, effects=[effects], base_model="maxwell")
+
 
 class Validation(unittest.TestCase):
     def test_protocol_error_names_the_field(self):

@@ -198,12 +198,20 @@ std::vector<analysis::Effect> effects_from(const std::optional<std::vector<std::
   return effects;
 }
 
+// tribo-fit's --base-model: "lugre" or "choose".
+bool choose_base_contact(const std::string& base_model) {
+  if (base_model == "lugre") return false;
+  if (base_model == "choose") return true;
+  throw py::value_error("base_model must be 'lugre' or 'choose', not '" + base_model + "'");
+}
+
 // `tribo-fit diagnose RUN --json` on a tribo run's samples (a run directory's
 // options: analysis/fit_commands.h).
 std::string diagnose_run_series(analysis::MeasuredSeries series, const std::vector<analysis::Effect>& effects,
-                                double begin_s, double end_s) {
+                                double begin_s, double end_s, bool choose_base_contact) {
   analysis::DiagnoseRequest request;
   request.candidates = effects;
+  request.choose_base_contact = choose_base_contact;
   request.begin_s = begin_s;
   request.end_s = end_s;
   request.tribo_run = true;
@@ -303,13 +311,14 @@ PYBIND11_MODULE(tribo_native, m) {
   }, py::arg("run_dir"), "tribo-fit metrics RUN_DIR --json (JSON text).");
 
   m.def("diagnose", [](const py::dict& columns, std::optional<std::vector<std::string>> effects, double begin_s,
-                       double end_s, const std::string& source) {
+                       double end_s, const std::string& source, const std::string& base_model) {
     const auto candidates = effects_from(effects);
+    const bool choose = choose_base_contact(base_model);
     const std::vector<Sample> samples = samples_from_columns(columns);
     py::gil_scoped_release release;
-    return diagnose_run_series(analysis::series_from_samples(samples, source), candidates, begin_s, end_s);
+    return diagnose_run_series(analysis::series_from_samples(samples, source), candidates, begin_s, end_s, choose);
   }, py::arg("samples"), py::arg("effects") = py::none(), py::arg("begin_s") = -HUGE_VAL,
-     py::arg("end_s") = HUGE_VAL, py::arg("source") = "python",
+     py::arg("end_s") = HUGE_VAL, py::arg("source") = "python", py::arg("base_model") = "lugre",
      "tribo-fit diagnose --json on sample columns (JSON text).");
 
   py::list scorecard_groups;
@@ -340,13 +349,14 @@ PYBIND11_MODULE(tribo_native, m) {
      "tribo-scorecard --json on a config (JSON text): the dissertation's experiments on the simulated instrument.");
 
   m.def("diagnose_run", [](const std::string& run_dir, std::optional<std::vector<std::string>> effects,
-                           double begin_s, double end_s) {
+                           double begin_s, double end_s, const std::string& base_model) {
     const auto candidates = effects_from(effects);
+    const bool choose = choose_base_contact(base_model);
     py::gil_scoped_release release;
     std::string error;
     auto series = analysis::read_run_series(run_dir, error);
     if (!series) throw std::runtime_error(error);
-    return diagnose_run_series(std::move(*series), candidates, begin_s, end_s);
+    return diagnose_run_series(std::move(*series), candidates, begin_s, end_s, choose);
   }, py::arg("run_dir"), py::arg("effects") = py::none(), py::arg("begin_s") = -HUGE_VAL,
-     py::arg("end_s") = HUGE_VAL, "tribo-fit diagnose RUN_DIR --json (JSON text).");
+     py::arg("end_s") = HUGE_VAL, py::arg("base_model") = "lugre", "tribo-fit diagnose RUN_DIR --json (JSON text).");
 }

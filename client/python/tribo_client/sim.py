@@ -130,16 +130,19 @@ def metrics(run):
     return json.loads(_native.metrics(_columns(run)))
 
 
-def diagnose(run, effects=None, begin_s=None, end_s=None):
+def diagnose(run, effects=None, begin_s=None, end_s=None, base_model="lugre"):
     """`tribo-fit diagnose --json` as Python objects (the same JSON contract,
     docs/identification.md), for a run folder (path), a RunData/Run or a dict
-    of channel arrays. effects: candidate names (default all)."""
+    of channel arrays. effects: candidate names (default all). base_model:
+    "lugre" or "choose" (tribo-fit's --base-model: the contact law chosen on
+    held-out data)."""
     window = {"begin_s": -float("inf") if begin_s is None else begin_s,
               "end_s": float("inf") if end_s is None else end_s}
     if isinstance(run, (str, os.PathLike)):
-        text = _native.diagnose_run(os.fspath(run), effects, **window)
+        text = _native.diagnose_run(os.fspath(run), effects, base_model=base_model, **window)
     else:
-        text = _native.diagnose(_columns(run), effects, source=getattr(run, "path", None) or "python", **window)
+        text = _native.diagnose(_columns(run), effects, source=getattr(run, "path", None) or "python",
+                                base_model=base_model, **window)
     return json.loads(text)
 
 

@@ -185,6 +185,9 @@ def load_spec(path, validate=None):
         if c not in COMPUTATIONS:
             raise SpecError(f"compute: unknown computation '{c}' (one of {', '.join(COMPUTATIONS)})", "compute")
     diagnosis = dict(spec.get("diagnosis", {}))
+    if diagnosis.get("base_model", "lugre") not in ("lugre", "choose"):
+        raise SpecError(f"diagnosis.base_model: '{diagnosis['base_model']}' is not 'lugre' or 'choose'",
+                        "diagnosis.base_model")
     scorecard = _scorecard_options(spec, compute)
 
     protocols = []

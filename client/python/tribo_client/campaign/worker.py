@@ -49,7 +49,8 @@ def execute(task):
         diag_started = time.perf_counter()
         try:
             d = sim.diagnose(_diagnosed_samples(samples, task.diagnosis), effects=task.diagnosis.get("effects"),
-                             begin_s=task.diagnosis.get("begin_s"), end_s=task.diagnosis.get("end_s"))
+                             begin_s=task.diagnosis.get("begin_s"), end_s=task.diagnosis.get("end_s"),
+                             base_model=task.diagnosis.get("base_model", "lugre"))
             out["diagnosis"] = d
             row["accepted_effects"] = ";".join(a["name"] for a in d["accepted_effects"])
             row["heldout_rms_before"] = d["error_before"]["heldout"]["rms"]
