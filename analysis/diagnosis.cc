@@ -572,7 +572,8 @@ namespace {
 
 // The nested contact laws, each fitted on top of the last as its extension
 // from the residual signature's starting values; a richer one is kept when it
-// lowers the held-out RMS by options.min_heldout_gain (DiagnosisOptions::choose_base_contact).
+// lowers the held-out RMS by options.min_heldout_gain and all its laws are
+// within their physical bounds (DiagnosisOptions::choose_base_contact).
 BaseContactChoice choose_base_contact(const ModelData& data, const DiagnosisOptions& options, const std::vector<char>& in_fit,
                                       const std::vector<char>& heldout, Current& current) {
   BaseContactChoice choice;
@@ -592,13 +593,18 @@ BaseContactChoice choose_base_contact(const ModelData& data, const DiagnosisOpti
       break;
     }
     FitResult fit = fit_extension(data, step.fit.params, e, sig, in_fit, options);
-    const std::string objection = out_of_bounds(data, fit, e);
+    // Every law of the contact within its physical bounds, judged on this fit
+    // (a law at a bound alone may come back inside with the next one).
+    std::string objection;
+    for (Effect present : fit.params.structure.effects) {
+      const std::string o = out_of_bounds(data, fit, present);
+      if (!o.empty()) objection += (objection.empty() ? "" : "; ") + o;
+    }
     step = evaluate(data, std::move(fit));
     name += "+" + law;
     const double rms = rms_over(force, step.model, heldout);
     choice.options.push_back({name, rms, objection});
-    if (!objection.empty()) break;  // a law at its bound is not this contact
-    if (rms <= best_rms * (1.0 - options.min_heldout_gain)) {
+    if (objection.empty() && rms <= best_rms * (1.0 - options.min_heldout_gain)) {
       best = step;
       best_rms = rms;
       choice.chosen = name;
