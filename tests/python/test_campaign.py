@@ -176,13 +176,19 @@ class RefusedSpecs(unittest.TestCase):
         self.refused('[grid]\n"controller.loop_rate_hz" = [10000, -1]\n', "controller.loop_rate_hz")
 
 
+def run_shipped_spec(test, tmp, name, timeout):
+    """Runs config/campaigns/NAME on 2 local workers into TMP/out; returns that directory."""
+    out = os.path.join(tmp, "out")
+    result = campaign(os.path.join(ARGS.source_dir, "config/campaigns", name), "--out", out, "--workers", "2",
+                      timeout=timeout)
+    test.assertEqual(result.returncode, 0, result.stderr)
+    return out
+
+
 class ReliabilityMap(unittest.TestCase):
     def test_tiny_identification_reliability_map(self):
         with tempfile.TemporaryDirectory() as tmp:
-            out = os.path.join(tmp, "out")
-            result = campaign(os.path.join(ARGS.source_dir, "config/campaigns/identification_reliability_tiny.toml"),
-                              "--out", out, "--workers", "2", timeout=400)
-            self.assertEqual(result.returncode, 0, result.stderr)
+            out = run_shipped_spec(self, tmp, "identification_reliability_tiny.toml", timeout=400)
             table = pd.read_csv(os.path.join(out, "reliability.csv"))
             self.assertEqual(sorted(table["effect"]), ["direction_asymmetry", "none"])
             self.assertTrue(table["runs"].eq(1).all())
@@ -238,10 +244,7 @@ class ScorecardSweep(unittest.TestCase):
 
     def test_tiny_sweep_table_equals_the_scorecard_binary(self):
         with tempfile.TemporaryDirectory() as tmp:
-            out = os.path.join(tmp, "out")
-            result = campaign(os.path.join(ARGS.source_dir, "config/campaigns/scorecard_sweep_tiny.toml"),
-                              "--out", out, "--workers", "2", timeout=300)
-            self.assertEqual(result.returncode, 0, result.stderr)
+            out = run_shipped_spec(self, tmp, "scorecard_sweep_tiny.toml", timeout=300)
             path = "sim.friction.rate_state.direct_coeff"
             runs = pd.read_csv(os.path.join(out, "results.csv"), float_precision="round_trip")
             self.assertEqual(sorted(runs[path]), [0.0218378, 0.03])
