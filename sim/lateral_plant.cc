@@ -273,17 +273,21 @@ double limit_to_static_friction(const LateralPlant& plant, const LateralInputs& 
   if (!in.levels.in_contact()) return 0.0;
   const FrictionModel& m = plant.friction;
   const ContactPoint c = contact_point(plant, in, s);
-  const double sliding_n = stribeck_n(m, in.levels, c);
-  auto limit = [&](double z, double share) {
-    const double held_n = std::max(sliding_n, static_friction_n(m, in.levels, c, z));
+  auto limit = [&](double z, double share, double sliding_n, double static_n) {
+    const double held_n = std::max(sliding_n, static_n);
     const double most = share * held_n / m.lugre.sigma0_n_per_m;
     return std::clamp(z, -most, most);
   };
   const PreslidingHysteresisParams& hy = m.presliding_hysteresis;
   if (!hy.enabled) {
-    s.bristle_m = limit(s.bristle_m, 1.0);
-  } else {
-    for (int i = 0; i < hy.elements; ++i) s.slip_m[i] = limit(s.slip_m[i], slip_share(hy, i));
+    // S sliding and at rest share the point's terms: one evaluation of them.
+    const SlidingAndStatic both = stribeck_and_static_n(m, in.levels, c, s.bristle_m);
+    s.bristle_m = limit(s.bristle_m, 1.0, both.sliding_n, both.static_n);
+    return both.sliding_n;
+  }
+  const double sliding_n = stribeck_n(m, in.levels, c);
+  for (int i = 0; i < hy.elements; ++i) {
+    s.slip_m[i] = limit(s.slip_m[i], slip_share(hy, i), sliding_n, static_friction_n(m, in.levels, c, s.slip_m[i]));
   }
   return sliding_n;
 }
