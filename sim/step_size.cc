@@ -189,7 +189,9 @@ AdvanceReport advance_lateral(const LateralPlant& plant, const LateralInputs& in
   LateralRates rates = lateral_rate_bounds(plant, in, s, now, dt_s, false);
   bool have_split = false;
   StepPlan plan;
-  if (!(wanted_substeps(rates.full_per_s, dt_s, settings.max_h_lambda) == 1.0 && settings.max_substeps >= 1)) {
+  // wanted_substeps(...) == 1 exactly when the ratio is at most 1 (ceil(x) <= 1,
+  // a NaN compares false): the same decision without the ceil.
+  if (!(rates.full_per_s * dt_s / settings.max_h_lambda <= 1.0 && settings.max_substeps >= 1)) {
     rates = lateral_rate_bounds(plant, in, s, now, dt_s, true);
     have_split = true;
     plan = plan_substeps(rates, dt_s, settings.max_h_lambda, settings.max_substeps);
