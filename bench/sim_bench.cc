@@ -56,8 +56,15 @@ void run_scratch(benchmark::State& state, double max_h_lambda, tribo::v1::Integr
 
 // Accurate: RK4 at h lambda <= 1 (the default). Coarse: the midpoint rule at
 // h lambda <= 1.2 (accuracy in tests/sim/integrator_accuracy_test.cc).
-void BM_InstrumentAccurate(benchmark::State& state) { run_scratch(state, 1.0, tribo::v1::INTEGRATION_RK4); }
-void BM_InstrumentCoarse(benchmark::State& state) { run_scratch(state, 1.2, tribo::v1::INTEGRATION_MIDPOINT); }
+// Both on the plain LuGre plant (the default config until issue 14), so the
+// figures compare with the earlier ones and with dissertation_fit's below.
+const char* const kPlainLugre = TRIBO_SOURCE_DIR "/config/instruments/lugre_plain.textproto";
+void BM_InstrumentAccurate(benchmark::State& state) {
+  run_scratch(state, 1.0, tribo::v1::INTEGRATION_RK4, default_config(kPlainLugre));
+}
+void BM_InstrumentCoarse(benchmark::State& state) {
+  run_scratch(state, 1.2, tribo::v1::INTEGRATION_MIDPOINT, default_config(kPlainLugre));
+}
 // The contact fitted to the dissertation (issue 14): rate-and-state, elasto-plastic
 // presliding and dwell on top of LuGre, Table 5.1's loop gains.
 void BM_InstrumentDissertationFit(benchmark::State& state) {

@@ -48,4 +48,14 @@ ElectrostaticAxis electrostatic_axis_from_config(const v1::TransducerAxisConstan
 DriveAssessment assess_drive(const ElectrostaticAxis& axis, double force_n, double position_m,
                              double support_stiffness_n_per_m);
 
+// What the supervisor checks every tick: assess_drive's gap_closed and
+// stiffness_ratio (the same values), without the two voltages' square roots,
+// which only a trip's message needs (issue 17: 8 % of an in-process run).
+struct DriveStiffness {
+  bool gap_closed = false;
+  double stiffness_ratio = 0;
+};
+DriveStiffness drive_stiffness(const ElectrostaticAxis& axis, double force_n, double position_m,
+                               double support_stiffness_n_per_m);
+
 }  // namespace tribo::daemon

@@ -288,13 +288,18 @@ TripReason SafetySupervisor::evaluate(const SupervisorInput& in, std::uint64_t t
   if (p_.min_stiffness_ratio > 0) {
     const double z = f.normal_displacement_m;
     const double contact = loaded && z > 0 ? normal / z : 0.0;
-    const DriveAssessment n = assess_drive(p_.normal_axis, in.drive.normal_force_n, z, contact);
+    // The full assessment (voltages for the message) only when it trips.
+    const DriveStiffness n = drive_stiffness(p_.normal_axis, in.drive.normal_force_n, z, contact);
     if (n.gap_closed || n.stiffness_ratio < p_.min_stiffness_ratio) {
-      return latch_snap_down(TripReason::kSnapDownNormal, tick, n, in.drive.normal_force_n, z);
+      return latch_snap_down(TripReason::kSnapDownNormal, tick,
+                             assess_drive(p_.normal_axis, in.drive.normal_force_n, z, contact),
+                             in.drive.normal_force_n, z);
     }
-    const DriveAssessment l = assess_drive(p_.lateral_axis, in.drive.lateral_force_n, x, 0.0);
+    const DriveStiffness l = drive_stiffness(p_.lateral_axis, in.drive.lateral_force_n, x, 0.0);
     if (l.gap_closed || l.stiffness_ratio < p_.min_stiffness_ratio) {
-      return latch_snap_down(TripReason::kSnapDownLateral, tick, l, in.drive.lateral_force_n, x);
+      return latch_snap_down(TripReason::kSnapDownLateral, tick,
+                             assess_drive(p_.lateral_axis, in.drive.lateral_force_n, x, 0.0),
+                             in.drive.lateral_force_n, x);
     }
   }
   return TripReason::kNone;

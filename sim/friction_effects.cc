@@ -52,23 +52,48 @@ double relax_rate_state(const RateStateParams& p, double v, double phi, double h
 
 namespace {
 
-// S for Stribeck speed vs, the direction asymmetry taken for sgn(direction).
-double stribeck_at(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c, double vs,
-                   double direction) {
-  double fs = levels.static_n;
+// The terms of S that depend on the contact point but not on the Stribeck
+// speed: evaluated once when S is wanted both sliding and at rest.
+struct PointTerms {
+  double fs = 0;             // Fs D
+  double state_log = 0;      // ln(max(V* phi / D_c, ...)) of the rate-and-state law
+  double periodic = 1;       // M_p
+};
+
+PointTerms point_terms(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c) {
+  PointTerms t;
+  t.fs = levels.static_n;
   if (m.dwell_stiction.enabled) {
     const double age = c.contact_age_s;
-    fs *= 1.0 + m.dwell_stiction.gain * age / (age + m.dwell_stiction.time_constant_s);
+    t.fs *= 1.0 + m.dwell_stiction.gain * age / (age + m.dwell_stiction.time_constant_s);
   }
-  double s = levels.coulomb_n + (fs - levels.coulomb_n) * stribeck_shape(m.lugre, vs);
+  if (levels.rate_state_n > 0) {
+    const RateStateParams& r = m.rate_state;
+    t.state_log = std::log(std::max(r.reference_velocity_m_per_s * c.rate_state_s / r.memory_length_m, kMinRateStateRatio));
+  }
+  if (m.position_periodic.enabled) {
+    const auto& p = m.position_periodic;
+    t.periodic = 1.0 + p.amplitude * std::sin(2 * std::numbers::pi * c.sample_position_m / p.period_m + p.phase_rad);
+  }
+  return t;
+}
+
+// S for Stribeck speed vs, the direction asymmetry taken for sgn(direction),
+// from the point's terms: the operations of rate_state_n and of the effects
+// in the order of the header's equation.
+double stribeck_at(const FrictionModel& m, const FrictionLevels& levels, const PointTerms& t, double vs,
+                   double direction) {
+  double s = levels.coulomb_n + (t.fs - levels.coulomb_n) * stribeck_shape(m.lugre, vs);
   if (levels.strengthening_n > 0) {
     s += levels.strengthening_n * std::log1p(std::fabs(vs) / m.velocity_strengthening.reference_velocity_m_per_s);
   }
-  if (levels.rate_state_n > 0) s = std::max(s + rate_state_n(m, levels, vs, c.rate_state_s), kRateStateFloor * levels.coulomb_n);
-  if (m.position_periodic.enabled) {
-    const auto& p = m.position_periodic;
-    s *= 1.0 + p.amplitude * std::sin(2 * std::numbers::pi * c.sample_position_m / p.period_m + p.phase_rad);
+  if (levels.rate_state_n > 0) {
+    const RateStateParams& r = m.rate_state;
+    const double added = levels.rate_state_n * (r.direct_coeff * std::log1p(std::fabs(vs) / r.reference_velocity_m_per_s) +
+                                                r.state_coeff * t.state_log);
+    s = std::max(s + added, kRateStateFloor * levels.coulomb_n);
   }
+  if (m.position_periodic.enabled) s *= t.periodic;
   if (m.direction_asymmetry.enabled && direction != 0.0) {
     s *= 1.0 + (direction > 0 ? m.direction_asymmetry.ratio : -m.direction_asymmetry.ratio);
   }
@@ -78,12 +103,19 @@ double stribeck_at(const FrictionModel& m, const FrictionLevels& levels, const C
 }  // namespace
 
 double stribeck_n(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c) {
-  return stribeck_at(m, levels, c, c.stribeck_velocity_m_per_s, c.velocity_m_per_s);
+  return stribeck_at(m, levels, point_terms(m, levels, c), c.stribeck_velocity_m_per_s, c.velocity_m_per_s);
 }
 
 double static_friction_n(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c,
                          double direction) {
-  return stribeck_at(m, levels, c, 0.0, direction);
+  return stribeck_at(m, levels, point_terms(m, levels, c), 0.0, direction);
+}
+
+SlidingAndStatic stribeck_and_static_n(const FrictionModel& m, const FrictionLevels& levels,
+                                       const ContactPoint& c, double direction) {
+  const PointTerms t = point_terms(m, levels, c);
+  return SlidingAndStatic{stribeck_at(m, levels, t, c.stribeck_velocity_m_per_s, c.velocity_m_per_s),
+                          stribeck_at(m, levels, t, 0.0, direction)};
 }
 
 double modulation_floor(const FrictionModel& m) {

@@ -173,6 +173,16 @@ double stribeck_n(const FrictionModel& m, const FrictionLevels& levels, const Co
 double static_friction_n(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c,
                          double direction);
 
+// Both at the same contact point (sliding: stribeck_n; at rest towards
+// sgn(direction): static_friction_n), the same values bit for bit, with the
+// terms they share (dwell, the rate-and-state state's log, M_p) evaluated once.
+struct SlidingAndStatic {
+  double sliding_n = 0;
+  double static_n = 0;
+};
+SlidingAndStatic stribeck_and_static_n(const FrictionModel& m, const FrictionLevels& levels,
+                                       const ContactPoint& c, double direction);
+
 // Lower bound on M_p M_d over all positions and directions (for step sizes).
 double modulation_floor(const FrictionModel& m);
 

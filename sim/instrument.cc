@@ -120,8 +120,7 @@ StepReport SimInstrument::step(const DriveInput& drive, double dt_s) {
   const bool stopped = report.stopped;
 
   truth_.levels = inputs_.levels;
-  friction_stale_ = true;  // truth() evaluates friction_n when asked
-  truth_.drive_force_n = inputs_.drive.force_n(lateral.position_m);
+  friction_stale_ = true;  // truth() evaluates friction_n and drive_force_n when asked
   truth_.tip_force_n = inputs_.tip_force_n;
   truth_.snapped = stopped;
   truth_.time_s += dt_s;

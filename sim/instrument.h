@@ -132,12 +132,13 @@ class SimInstrument {
   StepReport step(const DriveInput& drive, double dt_s);
 
   const Measurement& measurement() const { return measurement_; }
-  // friction_n is evaluated here, on the first read after a step, not in
-  // every step: only tests and diagnostics read it, and the evaluation cost
-  // ~6 % of a tick (issue 17). Same state, same inputs: the same value.
+  // friction_n and drive_force_n are evaluated here, on the first read after
+  // a step, not in every step: only tests and diagnostics read them, and they
+  // cost ~6 % of a tick (issue 17). Same state, same inputs: the same values.
   const InstrumentTruth& truth() const {
     if (friction_stale_) {
       truth_.friction_n = lateral_derivative(plant_, inputs_, truth_.lateral).friction_n;
+      truth_.drive_force_n = inputs_.drive.force_n(truth_.lateral.position_m);
       friction_stale_ = false;
     }
     return truth_;
@@ -156,7 +157,7 @@ class SimInstrument {
   InstrumentParams params_;
   LateralPlant plant_;
   double tan_tilt_ = 0, tan_slope_ = 0;
-  mutable InstrumentTruth truth_;     // friction_n filled in lazily by truth()
+  mutable InstrumentTruth truth_;     // friction_n, drive_force_n filled in lazily by truth()
   mutable bool friction_stale_ = false;
   Measurement measurement_;
   LateralInputs inputs_;

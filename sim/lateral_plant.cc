@@ -1,5 +1,7 @@
 #include "sim/lateral_plant.h"
 
+#include "sim/compact_rk4.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -61,16 +63,6 @@ double slip_rate_m_per_s(const LateralPlant& plant, double v, const LateralRate&
   return v - mean / h.elements;
 }
 
-// A plate at a stop stays there while the net force presses it on.
-void hold_at_stop(const DriveField& f, const LateralState& s, LateralRate& r) {
-  if (!f.has_stops()) return;
-  if ((s.position_m >= f.stop_positive_m() && r.velocity_m_per_s > 0) ||
-      (s.position_m <= f.stop_negative_m() && r.velocity_m_per_s < 0)) {
-    r.velocity_m_per_s = 0;
-    r.position_m = 0;
-  }
-}
-
 }  // namespace
 
 LateralEvaluation lateral_derivative(const LateralPlant& plant, const LateralInputs& in,
@@ -113,7 +105,7 @@ LateralEvaluation lateral_derivative(const LateralPlant& plant, const LateralInp
     r.tip_position_m = s.tip_velocity_m_per_s;
     r.tip_velocity_m_per_s = (coupling_n - e.friction_n + in.tip_force_n) / b.tip_mass_kg;
   }
-  hold_at_stop(in.drive, s, r);
+  hold_at_stop(in.drive, s.position_m, r.position_m, r.velocity_m_per_s);
   return e;
 }
 
@@ -166,22 +158,6 @@ void substep(const LateralPlant& plant, const LateralInputs& in, double h, bool 
   add_scaled(sum, sum, k3, 2.0, n);
   add_scaled(sum, sum, k4, 1.0, n);
   add_scaled(s, s, sum, h / 6, n);
-}
-
-// Keeps the plate within its stops; true if it is on one.
-bool apply_stops(const DriveField& f, LateralState& s) {
-  if (!f.has_stops()) return false;
-  if (s.position_m >= f.stop_positive_m()) {
-    s.position_m = f.stop_positive_m();
-    if (s.velocity_m_per_s > 0) s.velocity_m_per_s = 0;
-    return true;
-  }
-  if (s.position_m <= f.stop_negative_m()) {
-    s.position_m = f.stop_negative_m();
-    if (s.velocity_m_per_s < 0) s.velocity_m_per_s = 0;
-    return true;
-  }
-  return false;
 }
 
 // Solution of dz/dt = v - alpha a z over h for frozen v and alpha (a = |v|/g):
@@ -247,11 +223,17 @@ void relax_contact(const LateralPlant& plant, const LateralInputs& in, double h,
 
 bool integrate_lateral(const LateralPlant& plant, const LateralInputs& in, double dt_s,
                        int substeps, LateralState& s, const LateralRate* first, SubstepScheme scheme) {
+  if (compact_rk4_applies(plant, s)) return integrate_lateral_compact(plant, in, dt_s, substeps, s, first, scheme);
+  return integrate_lateral_general(plant, in, dt_s, substeps, s, first, scheme);
+}
+
+bool integrate_lateral_general(const LateralPlant& plant, const LateralInputs& in, double dt_s,
+                               int substeps, LateralState& s, const LateralRate* first, SubstepScheme scheme) {
   const double h = dt_s / substeps;
   bool stopped = false;
   for (int i = 0; i < substeps; ++i) {
     substep(plant, in, h, false, scheme, s, i == 0 ? first : nullptr);
-    stopped |= apply_stops(in.drive, s);
+    stopped |= apply_stops(in.drive, s.position_m, s.velocity_m_per_s);
   }
   return stopped;
 }
@@ -263,7 +245,7 @@ bool integrate_lateral_split(const LateralPlant& plant, const LateralInputs& in,
   for (int i = 0; i < substeps; ++i) {
     relax_contact(plant, in, h / 2, s);
     substep(plant, in, h, true, scheme, s);
-    stopped |= apply_stops(in.drive, s);
+    stopped |= apply_stops(in.drive, s.position_m, s.velocity_m_per_s);
     relax_contact(plant, in, h / 2, s);
   }
   return stopped;
@@ -273,17 +255,21 @@ double limit_to_static_friction(const LateralPlant& plant, const LateralInputs& 
   if (!in.levels.in_contact()) return 0.0;
   const FrictionModel& m = plant.friction;
   const ContactPoint c = contact_point(plant, in, s);
-  const double sliding_n = stribeck_n(m, in.levels, c);
-  auto limit = [&](double z, double share) {
-    const double held_n = std::max(sliding_n, static_friction_n(m, in.levels, c, z));
+  auto limit = [&](double z, double share, double sliding_n, double static_n) {
+    const double held_n = std::max(sliding_n, static_n);
     const double most = share * held_n / m.lugre.sigma0_n_per_m;
     return std::clamp(z, -most, most);
   };
   const PreslidingHysteresisParams& hy = m.presliding_hysteresis;
   if (!hy.enabled) {
-    s.bristle_m = limit(s.bristle_m, 1.0);
-  } else {
-    for (int i = 0; i < hy.elements; ++i) s.slip_m[i] = limit(s.slip_m[i], slip_share(hy, i));
+    // S sliding and at rest share the point's terms: one evaluation of them.
+    const SlidingAndStatic both = stribeck_and_static_n(m, in.levels, c, s.bristle_m);
+    s.bristle_m = limit(s.bristle_m, 1.0, both.sliding_n, both.static_n);
+    return both.sliding_n;
+  }
+  const double sliding_n = stribeck_n(m, in.levels, c);
+  for (int i = 0; i < hy.elements; ++i) {
+    s.slip_m[i] = limit(s.slip_m[i], slip_share(hy, i), sliding_n, static_friction_n(m, in.levels, c, s.slip_m[i]));
   }
   return sliding_n;
 }

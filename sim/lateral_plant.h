@@ -129,6 +129,39 @@ bool integrate_lateral(const LateralPlant& plant, const LateralInputs& in, doubl
                        int substeps, LateralState& s, const LateralRate* first = nullptr,
                        SubstepScheme scheme = SubstepScheme::kRk4);
 
+// integrate_lateral on every plant, without the specialised path
+// (sim/compact_rk4.h) that integrate_lateral takes where it applies: for the
+// tests that hold the two to the same bits.
+bool integrate_lateral_general(const LateralPlant& plant, const LateralInputs& in, double dt_s,
+                               int substeps, LateralState& s, const LateralRate* first = nullptr,
+                               SubstepScheme scheme = SubstepScheme::kRk4);
+
+// A plate at a stop stays there while the net force presses it on: the
+// rates of its position x are zeroed.
+inline void hold_at_stop(const DriveField& f, double x_m, double& dx_dt, double& dv_dt) {
+  if (!f.has_stops()) return;
+  if ((x_m >= f.stop_positive_m() && dv_dt > 0) || (x_m <= f.stop_negative_m() && dv_dt < 0)) {
+    dv_dt = 0;
+    dx_dt = 0;
+  }
+}
+
+// Keeps the plate within its stops; true if it is on one.
+inline bool apply_stops(const DriveField& f, double& x_m, double& v_m_per_s) {
+  if (!f.has_stops()) return false;
+  if (x_m >= f.stop_positive_m()) {
+    x_m = f.stop_positive_m();
+    if (v_m_per_s > 0) v_m_per_s = 0;
+    return true;
+  }
+  if (x_m <= f.stop_negative_m()) {
+    x_m = f.stop_negative_m();
+    if (v_m_per_s < 0) v_m_per_s = 0;
+    return true;
+  }
+  return false;
+}
+
 // Advances s by dt with n split sub-steps (exact contact relaxation).
 bool integrate_lateral_split(const LateralPlant& plant, const LateralInputs& in, double dt_s,
                              int substeps, LateralState& s,

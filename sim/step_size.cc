@@ -18,6 +18,12 @@ double second_order_rate(double damping, double stiffness) {
 
 LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs& in,
                                  const LateralState& s, const LateralEvaluation& now, double dt_s) {
+  return lateral_rate_bounds(plant, in, s, now, dt_s, true);
+}
+
+LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs& in,
+                                 const LateralState& s, const LateralEvaluation& now, double dt_s,
+                                 bool with_split) {
   const LateralAxisParams& axis = plant.axis;
   const BacklashParams& b = axis.backlash;
   const FrictionModel& m = plant.friction;
@@ -55,18 +61,11 @@ LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs&
   // Extremes of the deflection scale g over positions, directions and ages.
   const double floor = modulation_floor(m);
   const double dwell = m.dwell_stiction.enabled ? 1.0 + std::max(0.0, m.dwell_stiction.gain) : 1.0;
-  const double strengthening =
-      in.levels.strengthening_n > 0
-          ? in.levels.strengthening_n * std::log1p(v_reach / m.velocity_strengthening.reference_velocity_m_per_s)
-          : 0.0;
   const double f_min = std::min(in.levels.static_n, in.levels.coulomb_n) *
                        (in.levels.rate_state_n > 0 ? kRateStateFloor : 1.0) * floor;
-  const double rate_state = std::max(0.0, rate_state_n(m, in.levels, v_reach, s.rate_state_s + dt_s));
-  const double f_max = (std::max(in.levels.static_n * dwell, in.levels.coulomb_n) + strengthening + rate_state) / floor;
   const PreslidingHysteresisParams& hy = m.presliding_hysteresis;
   const double share_min = hy.enabled ? 1.0 - hy.spread : 1.0;
   const double share_max = hy.enabled ? 1.0 + hy.spread : 1.0;
-  const double ratio_max = f_max * share_max / (f_min * share_min);
   // |v| g'(v) / g, bounded over the Stribeck curve.
   const double shape = (in.levels.static_n * dwell - in.levels.coulomb_n) /
                            (std::numbers::e * in.levels.coulomb_n) +
@@ -116,9 +115,19 @@ LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs&
     const double slope = m.rate_state.law == StateLaw::kSlip && x > 0 ? std::fabs(std::log(x)) + 1.0 : 1.0;
     ageing += rate * slope;
   }
+  const double full = mechanical(d) + v_reach / g * steepness + periodic * z_ratio + ageing + lag;
+  if (!with_split) return LateralRates{full, 0.0};
+
+  // The split scheme's rate: d at its bound over the largest g the tick can reach.
+  const double strengthening =
+      in.levels.strengthening_n > 0
+          ? in.levels.strengthening_n * std::log1p(v_reach / m.velocity_strengthening.reference_velocity_m_per_s)
+          : 0.0;
+  const double rate_state = std::max(0.0, rate_state_n(m, in.levels, v_reach, s.rate_state_s + dt_s));
+  const double f_max = (std::max(in.levels.static_n * dwell, in.levels.coulomb_n) + strengthening + rate_state) / floor;
+  const double ratio_max = f_max * share_max / (f_min * share_min);
   const double d_bound = 1.0 + ratio_max * (1.0 + shape);
-  return LateralRates{mechanical(d) + v_reach / g * steepness + periodic * z_ratio + ageing + lag,
-                      mechanical(d_bound) + periodic * ratio_max + lag};
+  return LateralRates{full, mechanical(d_bound) + periodic * ratio_max + lag};
 }
 
 namespace {
@@ -174,8 +183,19 @@ AdvanceReport advance_lateral(const LateralPlant& plant, const LateralInputs& in
                               const double* stribeck_n_at_s) {
   const LateralState start = s;
   const LateralEvaluation now = lateral_derivative(plant, in, s, stribeck_n_at_s);
-  const LateralRates rates = lateral_rate_bounds(plant, in, s, now, dt_s);
-  StepPlan plan = plan_substeps(rates, dt_s, settings.max_h_lambda, settings.max_substeps);
+  // Most ticks need one RK4 sub-step, and then plan_substeps takes RK4 whatever
+  // the split rate (1 <= kSplitAdvantage x at least 1): the split rate (a log1p
+  // and a log with rate-and-state) is estimated only when the plan needs it.
+  LateralRates rates = lateral_rate_bounds(plant, in, s, now, dt_s, false);
+  bool have_split = false;
+  StepPlan plan;
+  // wanted_substeps(...) == 1 exactly when the ratio is at most 1 (ceil(x) <= 1,
+  // a NaN compares false): the same decision without the ceil.
+  if (!(rates.full_per_s * dt_s / settings.max_h_lambda <= 1.0 && settings.max_substeps >= 1)) {
+    rates = lateral_rate_bounds(plant, in, s, now, dt_s, true);
+    have_split = true;
+    plan = plan_substeps(rates, dt_s, settings.max_h_lambda, settings.max_substeps);
+  }
   const SubstepScheme scheme = settings.midpoint ? SubstepScheme::kMidpoint : SubstepScheme::kRk4;
   bool stopped = plan.split ? integrate_lateral_split(plant, in, dt_s, plan.substeps, s, scheme)
                             : integrate_lateral(plant, in, dt_s, plan.substeps, s, &now.rate, scheme);
@@ -185,6 +205,7 @@ AdvanceReport advance_lateral(const LateralPlant& plant, const LateralInputs& in
     // the split scheme at four times the sub-steps the estimate asked for.
     s = start;
     retried = true;
+    if (!have_split) rates = lateral_rate_bounds(plant, in, s, now, dt_s, true);
     const double n = 4.0 * std::max(wanted_substeps(rates.split_per_s, dt_s, settings.max_h_lambda),
                                     static_cast<double>(plan.substeps));
     plan = StepPlan{static_cast<int>(std::min<double>(n, settings.max_substeps)), true,

@@ -58,6 +58,10 @@ struct LateralRates {
 // `now` is lateral_derivative(plant, in, s).
 LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs& in,
                                  const LateralState& s, const LateralEvaluation& now, double dt_s);
+// The same; without with_split, split_per_s is left 0 (not estimated).
+LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs& in,
+                                 const LateralState& s, const LateralEvaluation& now, double dt_s,
+                                 bool with_split);
 
 // The split scheme is preferred once RK4 would need this many times its sub-steps.
 inline constexpr double kSplitAdvantage = 8.0;
