@@ -17,7 +17,19 @@ TEST(InstrumentService, AbortUnloadsSafelyRetractsAndRecordsTheReason) {
   f.sink.at_time_s = 12.0;  // mid-scratch, under 1000 µN
   f.sink.at_time = [&] { f.service->abort_run("test abort"); };
   f.start();
-  f.run(standard_protocol());
+  // The standard scratch with a loaded hold after the scratch: the unpaced
+  // loop runs ahead of the drain thread that asks for the abort, by up to a
+  // queue (16.4 s at 1 kHz) plus the block the drain holds, and without the
+  // hold it could finish the protocol first (seen under load: the run ended
+  // SUCCESS). 40 s of hold keep the abort inside the loaded part.
+  v1::Protocol protocol = standard_protocol();
+  v1::Segment hold = protocol.segments(2);  // at 1000 µN, ends where the scratch ends: a hold
+  hold.set_name("hold loaded");
+  hold.set_duration_s(40);
+  *protocol.add_segments() = hold;
+  for (int i = protocol.segments_size() - 1; i > 3; --i) protocol.mutable_segments()->SwapElements(i, i - 1);
+  ASSERT_EQ(protocol.segments(3).name(), "hold loaded");
+  f.run(protocol);
   ASSERT_EQ(f.sink.stops.size(), 1u);
   const v1::RunStop& stop = f.sink.stops[0];
   EXPECT_EQ(stop.exit_status(), v1::ABORT);
