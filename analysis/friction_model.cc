@@ -108,8 +108,11 @@ T plasticity(const T& r, double v, const T& z, const T& g) {
 }
 
 // z after h at constant v: dz/dt = v - a z with a = alpha |v| / g, exactly.
-template <class T>
-T bristle_step(const T& z, double v, const T& h, const T& alpha_over_g) {
+// H: double for a fixed interval, T for one that depends on the parameters
+// (backlash); a double skips the derivatives of a constant, whose terms are
+// zero (the values and the non-zero derivatives are the same, bit for bit).
+template <class T, class H>
+T bristle_step(const T& z, double v, const H& h, const T& alpha_over_g) {
   using std::exp;
   const T a = std::fabs(v) * alpha_over_g;
   const T u = a * h;
@@ -526,8 +529,10 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
     if (m == 1) {
       const double vm = mean;
       const T g = 0.5 * (level_prev + level_now) / sigma0;
-      const T alpha = ep ? plasticity(breakaway, vm, z, g) : T(1.0);
-      return bristle_step(z, vm, T(h), T(alpha / g));
+      // Without plasticity alpha is one: 1 / g, not a quotient of a constant.
+      if (!ep) return bristle_step(z, vm, h, T(1.0 / g));
+      const T alpha = plasticity(breakaway, vm, z, g);
+      return bristle_step(z, vm, h, T(alpha / g));
     }
     for (int k = 0; k < m; ++k) {
       const double u = (k + 0.5) / m;
@@ -536,8 +541,12 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
       const T level_k = stribeck(i, speed, sign_of(vk));
       if (value_of(level_k) <= tiny) return T(0.0 * sigma0);
       const T g = level_k / sigma0;
-      const T alpha = ep ? plasticity(breakaway, vk, z, g) : T(1.0);
-      z = bristle_step(z, vk, T(h / m), T(alpha / g));
+      if (!ep) {
+        z = bristle_step(z, vk, h / m, T(1.0 / g));
+        continue;
+      }
+      const T alpha = plasticity(breakaway, vk, z, g);
+      z = bristle_step(z, vk, h / m, T(alpha / g));
     }
     return z;
   };
@@ -626,8 +635,7 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
     }
     if (!(backlash && in_gap)) {
       const double vi = v[i];
-      const T alpha = ep ? plasticity(breakaway, vi, z, g) : T(1.0);
-      const T dz_dt = vi - std::fabs(vi) * alpha * z / g;
+      const T dz_dt = ep ? T(vi - std::fabs(vi) * plasticity(breakaway, vi, z, g) * z / g) : T(vi - std::fabs(vi) * z / g);
       const T viscous = asym ? T(fv * (1.0 + asym_viscous * sign_of(vi))) : fv;
       friction = sigma0 * z + sigma1 * dz_dt + viscous * vi;
     }
@@ -654,10 +662,18 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
   template void simulate_streamed<T>(const ModelData&, const ModelParams&, const std::vector<T>&, SampleSink<T>);
 TRIBO_INSTANTIATE_SIMULATE(double)
 TRIBO_INSTANTIATE_SIMULATE(Dual)
+// Every even width up to 24 (kJacobianWidths, analysis/autodiff.h).
+TRIBO_INSTANTIATE_SIMULATE(FixedDual<2>)
 TRIBO_INSTANTIATE_SIMULATE(FixedDual<4>)
+TRIBO_INSTANTIATE_SIMULATE(FixedDual<6>)
 TRIBO_INSTANTIATE_SIMULATE(FixedDual<8>)
+TRIBO_INSTANTIATE_SIMULATE(FixedDual<10>)
 TRIBO_INSTANTIATE_SIMULATE(FixedDual<12>)
+TRIBO_INSTANTIATE_SIMULATE(FixedDual<14>)
 TRIBO_INSTANTIATE_SIMULATE(FixedDual<16>)
+TRIBO_INSTANTIATE_SIMULATE(FixedDual<18>)
+TRIBO_INSTANTIATE_SIMULATE(FixedDual<20>)
+TRIBO_INSTANTIATE_SIMULATE(FixedDual<22>)
 TRIBO_INSTANTIATE_SIMULATE(FixedDual<24>)
 TRIBO_INSTANTIATE_SIMULATE(FixedDual<32>)
 #undef TRIBO_INSTANTIATE_SIMULATE

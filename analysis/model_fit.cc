@@ -220,14 +220,26 @@ void jacobian_with(const ModelData& data, const ModelParams& params, const std::
 void jacobian_rows(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
                    const std::vector<int>& columns, const std::vector<std::size_t>& rows, double sign,
                    Eigen::Ref<Eigen::MatrixXd> out, std::vector<double>* model, Eigen::VectorXd* residual) {
-  // The derivative vector's length sets the cost of every operation; each
-  // derivative is computed on its own, so the padding changes no value.
+  // The derivative vector's length sets the cost of every operation: the
+  // next even width (whole SSE2 registers). Each derivative is computed on
+  // its own, element by element, so the padding changes no value.
   const std::size_t k = columns.size();
-  if (k <= 4) return jacobian_with<4>(data, params, theta, columns, rows, sign, out, model, residual);
-  if (k <= 8) return jacobian_with<8>(data, params, theta, columns, rows, sign, out, model, residual);
-  if (k <= 12) return jacobian_with<12>(data, params, theta, columns, rows, sign, out, model, residual);
-  if (k <= 16) return jacobian_with<16>(data, params, theta, columns, rows, sign, out, model, residual);
-  if (k <= 24) return jacobian_with<24>(data, params, theta, columns, rows, sign, out, model, residual);
+  switch ((k + 1) / 2) {
+    case 0:
+    case 1: return jacobian_with<2>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 2: return jacobian_with<4>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 3: return jacobian_with<6>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 4: return jacobian_with<8>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 5: return jacobian_with<10>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 6: return jacobian_with<12>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 7: return jacobian_with<14>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 8: return jacobian_with<16>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 9: return jacobian_with<18>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 10: return jacobian_with<20>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 11: return jacobian_with<22>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 12: return jacobian_with<24>(data, params, theta, columns, rows, sign, out, model, residual);
+    default: break;
+  }
   if (k <= 32) return jacobian_with<32>(data, params, theta, columns, rows, sign, out, model, residual);
   throw std::invalid_argument("model_jacobian: more than 32 free parameters");
 }
