@@ -17,19 +17,11 @@ namespace tribo::analysis {
 
 namespace {
 
-std::vector<std::size_t> fit_indices(const std::vector<char>& in_fit) {
-  std::vector<std::size_t> idx;
-  for (std::size_t i = 0; i < in_fit.size(); ++i) {
-    if (in_fit[i]) idx.push_back(i);
-  }
-  return idx;
-}
-
 // Eigen's LevenbergMarquardt keeps the m x k Jacobian and, by default, three
 // more m x k matrices per step: the QR's copy of it, the R factor (stored
 // m x k) and lmpar2's working copy of R. This solver factorises the
-// Jacobian's own storage (moved in, given back when the step ends: the next
-// step computes the Jacobian anew) and hands out only the k x k top of the
+// Jacobian's own storage (moved in, given back when the step ends, holding
+// the last trial point's Jacobian: see below) and hands out only the k x k top of the
 // factor, the only rows the step reads (LMonestep.h, LMpar.h, LMqrsolv.h of
 // Eigen 3.4). The same QR on the same matrix type, bit for bit (a QR over an
 // Eigen::Ref instead, or a k x k factor, changes the last bits: other
@@ -83,8 +75,17 @@ class InPlaceQR : public Eigen::ColPivHouseholderQR<Eigen::MatrixXd> {
 
 thread_local InPlaceQR* InPlaceQR::active_ = nullptr;
 
+// The samples that are rows of the Jacobian and the residual, in time
+// order: a list of indices, or a mask (the fit's: no index array per fit).
+struct RowSelection {
+  const std::vector<std::size_t>* list = nullptr;
+  const std::vector<char>* mask = nullptr;
+  std::size_t count = 0;
+  bool selects(std::size_t i, std::size_t r) const { return mask ? (*mask)[i] != 0 : r < count && (*list)[r] == i; }
+};
+
 void jacobian_rows(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
-                   const std::vector<int>& columns, const std::vector<std::size_t>& rows, double sign,
+                   const std::vector<int>& columns, const RowSelection& rows, double sign,
                    Eigen::Ref<Eigen::MatrixXd> out, std::vector<double>* model, Eigen::VectorXd* residual);
 
 // Eigen's LM functor over the free parameters; residual = measured - model.
@@ -104,9 +105,10 @@ void jacobian_rows(const ModelData& data, const ModelParams& params, const std::
 struct ModelFunctor : Eigen::DenseFunctor<double> {
   using QRSolver = InPlaceQR;
 
-  ModelFunctor(const ModelData& d, const ModelParams& p, std::vector<std::size_t> rows, std::vector<int> free)
-      : Eigen::DenseFunctor<double>(static_cast<int>(free.size()), static_cast<int>(rows.size())),
-        data(d), params(p), rows(std::move(rows)), free(std::move(free)) {}
+  ModelFunctor(const ModelData& d, const ModelParams& p, const std::vector<char>& in_fit, std::size_t count,
+               std::vector<int> free)
+      : Eigen::DenseFunctor<double>(static_cast<int>(free.size()), static_cast<int>(count)),
+        data(d), params(p), rows{nullptr, &in_fit, count}, free(std::move(free)) {}
 
   // The solver's variables are theta + kShift: MINPACK sizes its first trust
   // region as factor * |x|, which is zero when every parameter starts at its
@@ -128,7 +130,7 @@ struct ModelFunctor : Eigen::DenseFunctor<double> {
     }
     std::size_t r = 0;
     auto residual = [&](std::size_t i, const double& force, const double&) {
-      if (r >= rows.size() || rows[r] != i) return;
+      if (!rows.selects(i, r)) return;
       const double e = data.series.force_n[i] - force;
       fvec[static_cast<Eigen::Index>(r++)] = std::isfinite(e) ? e : 1e30;
     };
@@ -137,7 +139,7 @@ struct ModelFunctor : Eigen::DenseFunctor<double> {
   }
 
   int df(const Eigen::VectorXd& x, Eigen::MatrixXd& fjac) const {
-    const auto m = static_cast<Eigen::Index>(rows.size()), k = static_cast<Eigen::Index>(free.size());
+    const auto m = static_cast<Eigen::Index>(rows.count), k = static_cast<Eigen::Index>(free.size());
     // Taken once: the step factorises it in place.
     const bool computed = trial_jacobian && fjac.data() == trial_jacobian && fjac.rows() == m && fjac.cols() == k &&
                           trial_x.size() == x.size() && trial_x == x;
@@ -152,7 +154,7 @@ struct ModelFunctor : Eigen::DenseFunctor<double> {
   Eigen::MatrixXd* trial_storage() const {
     if (!solver_jacobian) return nullptr;
     if (Eigen::MatrixXd* factorised = InPlaceQR::storage_of(*solver_jacobian)) return factorised;
-    const bool allocated = solver_jacobian->rows() == static_cast<Eigen::Index>(rows.size()) &&
+    const bool allocated = solver_jacobian->rows() == static_cast<Eigen::Index>(rows.count) &&
                            solver_jacobian->cols() == static_cast<Eigen::Index>(free.size());
     // Outside a step's factorisation the solver reads its Jacobian only
     // right after df, never across a call of the functor.
@@ -161,7 +163,7 @@ struct ModelFunctor : Eigen::DenseFunctor<double> {
 
   const ModelData& data;
   const ModelParams& params;
-  std::vector<std::size_t> rows;
+  RowSelection rows;  // the fit samples
   std::vector<int> free;
   // The solver's Jacobian (lm.jacobian()).
   Eigen::MatrixXd* solver_jacobian = nullptr;
@@ -191,7 +193,7 @@ std::string explain_undetermined(const std::string& name) {
 // the dual numbers live one sample at a time.
 template <int N>
 void jacobian_with(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
-                   const std::vector<int>& columns, const std::vector<std::size_t>& rows, double sign,
+                   const std::vector<int>& columns, const RowSelection& rows, double sign,
                    Eigen::Ref<Eigen::MatrixXd> out, std::vector<double>* model, Eigen::VectorXd* residual) {
   using T = FixedDual<N>;
   std::vector<T> dual(theta.size());
@@ -201,7 +203,7 @@ void jacobian_with(const ModelData& data, const ModelParams& params, const std::
   std::size_t r = 0;
   auto row = [&](std::size_t i, const T& force, const T&) {
     if (model) (*model)[i] = force.value();
-    if (r >= rows.size() || rows[r] != i) return;
+    if (!rows.selects(i, r)) return;
     if (residual) {
       // As ModelFunctor's plain evaluation.
       const double e = data.series.force_n[i] - force.value();
@@ -218,7 +220,7 @@ void jacobian_with(const ModelData& data, const ModelParams& params, const std::
 }
 
 void jacobian_rows(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
-                   const std::vector<int>& columns, const std::vector<std::size_t>& rows, double sign,
+                   const std::vector<int>& columns, const RowSelection& rows, double sign,
                    Eigen::Ref<Eigen::MatrixXd> out, std::vector<double>* model, Eigen::VectorXd* residual) {
   // The derivative vector's length sets the cost of every operation: the
   // next even width (whole SSE2 registers). Each derivative is computed on
@@ -255,7 +257,7 @@ void model_jacobian_into(const ModelData& data, const ModelParams& params, const
   if (out.rows() != static_cast<Eigen::Index>(rows.size()) || out.cols() != static_cast<Eigen::Index>(columns.size())) {
     throw std::invalid_argument("model_jacobian: output of the wrong size");
   }
-  jacobian_rows(data, params, theta, columns, rows, sign, out, model, nullptr);
+  jacobian_rows(data, params, theta, columns, RowSelection{&rows, nullptr, rows.size()}, sign, out, model, nullptr);
 }
 
 Eigen::MatrixXd model_jacobian(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
@@ -302,16 +304,18 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
   for (std::size_t k = 0; k < initial.specs.size(); ++k) {
     if (!initial.specs[k].fixed) free.push_back(static_cast<int>(k));
   }
-  const auto rows = fit_indices(in_fit);
-  result.n = rows.size();
+  // The fit samples are selected by the mask itself (an index per sample
+  // and fit would be the largest array after the Jacobian).
+  const auto fit_samples = static_cast<std::size_t>(std::count_if(in_fit.begin(), in_fit.end(), [](char c) { return c != 0; }));
+  result.n = fit_samples;
   result.k = free.size();
-  if (free.empty() || rows.size() <= free.size()) {
+  if (free.empty() || fit_samples <= free.size()) {
     result.rss = residual_sum_of_squares(data, initial, in_fit);
     result.warnings.push_back("too few fit samples for the model's parameters");
     return result;
   }
 
-  ModelFunctor functor(data, initial, rows, free);
+  ModelFunctor functor(data, initial, in_fit, fit_samples, free);
   Eigen::VectorXd x(static_cast<Eigen::Index>(free.size()));
   for (std::size_t j = 0; j < free.size(); ++j) {
     x[static_cast<Eigen::Index>(j)] = initial.theta[static_cast<std::size_t>(free[j])] + ModelFunctor::kShift;
@@ -378,7 +382,7 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
   Eigen::MatrixXd& jac = lm.jacobian();
   functor.df(x, jac);
   const Eigen::MatrixXd jtj = jac.transpose() * jac;
-  const double dof = static_cast<double>(rows.size() - free.size());
+  const double dof = static_cast<double>(fit_samples - free.size());
   const double s2 = result.rss / dof * (static_cast<double>(result.n) / result.n_effective);
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(jtj);
   const Eigen::VectorXd ev = eig.eigenvalues();
@@ -397,11 +401,13 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
   // parameter keeps the larger of the two standard errors.
   {
     std::map<int, Eigen::VectorXd> score;
-    for (std::size_t r = 0; r < rows.size(); ++r) {
-      const int block = data.motion.block_of.empty() ? 0 : data.motion.block_of[rows[r]];
+    for (std::size_t i = 0, r = 0; i < in_fit.size(); ++i) {
+      if (!in_fit[i]) continue;
+      const int block = data.motion.block_of.empty() ? 0 : data.motion.block_of[i];
       auto it = score.find(block);
       if (it == score.end()) it = score.emplace(block, Eigen::VectorXd::Zero(jac.cols())).first;
       it->second += jac.row(static_cast<Eigen::Index>(r)).transpose() * fvec[static_cast<Eigen::Index>(r)];
+      ++r;
     }
     const double groups = static_cast<double>(score.size());
     if (groups >= 4) {
