@@ -605,7 +605,7 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
                 error_stats(series.force_n, current.model, everything)};
 
   std::map<Effect, RejectedEffect> status;
-  for (Effect e : options.candidates) status[e] = {e, "not examined", std::nullopt, 0.0};
+  for (Effect e : options.candidates) status[e] = {e, "not examined", std::nullopt, 0.0, std::nullopt};
 
   for (int round = 0; round < options.max_rounds; ++round) {
     const SignatureInput input{data, current.fit.params, current.model, current.friction, in_fit};
@@ -730,6 +730,13 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
                error_stats(series.force_n, current.model, everything)};
   out.heldout_by_condition = by_condition(series, out.motion, out.model_before, out.model_after);
   for (auto& [e, st] : status) out.rejected.push_back(st);
+  if (options.minimum_detectable && !out.rejected.empty()) {
+    const DetectabilityBasis basis(data, current.fit, current.model, in_fit, heldout);
+    const DetectabilityCriteria criteria{options.min_heldout_gain, options.max_delta_aicc};
+    parallel_for(out.rejected.size(), options.threads, [&](std::size_t j) {
+      out.rejected[j].minimum_detectable = basis.minimum_detectable_strength(out.rejected[j].effect, criteria);
+    });
+  }
 
   std::vector<double> residual(series.size());
   for (std::size_t i = 0; i < series.size(); ++i) residual[i] = series.force_n[i] - current.model[i];

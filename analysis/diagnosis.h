@@ -29,6 +29,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/detectability.h"
 #include "analysis/effect.h"
 #include "analysis/friction_model.h"
 #include "analysis/lugre_fit.h"
@@ -57,6 +58,9 @@ struct DiagnosisOptions {
   // keep the one with the lower held-out error over the passes (the holds
   // are not compared: with the state from the force they are not modelled).
   bool choose_state_from_rest = false;
+  // For each effect not accepted: the strength this record would reveal
+  // (analysis/detectability.h).
+  bool minimum_detectable = true;
 };
 
 // The evidence for the state each pass starts from, when it was chosen.
@@ -111,6 +115,7 @@ struct RejectedEffect {
   std::string reason;
   std::optional<CandidateTrial> last_trial;  // when it was fitted
   double signature_strength = 0;
+  std::optional<DetectableStrength> minimum_detectable;  // with DiagnosisOptions::minimum_detectable
 };
 
 struct Diagnosis {

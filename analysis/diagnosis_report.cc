@@ -115,6 +115,13 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
       effect["heldout_gain"] = r.last_trial->heldout_gain;
       effect["block_agreement"] = r.last_trial->block_agreement;
     }
+    if (const auto& m = r.minimum_detectable) {
+      effect["minimum_detectable"] = {{"parameter", m->parameter},
+                                      {"unit", m->unit},
+                                      {"value", std::isfinite(m->value) ? Json(m->value) : Json(nullptr)},
+                                      {"searched_up_to", m->searched_up_to},
+                                      {"axis", m->axis}};
+    }
     rejected.push_back(std::move(effect));
   }
 
@@ -139,6 +146,14 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
   j["warnings"] = d.warnings;
   j["elapsed_s"] = info.elapsed_s;
   return j.dump(2) + "\n";
+}
+
+std::string minimum_detectable_text(const DetectableStrength& m) {
+  if (!std::isfinite(m.value)) {
+    return fmt::sprintf("not identifiable from this record at any %s up to %.3g %s", m.parameter, m.searched_up_to, m.unit);
+  }
+  return fmt::sprintf("not identifiable from this record below %s = %.3g %s (minimum detectable strength; %s)", m.parameter,
+                      m.value, m.unit, m.axis);
 }
 
 std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
@@ -170,7 +185,10 @@ std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
     line("  signature: %s", a.trial.signature.summary.c_str());
     for (const auto& p : a.parameters) line("  %-20s %12.5g +- %-10.3g %s", p.name.c_str(), p.value, p.std_error, p.unit.c_str());
   }
-  for (const auto& r : d.rejected) line("rejected %s: %s", std::string(effect_name(r.effect)).c_str(), r.reason.c_str());
+  for (const auto& r : d.rejected) {
+    line("rejected %s: %s", std::string(effect_name(r.effect)).c_str(), r.reason.c_str());
+    if (const auto& m = r.minimum_detectable) line("  %s", minimum_detectable_text(*m).c_str());
+  }
   auto err = [&](const char* label, const ModelErrors& e) {
     line("%s fit RMS %.4g (NRMSE %.4f, max %.4g, relative %.2f %%), held-out RMS %.4g (NRMSE %.4f, max %.4g, relative %.2f %%)", label,
          e.fit.rms, e.fit.nrmse, e.fit.max_abs, 100 * e.fit.relative, e.heldout.rms, e.heldout.nrmse, e.heldout.max_abs,

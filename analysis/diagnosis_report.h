@@ -19,6 +19,8 @@ struct ReportInfo {
 
 std::string diagnosis_json(const MeasuredSeries& series, const Diagnosis& d, const ReportInfo& info);
 std::string diagnosis_text(const MeasuredSeries& series, const Diagnosis& d);
+// The text report's line for an effect's minimum detectable strength.
+std::string minimum_detectable_text(const DetectableStrength& m);
 
 // dir/traces.csv: t_s, position_m, velocity_m_per_s, force, model_before, model_after, heldout, direction,
 //                 distance_since_start_m

@@ -87,6 +87,25 @@ void BM_Diagnosis200s(benchmark::State& state) {
 }
 BENCHMARK(BM_Diagnosis200s)->Unit(benchmark::kMillisecond)->Iterations(1);
 
+// What the minimum detectable strengths add (analysis/detectability.h): the
+// base fit alone (no candidate rounds) without (0) and with (1) the figure
+// for every effect, on one thread so that the CPU time is the whole cost.
+void BM_MinimumDetectable200s(benchmark::State& state) {
+  const MeasuredSeries s = run_of(200000, testing::SyntheticEffects{});
+  DiagnosisOptions options;
+  options.base.load_scaled = true;
+  options.max_rounds = 0;
+  options.threads = 1;
+  options.minimum_detectable = state.range(0) != 0;
+  for (auto _ : state) {
+    const Diagnosis d = diagnose(s, options);
+    int figures = 0;
+    for (const auto& r : d.rejected) figures += r.minimum_detectable.has_value();
+    state.counters["figures"] = figures;
+  }
+}
+BENCHMARK(BM_MinimumDetectable200s)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(1);
+
 }  // namespace
 }  // namespace tribo::analysis
 

@@ -32,17 +32,24 @@ std::optional<v1::Error> run_directory(const fs::path& data_dir, const std::stri
   return std::nullopt;
 }
 
-bool finalized(const fs::path& dir) {
-  std::string error;
-  const auto metadata = wire::read_run_metadata(dir, error);
-  return metadata && metadata->has_stop();
-}
-
 wire::SampleRange page(std::uint64_t from, std::uint64_t asked, std::uint64_t limit) {
   return wire::SampleRange{from, asked == 0 ? limit : std::min(asked, limit)};
 }
 
 constexpr std::size_t kIndexedRuns = 16;
+
+// A listing fits one reply whatever the data directory holds: strings are cut
+// (runs recorded before they were bounded may carry megabytes).
+void cut_strings(v1::RunListing& run) {
+  constexpr std::size_t kMaxListedString = 256;
+  const auto cut = [](std::string* s) {
+    if (s->size() > kMaxListedString) s->resize(kMaxListedString);
+  };
+  cut(run.mutable_protocol_name());
+  cut(run.mutable_reason());
+  auto* a = run.mutable_annotations();
+  for (std::string* s : {a->mutable_sample(), a->mutable_tip(), a->mutable_operator_name(), a->mutable_note()}) cut(s);
+}
 
 }  // namespace
 
@@ -51,23 +58,56 @@ wire::RowIndex& RunArchive::index_of(const std::string& run_id) {
   return indexes_[run_id];
 }
 
-// A listing fits one reply whatever the data directory holds: strings are
-// cut (runs recorded before they were bounded may carry megabytes) and the
-// listing stops, marked truncated, before the reply outgrows kMaxListingBytes.
-v1::ListRunsReply RunArchive::list_runs(const v1::ListRuns& request) const {
+std::optional<v1::RunListing> RunArchive::listing_of(const fs::path& dir) {
+  const std::string run_id = dir.filename().string();
+  std::error_code size_error, time_error;
+  const auto bytes = fs::file_size(dir / wire::kMetadataFile, size_error);
+  const auto modified = fs::last_write_time(dir / wire::kMetadataFile, time_error);
+  if (size_error || time_error) {
+    listings_.erase(run_id);
+    return std::nullopt;
+  }
+  auto cached = listings_.find(run_id);
+  if (cached != listings_.end() && cached->second.metadata_bytes == bytes &&
+      cached->second.metadata_modified == modified) {
+    return cached->second.listing;
+  }
+  auto listing = wire::read_run_listing(dir);
+  if (!listing) {
+    listings_.erase(run_id);
+    return std::nullopt;
+  }
+  cut_strings(*listing);
+  if (listing->finalized()) {
+    listings_[run_id] = CachedListing{bytes, modified, *listing};
+  } else {
+    listings_.erase(run_id);
+  }
+  return listing;
+}
+
+bool RunArchive::finalized(const fs::path& dir) {
+  const auto listing = listing_of(dir);
+  return listing && listing->finalized();
+}
+
+// The listing stops, marked truncated, before the reply outgrows kMaxListingBytes.
+v1::ListRunsReply RunArchive::list_runs(const v1::ListRuns& request) {
   constexpr std::size_t kMaxListingBytes = 2u << 20;
-  constexpr std::size_t kMaxListedString = 256;
-  const auto cut = [](std::string* s) {
-    if (s->size() > kMaxListedString) s->resize(kMaxListedString);
-  };
+  std::vector<v1::RunListing> runs;
+  std::map<std::string, CachedListing> seen;  // runs no longer on disk leave the cache
+  for (const auto& dir : wire::recorded_run_directories(data_dir_)) {
+    auto listing = listing_of(dir);
+    if (!listing) continue;
+    if (auto c = listings_.find(listing->run_id()); c != listings_.end()) seen.insert(listings_.extract(c));
+    runs.push_back(std::move(*listing));
+  }
+  listings_ = std::move(seen);
+  wire::sort_newest_first(runs);
   v1::ListRunsReply reply;
   std::size_t bytes = 0;
-  for (auto& run : wire::list_recorded_runs(data_dir_)) {
+  for (auto& run : runs) {
     if (request.max_runs() > 0 && reply.runs_size() >= static_cast<int>(request.max_runs())) break;
-    cut(run.mutable_protocol_name());
-    cut(run.mutable_reason());
-    auto* a = run.mutable_annotations();
-    for (std::string* s : {a->mutable_sample(), a->mutable_tip(), a->mutable_operator_name(), a->mutable_note()}) cut(s);
     const std::size_t size = run.ByteSizeLong() + 8;
     if (bytes + size > kMaxListingBytes) {
       reply.set_truncated(true);

@@ -18,22 +18,40 @@ namespace tribo::daemon {
 inline constexpr std::uint64_t kMaxFetchSamples = 32768;
 inline constexpr std::uint64_t kMaxExportRows = 16384;
 
-// Keeps a row index per recently read run, so that paging costs a seek.
+// Keeps a row index per recently read run, so that paging costs a seek, and
+// the listing of every finalized run, so that listing a data directory of many
+// runs reads one small file per run only when that file changed (each listing
+// otherwise parses every run's metadata.json).
 // Not thread-safe: the API server uses it from its io thread.
 class RunArchive {
  public:
   explicit RunArchive(std::filesystem::path data_dir) : data_dir_(std::move(data_dir)) {}
 
-  v1::ListRunsReply list_runs(const v1::ListRuns& request) const;
+  v1::ListRunsReply list_runs(const v1::ListRuns& request);
   std::optional<v1::Error> get_run(const v1::GetRun& request, v1::GetRunReply& reply) const;
   std::optional<v1::Error> fetch_samples(const v1::FetchSamples& request, v1::FetchSamplesReply& reply);
   std::optional<v1::Error> export_csv(const v1::ExportCsv& request, v1::ExportCsvReply& reply);
 
  private:
   wire::RowIndex& index_of(const std::string& run_id);
+  // dir's listing, its strings cut to the listing's bounds; nullopt if dir
+  // holds no readable metadata.json.
+  std::optional<v1::RunListing> listing_of(const std::filesystem::path& dir);
+  bool finalized(const std::filesystem::path& dir);
+
+  // A finalized run's listing, valid while its metadata.json keeps this size
+  // and modification time (a run being recorded is always read afresh: its
+  // sample count is the samples file's, which grows under an unchanged
+  // metadata.json).
+  struct CachedListing {
+    std::uintmax_t metadata_bytes = 0;
+    std::filesystem::file_time_type metadata_modified;
+    v1::RunListing listing;
+  };
 
   std::filesystem::path data_dir_;
   std::map<std::string, wire::RowIndex> indexes_;
+  std::map<std::string, CachedListing> listings_;
 };
 
 }  // namespace tribo::daemon

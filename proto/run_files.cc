@@ -215,30 +215,42 @@ bool is_valid_run_id(std::string_view run_id) {
   });
 }
 
-std::vector<v1::RunListing> list_recorded_runs(const fs::path& data_dir) {
-  std::vector<v1::RunListing> runs;
+std::vector<fs::path> recorded_run_directories(const fs::path& data_dir) {
+  std::vector<fs::path> dirs;
   std::error_code ec;
   for (const auto& entry : fs::directory_iterator(data_dir, ec)) {
-    const std::string id = entry.path().filename().string();
-    if (!entry.is_directory() || !is_valid_run_id(id)) continue;
-    std::string error;
-    const auto metadata = read_run_metadata(entry.path(), error);
-    if (!metadata) continue;  // not a run directory
-    v1::RunListing r;
-    r.set_run_id(id);
-    r.set_protocol_name(metadata->start().protocol().name());
-    r.set_start_time_utc(metadata->start().start_time_utc());
-    r.set_seed(metadata->start().seed());
-    if (metadata->start().has_annotations()) *r.mutable_annotations() = metadata->start().annotations();
-    r.set_finalized(metadata->has_stop());
-    r.set_exit_status(metadata->stop().exit_status());
-    r.set_reason(metadata->stop().reason());
-    r.set_sample_count(metadata->has_stop() ? metadata->stop().sample_count()
-                                            : count_recorded_samples(entry.path()));
-    runs.push_back(std::move(r));
+    if (entry.is_directory() && is_valid_run_id(entry.path().filename().string())) dirs.push_back(entry.path());
   }
-  std::sort(runs.begin(), runs.end(),
-            [](const auto& a, const auto& b) { return a.run_id() > b.run_id(); });
+  return dirs;
+}
+
+std::optional<v1::RunListing> read_run_listing(const fs::path& dir) {
+  std::string error;
+  const auto metadata = read_run_metadata(dir, error);
+  if (!metadata) return std::nullopt;  // not a run directory
+  v1::RunListing r;
+  r.set_run_id(dir.filename().string());
+  r.set_protocol_name(metadata->start().protocol().name());
+  r.set_start_time_utc(metadata->start().start_time_utc());
+  r.set_seed(metadata->start().seed());
+  if (metadata->start().has_annotations()) *r.mutable_annotations() = metadata->start().annotations();
+  r.set_finalized(metadata->has_stop());
+  r.set_exit_status(metadata->stop().exit_status());
+  r.set_reason(metadata->stop().reason());
+  r.set_sample_count(metadata->has_stop() ? metadata->stop().sample_count() : count_recorded_samples(dir));
+  return r;
+}
+
+void sort_newest_first(std::vector<v1::RunListing>& runs) {
+  std::sort(runs.begin(), runs.end(), [](const auto& a, const auto& b) { return a.run_id() > b.run_id(); });
+}
+
+std::vector<v1::RunListing> list_recorded_runs(const fs::path& data_dir) {
+  std::vector<v1::RunListing> runs;
+  for (const auto& dir : recorded_run_directories(data_dir)) {
+    if (auto listing = read_run_listing(dir)) runs.push_back(std::move(*listing));
+  }
+  sort_newest_first(runs);
   return runs;
 }
 

@@ -74,4 +74,11 @@ bool read_sample_rows(const std::filesystem::path& dir, SampleRange range, v1::S
 // The recorded runs under data_dir, newest first (run ids sort by time).
 std::vector<v1::RunListing> list_recorded_runs(const std::filesystem::path& data_dir);
 
+// The pieces of list_recorded_runs, for a caller that keeps listings between
+// calls: the directories named by a valid run id (unordered), one run's listing
+// (nullopt if dir holds no readable metadata.json), and the listing order.
+std::vector<std::filesystem::path> recorded_run_directories(const std::filesystem::path& data_dir);
+std::optional<v1::RunListing> read_run_listing(const std::filesystem::path& dir);
+void sort_newest_first(std::vector<v1::RunListing>& runs);
+
 }  // namespace tribo::wire

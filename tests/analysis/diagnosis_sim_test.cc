@@ -31,8 +31,10 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/QR>
 #include <gtest/gtest.h>
 
+#include "analysis/diagnosis_report.h"
 #include "tests/analysis/analysis_test_support.h"
 #include "tests/analysis/sim_identification_run.h"
 
@@ -75,6 +77,9 @@ void report(const std::string& name, const Diagnosis& d) {
       std::cout << "    " << effect_name(a.effect) << "." << p.name << " = " << p.value << " +- " << p.std_error << " "
                 << p.unit << "\n";
     }
+  }
+  for (const auto& r : d.rejected) {
+    if (r.minimum_detectable) std::cout << "    " << effect_name(r.effect) << ": " << minimum_detectable_text(*r.minimum_detectable) << "\n";
   }
   if (d.unexplained) std::cout << "    unexplained: " << *d.unexplained << "\n";
 }
@@ -173,29 +178,6 @@ std::vector<Case> identified() {
   };
 }
 
-// NOT YET IDENTIFIED on the sim runs (docs/identification.md, "Simulated
-// tests"): the same assertions, disabled until the analysis gets them right.
-//   frictional_lag: given the measured motion, the lagged Stribeck speed
-//     changes the force too little to see: in the passes the 5 ms run's
-//     force differs from the clean run's by 0.75 uN RMS (same seed; the
-//     noise is 2 uN), the base model fits both to 2.02 uN, and the lag fit
-//     goes to zero; LuGre's bristle already lags by g/|v| (30-150 ms at
-//     1 um/s), and above a few vs the Stribeck curve is flat. 20 ms: no
-//     signature; 50 ms: fitted 16 ms, -4.1 %, but only 61 % of the held-out
-//     samples in improved passes (it acts at the fast onsets).
-//   drift (sample creep, 0.1 nm/s RMS): sigma0 v_creep moves the force only
-//     while the tip is stuck, 0.3 uN/s against the 45-55 uN/s the loop's
-//     dither relaxes a stuck bristle by; the holds only set each pass's
-//     state, and in sliding the creep changes nothing. The plain LuGre
-//     contact drains any held force under the position wander, so even a
-//     long hold shows no creep (tests/sim/friction_effects_test.cc).
-std::vector<Case> known_gaps() {
-  return {
-      {"frictional_lag", Effect::kFrictionalLag, frictional_lag(), {Effect::kPreslidingHysteresis}},
-      {"drift", Effect::kDrift, drift(), {Effect::kDwellStiction}},
-  };
-}
-
 class SimulatedEffect : public ::testing::TestWithParam<Case> {};
 
 TEST_P(SimulatedEffect, IsNamedFirstAndLowersTheHeldOutError) {
@@ -215,8 +197,101 @@ TEST_P(SimulatedEffect, IsNamedFirstAndLowersTheHeldOutError) {
 
 INSTANTIATE_TEST_SUITE_P(Sim, SimulatedEffect, ::testing::ValuesIn(identified()),
                          [](const auto& info) { return std::string(info.param.name); });
-INSTANTIATE_TEST_SUITE_P(DISABLED_SimKnownGap, SimulatedEffect, ::testing::ValuesIn(known_gaps()),
-                         [](const auto& info) { return std::string(info.param.name); });
+
+// The effect's minimum detectable strength as the diagnosis reported it (rejected), or NaN.
+double minimum_detectable(const Diagnosis& d, Effect e) {
+  for (const auto& r : d.rejected) {
+    if (r.effect == e && r.minimum_detectable) return r.minimum_detectable->value;
+  }
+  return std::nan("");
+}
+
+// Two effects this protocol cannot reveal at their documented strengths
+// (once disabled tests: issue 15 asks the report to say so instead, with the
+// strength it would need; docs/identification.md "Minimum detectable strength").
+//   frictional_lag 5 ms: given the measured motion, the lagged Stribeck speed
+//     changes the force too little to see: in the passes the 5 ms run's force
+//     differs from the clean run's by 0.75 uN RMS (same seed; the noise is
+//     2 uN); LuGre's bristle already lags by g/|v| (30-150 ms at 1 um/s), and
+//     above a few vs the Stribeck curve is flat. The report must name it, or
+//     say that it needs more than 5 ms.
+TEST(DiagnosisSim, FrictionalLagAtItsDocumentedStrengthIsNamedOrReportedBelowDetection) {
+  const Diagnosis d = diagnose_run("frictional_lag", frictional_lag());
+  if (!d.accepted.empty() && d.accepted.front().effect == Effect::kFrictionalLag) return;
+  EXPECT_FALSE(accepted(d, Effect::kFrictionalLag)) << accepted_names(d);
+  const double needed_s = minimum_detectable(d, Effect::kFrictionalLag);
+  ASSERT_TRUE(std::isfinite(needed_s)) << "no minimum detectable lag reported";
+  EXPECT_GT(needed_s, 5e-3) << "the report says a 5 ms lag is detectable, yet it was not found";
+}
+
+//   drift (sample creep, 0.1 nm/s RMS): sigma0 v_creep moves the force only
+//     while the tip is stuck, and the holds only set each pass's state; in
+//     sliding the creep changes nothing. The plain LuGre contact drains any
+//     held force under the position wander. The creep's whole effect on the
+//     force (this run against the clean one, same seed: every noise channel
+//     has its own stream), as far as a drift can model it (its time basis),
+//     must be smaller than the smallest drift the report says this record
+//     reveals (a linear drift of total change s has RMS s / sqrt(12)).
+TEST(DiagnosisSim, SampleCreepMovesTheForceLessThanTheRecordCanReveal) {
+  const MeasuredSeries creep = testing::simulated_identification_run(testing::identification_config(drift()), 1);
+  const MeasuredSeries clean = testing::simulated_identification_run(testing::identification_config(), 1);
+  ASSERT_EQ(creep.size(), clean.size());
+  const Diagnosis d = diagnose(creep, options_for_runs());
+  report("drift", d);
+  // Over the passes (the samples the diagnosis compares: the holds only set
+  // each pass's state), the part of the creep's force a drift can take: its
+  // least-squares fit on the drift extension's own time basis
+  // (ModelData::drift_basis_at).
+  const ModelData data(creep, d.motion);
+  std::vector<std::size_t> rows;
+  for (std::size_t i = 0; i < creep.size(); ++i) {
+    if (d.motion.pass_of[i] >= 0) rows.push_back(i);
+  }
+  ASSERT_GT(rows.size(), creep.size() / 2);
+  Eigen::MatrixXd basis(static_cast<Eigen::Index>(rows.size()), data.drift_functions);
+  Eigen::VectorXd change(static_cast<Eigen::Index>(rows.size()));
+  std::vector<double> b(static_cast<std::size_t>(data.drift_functions));
+  for (std::size_t r = 0; r < rows.size(); ++r) {
+    data.drift_basis_at(rows[r], b.data());
+    for (int k = 0; k < data.drift_functions; ++k) basis(static_cast<Eigen::Index>(r), k) = b[static_cast<std::size_t>(k)];
+    change[static_cast<Eigen::Index>(r)] = creep.force_n[rows[r]] - clean.force_n[rows[r]];
+  }
+  const Eigen::VectorXd slow = basis * basis.colPivHouseholderQr().solve(change);
+  const double creep_rms_n = std::sqrt(slow.squaredNorm() / static_cast<double>(rows.size()));
+  const double all_rms_n = std::sqrt(change.squaredNorm() / static_cast<double>(rows.size()));
+  EXPECT_FALSE(accepted(d, Effect::kDrift)) << accepted_names(d);
+  const double needed_n = minimum_detectable(d, Effect::kDrift);
+  ASSERT_TRUE(std::isfinite(needed_n)) << "no minimum detectable drift reported";
+  std::cout << "[sim-diagnosis] creep moves the force in the passes by " << all_rms_n << " N RMS, of which a drift could take "
+            << creep_rms_n << " N RMS; minimum detectable drift "
+            << needed_n << " N (RMS " << needed_n / std::sqrt(12.0) << " N)\n";
+  EXPECT_LT(creep_rms_n, needed_n / std::sqrt(12.0));
+}
+
+// The minimum detectable strength is a prediction the diagnosis can be held
+// to: velocity strengthening at 0.3 of what the clean record needs is not
+// found, and the documented 0.002 (found: Sim/velocity_strengthening) is
+// above what it needs.
+TEST(DiagnosisSim, TheMinimumDetectableStrengthPredictsWhatIsFound) {
+  const Diagnosis clean = diagnose_run("clean", {});
+  const double needed = minimum_detectable(clean, Effect::kVelocityStrengthening);
+  ASSERT_TRUE(std::isfinite(needed));
+  EXPECT_LT(needed, 0.002);
+  for (const auto& r : clean.rejected) {
+    if (r.effect == Effect::kPositionPeriodic || r.effect == Effect::kPreslidingHysteresis) {
+      EXPECT_FALSE(r.minimum_detectable) << effect_name(r.effect) << ": its strength is not one axis";
+    } else {
+      ASSERT_TRUE(r.minimum_detectable) << effect_name(r.effect);
+      EXPECT_GT(r.minimum_detectable->value, 0) << effect_name(r.effect);
+    }
+  }
+  const Diagnosis weak = diagnose_run("velocity_strengthening at 0.3 of the minimum", [&](v1::DaemonConfig& c) {
+    auto& v = *friction(c).mutable_velocity_strengthening();
+    v.set_enabled(true);
+    v.set_coeff(0.3 * needed);
+  });
+  EXPECT_FALSE(accepted(weak, Effect::kVelocityStrengthening)) << accepted_names(weak);
+}
 
 TEST(DiagnosisSim, ACleanRunAcceptsNothing) {
   const Diagnosis d = diagnose_run("clean", {});

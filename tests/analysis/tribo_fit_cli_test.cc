@@ -69,7 +69,8 @@ TEST(TriboFitCli, DiagnoseJsonCarriesTheContractFields) {
   ASSERT_EQ(o.exit_code, 0) << o.text;
   for (const char* key : {"\"accepted_effects\"", "\"rejected_effects\"", "\"error_before\"", "\"error_after\"",
                           "\"unexplained\"", "\"fit\"", "\"heldout\"", "\"rms\"", "\"nrmse\"", "\"max\"", "\"relative\"",
-                          "\"std_error\"", "\"reason\"", "\"heldout_by_condition\""}) {
+                          "\"std_error\"", "\"reason\"", "\"heldout_by_condition\"", "\"minimum_detectable\"",
+                          "\"searched_up_to\""}) {
     EXPECT_NE(o.text.find(key), std::string::npos) << key;
   }
   EXPECT_NE(o.text.find("\"name\": \"direction_asymmetry\""), std::string::npos);

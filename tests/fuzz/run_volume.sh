@@ -15,6 +15,9 @@
 #   FUZZ_TIMEOUT    seconds per input before libFuzzer calls it a timeout (default 10)
 #   FUZZ_MAX_SECONDS  stop a target after this long even if short of EXECUTIONS
 #                   (default 0: no limit); the shortfall is then reported as a failure
+#   FUZZ_CORPUS     a directory of inputs to start from besides the committed seed
+#                   corpus, e.g. an earlier volume run's <work>/<target>/corpus: a
+#                   campaign continued where the last one stopped
 #   FUZZ_JOBS       processes per target (default 1): each runs EXECUTIONS/JOBS from the
 #                   same corpus directory (libFuzzer reloads it, so each sees the
 #                   others' new inputs); executions are summed over the processes
@@ -48,6 +51,7 @@ for t in $targets; do
   rm -rf "$dir"
   mkdir -p "$dir/corpus" "$dir/artifacts"
   cp "$here/corpus/$t/"* "$dir/corpus/"
+  if [ -n "${FUZZ_CORPUS:-}" ]; then cp "$FUZZ_CORPUS/"* "$dir/corpus/"; fi
   start=$(date +%s)
   # The harness runs in its own directory, its temporary files (client_session's
   # data directory) under it: whatever it writes stays in the scratch dir.

@@ -1,0 +1,174 @@
+#include "analysis/detectability.h"
+
+#include <cmath>
+#include <limits>
+
+namespace tribo::analysis {
+
+namespace {
+
+// At most this many rows of each kind enter the projection: enough for a
+// mean square, small enough that the Jacobian costs little memory.
+constexpr std::size_t kMaxRows = 20000;
+
+std::vector<std::size_t> every_kth(const std::vector<char>& mask, std::size_t& total) {
+  std::vector<std::size_t> all;
+  for (std::size_t i = 0; i < mask.size(); ++i) {
+    if (mask[i]) all.push_back(i);
+  }
+  total = all.size();
+  const std::size_t stride = std::max<std::size_t>(1, (all.size() + kMaxRows - 1) / kMaxRows);
+  std::vector<std::size_t> rows;
+  for (std::size_t k = 0; k < all.size(); k += stride) rows.push_back(all[k]);
+  return rows;
+}
+
+double rms_at(const std::vector<double>& measured, const std::vector<double>& model, const std::vector<std::size_t>& rows) {
+  double sum = 0;
+  for (std::size_t i : rows) sum += (measured[i] - model[i]) * (measured[i] - model[i]);
+  return rows.empty() ? 0.0 : std::sqrt(sum / static_cast<double>(rows.size()));
+}
+
+std::vector<int> free_columns(const ModelParams& p) {
+  std::vector<int> cols;
+  for (std::size_t k = 0; k < p.specs.size(); ++k) {
+    if (!p.specs[k].fixed) cols.push_back(static_cast<int>(k));
+  }
+  return cols;
+}
+
+// The strength parameter, a typical strength (the extension's own scale) and
+// how the other parameters of the extension are set.
+struct Axis {
+  std::string parameter;
+  std::string words;
+};
+
+std::optional<Axis> axis_of(Effect e) {
+  switch (e) {
+    case Effect::kDwellStiction: return Axis{"dwell_dFs", "dwell_dFs, time constant and memory at their starting values"};
+    case Effect::kFrictionalLag: return Axis{"lag_time", "lag_time"};
+    case Effect::kVelocityStrengthening: return Axis{"log_velocity_coeff", "log_velocity_coeff"};
+    case Effect::kLoadDependence: return Axis{"load_exponent", "load_exponent"};
+    case Effect::kDirectionAsymmetry: return Axis{"asym_levels", "asym_levels, asym_viscous 0"};
+    case Effect::kTiltOffset: return Axis{"tilt_tan", "tilt_tan"};
+    case Effect::kDrift: return Axis{"drift", "a linear drift over the record, the change from start to end"};
+    case Effect::kBacklash: return Axis{"backlash_gap", "backlash_gap"};
+    case Effect::kRateState: return Axis{"rs_a", "rs_a = rs_b (steady state unchanged), rs_dc at its starting value"};
+    case Effect::kPositionPeriodic:
+    case Effect::kPreslidingHysteresis: return std::nullopt;
+  }
+  return std::nullopt;
+}
+
+int drift_count(const ModelParams& p) {
+  int n = 0;
+  while (p.index("drift_" + std::to_string(n + 1)) >= 0) ++n;
+  return n;
+}
+
+ModelParams at_strength(ModelParams p, Effect e, double s) {
+  switch (e) {
+    case Effect::kDrift: {
+      const int n = drift_count(p);
+      for (int j = 0; j < n; ++j) p.set_value("drift_" + std::to_string(j + 1), s * (n > 1 ? j / (n - 1.0) - 0.5 : 0.0));
+      break;
+    }
+    case Effect::kRateState:
+      p.set_value("rs_a", s);
+      p.set_value("rs_b", s);
+      break;
+    case Effect::kDirectionAsymmetry:
+      p.set_value("asym_levels", s);
+      p.set_value("asym_viscous", 0.0);
+      break;
+    default: p.set_value(axis_of(e)->parameter, s);
+  }
+  return p;
+}
+
+// A typical strength to start from: the parameter's own scale (for drift, the
+// drift functions' scale).
+double reference_strength(const ModelParams& extended, Effect e) {
+  const std::string name = e == Effect::kDrift ? "drift_1" : axis_of(e)->parameter;
+  return std::fabs(extended.specs[static_cast<std::size_t>(extended.index(name))].scale);
+}
+
+}  // namespace
+
+DetectabilityBasis::DetectabilityBasis(const ModelData& data, const FitResult& current,
+                                       const std::vector<double>& current_model, const std::vector<char>& in_fit,
+                                       const std::vector<char>& heldout)
+    : data_(data), current_(current), current_model_(current_model) {
+  std::size_t n_heldout = 0;
+  fit_rows_ = every_kth(in_fit, n_fit_);
+  heldout_rows_ = every_kth(heldout, n_heldout);
+  if (fit_rows_.empty() || heldout_rows_.empty()) return;
+  const std::vector<int> cols = free_columns(current.params);
+  jacobian_fit_ = model_jacobian(data, current.params, current.params.theta, cols, fit_rows_);
+  jacobian_heldout_ = model_jacobian(data, current.params, current.params.theta, cols, heldout_rows_);
+  qr_fit_.compute(jacobian_fit_);
+  sigma_fit_ = rms_at(data.series.force_n, current_model, fit_rows_);
+  sigma_heldout_ = rms_at(data.series.force_n, current_model, heldout_rows_);
+}
+
+std::pair<double, double> DetectabilityBasis::visible_power(const ModelParams& extended, Effect effect, double s) const {
+  const std::vector<double> model = simulate(data_, at_strength(extended, effect, s));
+  const auto change = [&](const std::vector<std::size_t>& rows) {
+    Eigen::VectorXd d(static_cast<Eigen::Index>(rows.size()));
+    for (std::size_t r = 0; r < rows.size(); ++r) d[static_cast<Eigen::Index>(r)] = model[rows[r]] - current_model_[rows[r]];
+    return d;
+  };
+  Eigen::VectorXd rf = change(fit_rows_);
+  Eigen::VectorXd rh = change(heldout_rows_);
+  if (!rf.allFinite() || !rh.allFinite()) return {0.0, 0.0};
+  // What a refit of the model's own parameters takes up (fitted on the fit
+  // rows, carried to the held-out rows as the refitted model would be).
+  if (jacobian_fit_.cols() > 0) {
+    const Eigen::VectorXd beta = qr_fit_.solve(rf);
+    rf -= jacobian_fit_ * beta;
+    rh -= jacobian_heldout_ * beta;
+  }
+  return {rf.squaredNorm() / static_cast<double>(rf.size()), rh.squaredNorm() / static_cast<double>(rh.size())};
+}
+
+std::optional<DetectableStrength> DetectabilityBasis::minimum_detectable_strength(
+    Effect effect, const DetectabilityCriteria& criteria) const {
+  const auto axis = axis_of(effect);
+  if (!axis || fit_rows_.empty() || heldout_rows_.empty() || !(sigma_heldout_ > 0) || !(sigma_fit_ > 0)) return std::nullopt;
+  const ModelParams extended = with_effect(current_.params, effect, data_);
+  int k_effect = 0;
+  for (const auto& spec : extended.specs) k_effect += spec.effect == effect && !spec.fixed;
+  // The visible power each gate needs (see the header).
+  const double g = criteria.min_heldout_gain;
+  const double need_heldout = sigma_heldout_ * sigma_heldout_ * (1.0 / ((1.0 - g) * (1.0 - g)) - 1.0);
+  const double need_fit = sigma_fit_ * sigma_fit_ *
+                          std::expm1((2.0 * k_effect - criteria.max_delta_aicc) / static_cast<double>(n_fit_));
+  const double reference = reference_strength(extended, effect);
+  DetectableStrength out;
+  out.parameter = axis->parameter;
+  const std::string unit_of = effect == Effect::kDrift ? "drift_1" : axis->parameter;
+  out.unit = extended.specs[static_cast<std::size_t>(extended.index(unit_of))].unit;
+  out.axis = axis->words;
+  out.searched_up_to = 1e4 * reference;
+  out.value = std::numeric_limits<double>::infinity();
+  // Secant steps on s: for a linear effect the power grows as s^2, so one
+  // step lands on the threshold; nonlinear ones take a few.
+  double s = reference;
+  for (int step = 0; step < 12; ++step) {
+    const auto [power_fit, power_heldout] = visible_power(extended, effect, s);
+    const double ratio = std::max(power_heldout > 0 ? need_heldout / power_heldout : HUGE_VAL,
+                                  power_fit > 0 ? need_fit / power_fit : HUGE_VAL);
+    if (!std::isfinite(ratio)) break;  // nothing of it survives the refit: not identifiable
+    if (std::fabs(ratio - 1.0) < 0.02) {
+      out.value = s;
+      break;
+    }
+    s *= std::clamp(std::sqrt(ratio), 0.01, 100.0);
+    if (s > out.searched_up_to) break;
+    if (step == 11) out.value = s;  // the last step's estimate
+  }
+  return out;
+}
+
+}  // namespace tribo::analysis

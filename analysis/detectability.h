@@ -1,0 +1,75 @@
+// How strong an effect the diagnosis did not accept would have to be for this
+// record to reveal it (issue 15: "where a protocol cannot reveal an effect at
+// a given strength and noise, the report says so per effect"). The question is
+// asked of the record, not of the effect: the same protocol at the same noise
+// gives the same answer whether the effect is there or not.
+//
+// Method (a linearised power calculation against the diagnosis's own gates):
+// the effect is switched on in the final model at strength s along one axis
+// (its strength parameter, the others at their neutral values); the change of
+// the model force, minus what the model's free parameters can absorb (its
+// least-squares projection onto their Jacobian, as a refit would), is the
+// effect's visible part r(s). Added to a record whose residual RMS is sigma,
+// it would be accepted when
+//   held-out gain   1 - sigma_h / sqrt(sigma_h^2 + mean_h r^2) >= min_heldout_gain
+//   AICc            n ln(1 + mean_f r^2 / sigma_f^2) >= 2 k_effect - max_delta_aicc
+// (h: held-out samples, f: fit samples). The minimum detectable strength is
+// the s where both just hold, found by secant steps on s (r grows as s for a
+// linear effect; nonlinear ones take a few more steps). The block-agreement
+// gate and the signature screening are not modelled: the figure is a lower
+// bound on what the diagnosis needs.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/QR>
+
+#include "analysis/effect.h"
+#include "analysis/friction_model.h"
+#include "analysis/model_fit.h"
+
+namespace tribo::analysis {
+
+struct DetectableStrength {
+  std::string parameter;    // the extension's parameter along which the strength is set
+  std::string unit;
+  double value = 0;         // minimum detectable strength; +inf: none up to searched_up_to
+  double searched_up_to = 0;
+  std::string axis;         // how the strength is set, in words
+};
+
+struct DetectabilityCriteria {
+  double min_heldout_gain = 0.02;
+  double max_delta_aicc = -10.0;
+};
+
+// What every effect's question shares: the final model's Jacobian on a
+// subsample of the fit and held-out rows, factorised once.
+class DetectabilityBasis {
+ public:
+  DetectabilityBasis(const ModelData& data, const FitResult& current, const std::vector<double>& current_model,
+                     const std::vector<char>& in_fit, const std::vector<char>& heldout);
+
+  // nullopt for effects whose strength is not one axis (position-periodic
+  // friction: amplitude and wavelength; presliding hysteresis: a ratio whose
+  // neutral value is the limit of its range) or without fit/held-out rows.
+  std::optional<DetectableStrength> minimum_detectable_strength(Effect effect, const DetectabilityCriteria& criteria) const;
+
+ private:
+  // mean r^2 over the fit and held-out subsamples for the effect at strength s.
+  std::pair<double, double> visible_power(const ModelParams& extended, Effect effect, double s) const;
+
+  const ModelData& data_;
+  const FitResult& current_;
+  const std::vector<double>& current_model_;
+  std::vector<std::size_t> fit_rows_, heldout_rows_;
+  Eigen::MatrixXd jacobian_fit_, jacobian_heldout_;
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr_fit_;
+  double sigma_fit_ = 0, sigma_heldout_ = 0;
+  std::size_t n_fit_ = 0;
+};
+
+}  // namespace tribo::analysis
