@@ -127,8 +127,9 @@ double param_value(const ParamSpec& spec, double theta) { return transform(spec,
 
 namespace {
 
-// b[0, intervals + 3): the uniform cubic B-splines at u (zero but four).
-void cubic_bspline_basis_into(double u, int intervals, double* b) {
+// b[0, intervals + 3): the uniform cubic B-splines at u (zero but four,
+// from the index returned).
+int cubic_bspline_basis_into(double u, int intervals, double* b) {
   std::fill(b, b + intervals + 3, 0.0);
   const double x = std::clamp(u, 0.0, 1.0) * intervals;
   const int k = std::min(static_cast<int>(x), intervals - 1);
@@ -138,6 +139,14 @@ void cubic_bspline_basis_into(double u, int intervals, double* b) {
   b[k + 1] = (3 * t * t * t - 6 * t * t + 4) / 6;
   b[k + 2] = (-3 * t * t * t + 3 * t * t + 3 * t + 1) / 6;
   b[k + 3] = t * t * t / 6;
+  return k;
+}
+
+// The drift functions at sample i into out (as ModelData::drift_basis_at);
+// returns the first of the four that are not zero.
+int drift_basis_span(const ModelData& d, std::size_t i, double* out) {
+  const double t0 = d.series.time_s.front(), span = std::max(d.series.time_s.back() - t0, 1e-30);
+  return cubic_bspline_basis_into((d.series.time_s[i] - t0) / span, d.drift_functions - 3, out);
 }
 
 // Drift functions: at most 12 knot intervals (ModelData).
@@ -496,8 +505,11 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
     if (tilt) f = f + tilt_tan * s.normal_force_n[i];
     if (drift) {
       std::array<double, kMaxDriftFunctions> basis{};
-      d.drift_basis_at(i, basis.data());
-      for (std::size_t j = 0; j < drift_c.size(); ++j) f = f + drift_c[j] * basis[j];
+      // Only the four functions that are not zero here: each other term is
+      // a coefficient times zero, which adds nothing to the force or its
+      // derivatives (with up to 15 functions, most of the additive work).
+      const auto first = static_cast<std::size_t>(drift_basis_span(d, i, basis.data()));
+      for (std::size_t j = first; j < std::min(first + 4, drift_c.size()); ++j) f = f + drift_c[j] * basis[j];
     }
     if (periodic && st.periodic_additive) {
       const T phase = per_wavenumber * s.position_m[i];
