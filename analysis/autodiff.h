@@ -1,7 +1,7 @@
 // Forward-mode automatic differentiation for the model Jacobian: Eigen's
 // AutoDiffScalar. Exact derivatives matter here: the parameters span twelve
 // decades (sigma0 ~ 1e9 N/m, vs ~ 1e-6 m/s), where finite-difference steps
-// are useless. Fixed-size derivative vectors (8, 16 or 32 parameters, padded
+// are useless. Fixed-size derivative vectors (the next even width, padded
 // with zeros) are two to three times faster than dynamic ones; the dynamic
 // type remains for callers that want an arbitrary count.
 #pragma once

@@ -73,26 +73,36 @@ double score_test(const ModelData& data, const ModelParams& current, const std::
   for (std::size_t k = 0; k < start.specs.size(); ++k) {
     if (start.specs[k].effect == effect && !start.specs[k].fixed) columns.push_back(static_cast<int>(k));
   }
+  if (columns.empty()) return 0.0;
   std::vector<std::size_t> rows;
+  rows.reserve(static_cast<std::size_t>(std::count(in_fit.begin(), in_fit.end(), 1)));
   for (std::size_t i = 0; i < in_fit.size(); ++i) {
     if (in_fit[i]) rows.push_back(i);
   }
-  if (columns.empty()) return 0.0;
-  const Eigen::MatrixXd X = model_jacobian(data, start, start.theta, columns, rows);
+  Eigen::MatrixXd X = model_jacobian(data, start, start.theta, columns, rows);
   Eigen::VectorXd y(static_cast<Eigen::Index>(rows.size()));
   for (std::size_t r = 0; r < rows.size(); ++r) y[static_cast<Eigen::Index>(r)] = data.series.force_n[rows[r]] - current_model[rows[r]];
   // Drop columns without variation (a parameter these samples do not feel).
-  std::vector<Eigen::Index> keep;
+  std::vector<int> kept;
   for (Eigen::Index j = 0; j < X.cols(); ++j) {
-    if (X.col(j).cwiseAbs().maxCoeff() > 0) keep.push_back(j);
+    if (X.col(j).cwiseAbs().maxCoeff() > 0) kept.push_back(columns[static_cast<std::size_t>(j)]);
   }
-  if (keep.empty()) return 0.0;
-  Eigen::MatrixXd Xk;  // a copy only when a column is dropped
-  if (keep.size() < static_cast<std::size_t>(X.cols())) {
-    Xk.resize(X.rows(), static_cast<Eigen::Index>(keep.size()));
-    for (std::size_t j = 0; j < keep.size(); ++j) Xk.col(static_cast<Eigen::Index>(j)) = X.col(keep[j]);
+  if (kept.empty()) return 0.0;
+  if (kept.size() < columns.size()) {
+    Eigen::MatrixXd Xk(X.rows(), static_cast<Eigen::Index>(kept.size()));
+    for (std::size_t j = 0, c = 0; j < columns.size(); ++j) {
+      if (c < kept.size() && columns[j] == kept[c]) Xk.col(static_cast<Eigen::Index>(c++)) = X.col(static_cast<Eigen::Index>(j));
+    }
+    X.swap(Xk);
   }
-  const Regression reg = regress(Xk.size() > 0 ? Xk : X, y);
+  // The regression factorises X in place and has the Jacobian computed again
+  // for its residual, rather than hold a copy: X is the widest array of this
+  // phase (drift: 15 columns), and two of them at once, one per core, set the
+  // diagnosis' peak heap (issue 17). Each derivative is computed on its own,
+  // so the kept columns alone are the same values.
+  const Regression reg = regress_in_place(X, y, [&](Eigen::MatrixXd& out) {
+    model_jacobian_into(data, start, start.theta, kept, rows, 1.0, out);
+  });
   if (!reg.ok) return 0.0;
   double best = 0;
   for (Eigen::Index j = 0; j < reg.coef.size(); ++j) best = std::max(best, std::fabs(reg.t(static_cast<int>(j))));
@@ -671,6 +681,9 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
       }
       signatures[j] = std::move(sig);
     });
+    // The friction part served the signatures only: not held through the
+    // fits (a round that accepts an effect evaluates the new model anew).
+    std::vector<double>().swap(current.friction);
     for (std::size_t j = 0; j < open.size(); ++j) {
       const Effect e = open[j];
       Signature& sig = signatures[j];

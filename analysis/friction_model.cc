@@ -108,8 +108,11 @@ T plasticity(const T& r, double v, const T& z, const T& g) {
 }
 
 // z after h at constant v: dz/dt = v - a z with a = alpha |v| / g, exactly.
-template <class T>
-T bristle_step(const T& z, double v, const T& h, const T& alpha_over_g) {
+// H: double for a fixed interval, T for one that depends on the parameters
+// (backlash); a double skips the derivatives of a constant, whose terms are
+// zero (the values and the non-zero derivatives are the same, bit for bit).
+template <class T, class H>
+T bristle_step(const T& z, double v, const H& h, const T& alpha_over_g) {
   using std::exp;
   const T a = std::fabs(v) * alpha_over_g;
   const T u = a * h;
@@ -124,8 +127,9 @@ double param_value(const ParamSpec& spec, double theta) { return transform(spec,
 
 namespace {
 
-// b[0, intervals + 3): the uniform cubic B-splines at u (zero but four).
-void cubic_bspline_basis_into(double u, int intervals, double* b) {
+// b[0, intervals + 3): the uniform cubic B-splines at u (zero but four,
+// from the index returned).
+int cubic_bspline_basis_into(double u, int intervals, double* b) {
   std::fill(b, b + intervals + 3, 0.0);
   const double x = std::clamp(u, 0.0, 1.0) * intervals;
   const int k = std::min(static_cast<int>(x), intervals - 1);
@@ -135,6 +139,14 @@ void cubic_bspline_basis_into(double u, int intervals, double* b) {
   b[k + 1] = (3 * t * t * t - 6 * t * t + 4) / 6;
   b[k + 2] = (-3 * t * t * t + 3 * t * t + 3 * t + 1) / 6;
   b[k + 3] = t * t * t / 6;
+  return k;
+}
+
+// The drift functions at sample i into out (as ModelData::drift_basis_at);
+// returns the first of the four that are not zero.
+int drift_basis_span(const ModelData& d, std::size_t i, double* out) {
+  const double t0 = d.series.time_s.front(), span = std::max(d.series.time_s.back() - t0, 1e-30);
+  return cubic_bspline_basis_into((d.series.time_s[i] - t0) / span, d.drift_functions - 3, out);
 }
 
 // Drift functions: at most 12 knot intervals (ModelData).
@@ -493,8 +505,11 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
     if (tilt) f = f + tilt_tan * s.normal_force_n[i];
     if (drift) {
       std::array<double, kMaxDriftFunctions> basis{};
-      d.drift_basis_at(i, basis.data());
-      for (std::size_t j = 0; j < drift_c.size(); ++j) f = f + drift_c[j] * basis[j];
+      // Only the four functions that are not zero here: each other term is
+      // a coefficient times zero, which adds nothing to the force or its
+      // derivatives (with up to 15 functions, most of the additive work).
+      const auto first = static_cast<std::size_t>(drift_basis_span(d, i, basis.data()));
+      for (std::size_t j = first; j < std::min(first + 4, drift_c.size()); ++j) f = f + drift_c[j] * basis[j];
     }
     if (periodic && st.periodic_additive) {
       const T phase = per_wavenumber * s.position_m[i];
@@ -526,8 +541,10 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
     if (m == 1) {
       const double vm = mean;
       const T g = 0.5 * (level_prev + level_now) / sigma0;
-      const T alpha = ep ? plasticity(breakaway, vm, z, g) : T(1.0);
-      return bristle_step(z, vm, T(h), T(alpha / g));
+      // Without plasticity alpha is one: 1 / g, not a quotient of a constant.
+      if (!ep) return bristle_step(z, vm, h, T(1.0 / g));
+      const T alpha = plasticity(breakaway, vm, z, g);
+      return bristle_step(z, vm, h, T(alpha / g));
     }
     for (int k = 0; k < m; ++k) {
       const double u = (k + 0.5) / m;
@@ -536,8 +553,12 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
       const T level_k = stribeck(i, speed, sign_of(vk));
       if (value_of(level_k) <= tiny) return T(0.0 * sigma0);
       const T g = level_k / sigma0;
-      const T alpha = ep ? plasticity(breakaway, vk, z, g) : T(1.0);
-      z = bristle_step(z, vk, T(h / m), T(alpha / g));
+      if (!ep) {
+        z = bristle_step(z, vk, h / m, T(1.0 / g));
+        continue;
+      }
+      const T alpha = plasticity(breakaway, vk, z, g);
+      z = bristle_step(z, vk, h / m, T(alpha / g));
     }
     return z;
   };
@@ -626,8 +647,7 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
     }
     if (!(backlash && in_gap)) {
       const double vi = v[i];
-      const T alpha = ep ? plasticity(breakaway, vi, z, g) : T(1.0);
-      const T dz_dt = vi - std::fabs(vi) * alpha * z / g;
+      const T dz_dt = ep ? T(vi - std::fabs(vi) * plasticity(breakaway, vi, z, g) * z / g) : T(vi - std::fabs(vi) * z / g);
       const T viscous = asym ? T(fv * (1.0 + asym_viscous * sign_of(vi))) : fv;
       friction = sigma0 * z + sigma1 * dz_dt + viscous * vi;
     }
@@ -654,10 +674,18 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
   template void simulate_streamed<T>(const ModelData&, const ModelParams&, const std::vector<T>&, SampleSink<T>);
 TRIBO_INSTANTIATE_SIMULATE(double)
 TRIBO_INSTANTIATE_SIMULATE(Dual)
+// Every even width up to 24 (kJacobianWidths, analysis/autodiff.h).
+TRIBO_INSTANTIATE_SIMULATE(FixedDual<2>)
 TRIBO_INSTANTIATE_SIMULATE(FixedDual<4>)
+TRIBO_INSTANTIATE_SIMULATE(FixedDual<6>)
 TRIBO_INSTANTIATE_SIMULATE(FixedDual<8>)
+TRIBO_INSTANTIATE_SIMULATE(FixedDual<10>)
 TRIBO_INSTANTIATE_SIMULATE(FixedDual<12>)
+TRIBO_INSTANTIATE_SIMULATE(FixedDual<14>)
 TRIBO_INSTANTIATE_SIMULATE(FixedDual<16>)
+TRIBO_INSTANTIATE_SIMULATE(FixedDual<18>)
+TRIBO_INSTANTIATE_SIMULATE(FixedDual<20>)
+TRIBO_INSTANTIATE_SIMULATE(FixedDual<22>)
 TRIBO_INSTANTIATE_SIMULATE(FixedDual<24>)
 TRIBO_INSTANTIATE_SIMULATE(FixedDual<32>)
 #undef TRIBO_INSTANTIATE_SIMULATE

@@ -17,28 +17,27 @@ namespace tribo::analysis {
 
 namespace {
 
-std::vector<std::size_t> fit_indices(const std::vector<char>& in_fit) {
-  std::vector<std::size_t> idx;
-  for (std::size_t i = 0; i < in_fit.size(); ++i) {
-    if (in_fit[i]) idx.push_back(i);
-  }
-  return idx;
-}
-
 // Eigen's LevenbergMarquardt keeps the m x k Jacobian and, by default, three
 // more m x k matrices per step: the QR's copy of it, the R factor (stored
 // m x k) and lmpar2's working copy of R. This solver factorises the
-// Jacobian's own storage (moved in, given back when the step ends: the next
-// step computes the Jacobian anew) and hands out only the k x k top of the
+// Jacobian's own storage (moved in, given back when the step ends, holding
+// the last trial point's Jacobian: see below) and hands out only the k x k top of the
 // factor, the only rows the step reads (LMonestep.h, LMpar.h, LMqrsolv.h of
 // Eigen 3.4). The same QR on the same matrix type, bit for bit (a QR over an
 // Eigen::Ref instead, or a k x k factor, changes the last bits: other
 // alignments, other summation orders).
+//
+// Once the step has formed Q^T f (LMonestep.h: before its inner loop, the
+// only place the functor is called while a factorisation lives), nothing
+// reads the factorised storage again but rank(), kept here from the
+// factorisation: the storage is free for the trial points' Jacobians
+// (ModelFunctor::operator()), and the destructor hands the last one back as
+// the next step's Jacobian.
 class InPlaceQR : public Eigen::ColPivHouseholderQR<Eigen::MatrixXd> {
  public:
   using MatrixType = Eigen::MatrixXd;
 
-  explicit InPlaceQR(Eigen::MatrixXd& jacobian) : jacobian_(jacobian) {
+  explicit InPlaceQR(Eigen::MatrixXd& jacobian) : jacobian_(jacobian), enclosing_(active_) {
     m_qr.swap(jacobian_);
     computeInPlace();
     // The rows kept are congruent to m modulo 8 (at most 7 more than k): the
@@ -47,27 +46,69 @@ class InPlaceQR : public Eigen::ColPivHouseholderQR<Eigen::MatrixXd> {
     // and triangular solves add in the same order.
     const Eigen::Index m = m_qr.rows(), k = m_qr.cols();
     r_ = m_qr.topRows(std::min(m, k + (m - k) % 8));
+    rank_ = Eigen::ColPivHouseholderQR<Eigen::MatrixXd>::rank();
+    active_ = this;
   }
-  ~InPlaceQR() { m_qr.swap(jacobian_); }
+  ~InPlaceQR() {
+    active_ = enclosing_;
+    m_qr.swap(jacobian_);
+  }
   InPlaceQR(const InPlaceQR&) = delete;
   InPlaceQR& operator=(const InPlaceQR&) = delete;
 
   const Eigen::MatrixXd& matrixR() const { return r_; }
+  Eigen::Index rank() const { return rank_; }
+
+  // The storage factorised from jacobian on this thread, free for a trial
+  // point's Jacobian (see above); null when jacobian is not being factorised.
+  static Eigen::MatrixXd* storage_of(const Eigen::MatrixXd& jacobian) {
+    return active_ && &active_->jacobian_ == &jacobian ? &active_->m_qr : nullptr;
+  }
 
  private:
+  static thread_local InPlaceQR* active_;
   Eigen::MatrixXd& jacobian_;
+  InPlaceQR* enclosing_;
   Eigen::MatrixXd r_;
+  Eigen::Index rank_ = 0;
 };
+
+thread_local InPlaceQR* InPlaceQR::active_ = nullptr;
+
+// The samples that are rows of the Jacobian and the residual, in time
+// order: a list of indices, or a mask (the fit's: no index array per fit).
+struct RowSelection {
+  const std::vector<std::size_t>* list = nullptr;
+  const std::vector<char>* mask = nullptr;
+  std::size_t count = 0;
+  bool selects(std::size_t i, std::size_t r) const { return mask ? (*mask)[i] != 0 : r < count && (*list)[r] == i; }
+};
+
+void jacobian_rows(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
+                   const std::vector<int>& columns, const RowSelection& rows, double sign,
+                   Eigen::Ref<Eigen::MatrixXd> out, std::vector<double>* model, Eigen::VectorXd* residual);
 
 // Eigen's LM functor over the free parameters; residual = measured - model.
 // Residual and Jacobian rows are streamed from the simulation into the
 // solver's own vectors (no per-sample model array).
+//
+// A trial point is evaluated with its Jacobian whenever the solver holds m x k
+// storage no one reads at that moment (the first point, in minimizeInit; each
+// trial while the step's factorisation lives, see InPlaceQR): an accepted
+// trial is the next step's point, and its Jacobian is then already in place
+// (df). The autodiff simulation computes the same force values as the
+// double one, bit for bit (value_of() decides every branch), so the
+// residuals are the same. This saves the plain evaluation of every accepted
+// step (and of the fit's last point) at the price of the derivatives of
+// every rejected one: diagnose() on the 200 s benchmark run, 12.8 -> 11.4 s
+// of CPU, the report bit for bit the same.
 struct ModelFunctor : Eigen::DenseFunctor<double> {
   using QRSolver = InPlaceQR;
 
-  ModelFunctor(const ModelData& d, const ModelParams& p, std::vector<std::size_t> rows, std::vector<int> free)
-      : Eigen::DenseFunctor<double>(static_cast<int>(free.size()), static_cast<int>(rows.size())),
-        data(d), params(p), rows(std::move(rows)), free(std::move(free)) {}
+  ModelFunctor(const ModelData& d, const ModelParams& p, const std::vector<char>& in_fit, std::size_t count,
+               std::vector<int> free)
+      : Eigen::DenseFunctor<double>(static_cast<int>(free.size()), static_cast<int>(count)),
+        data(d), params(p), rows{nullptr, &in_fit, count}, free(std::move(free)) {}
 
   // The solver's variables are theta + kShift: MINPACK sizes its first trust
   // region as factor * |x|, which is zero when every parameter starts at its
@@ -81,9 +122,15 @@ struct ModelFunctor : Eigen::DenseFunctor<double> {
   }
 
   int operator()(const Eigen::VectorXd& x, Eigen::VectorXd& fvec) const {
+    if (Eigen::MatrixXd* free_storage = trial_storage()) {
+      jacobian_rows(data, params, full_theta(x), free, rows, -1.0, *free_storage, nullptr, &fvec);
+      trial_jacobian = free_storage->data();
+      trial_x = x;
+      return 0;
+    }
     std::size_t r = 0;
     auto residual = [&](std::size_t i, const double& force, const double&) {
-      if (r >= rows.size() || rows[r] != i) return;
+      if (!rows.selects(i, r)) return;
       const double e = data.series.force_n[i] - force;
       fvec[static_cast<Eigen::Index>(r++)] = std::isfinite(e) ? e : 1e30;
     };
@@ -92,15 +139,37 @@ struct ModelFunctor : Eigen::DenseFunctor<double> {
   }
 
   int df(const Eigen::VectorXd& x, Eigen::MatrixXd& fjac) const {
-    fjac.resize(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(free.size()));
-    model_jacobian_into(data, params, full_theta(x), free, rows, -1.0, fjac);
+    const auto m = static_cast<Eigen::Index>(rows.count), k = static_cast<Eigen::Index>(free.size());
+    // Taken once: the step factorises it in place.
+    const bool computed = trial_jacobian && fjac.data() == trial_jacobian && fjac.rows() == m && fjac.cols() == k &&
+                          trial_x.size() == x.size() && trial_x == x;
+    trial_jacobian = nullptr;
+    if (computed) return 0;
+    fjac.resize(m, k);
+    jacobian_rows(data, params, full_theta(x), free, rows, -1.0, fjac, nullptr, nullptr);
     return 0;
+  }
+
+  // m x k storage of the solver's that no one reads now, or null.
+  Eigen::MatrixXd* trial_storage() const {
+    if (!solver_jacobian) return nullptr;
+    if (Eigen::MatrixXd* factorised = InPlaceQR::storage_of(*solver_jacobian)) return factorised;
+    const bool allocated = solver_jacobian->rows() == static_cast<Eigen::Index>(rows.count) &&
+                           solver_jacobian->cols() == static_cast<Eigen::Index>(free.size());
+    // Outside a step's factorisation the solver reads its Jacobian only
+    // right after df, never across a call of the functor.
+    return allocated ? solver_jacobian : nullptr;
   }
 
   const ModelData& data;
   const ModelParams& params;
-  std::vector<std::size_t> rows;
+  RowSelection rows;  // the fit samples
   std::vector<int> free;
+  // The solver's Jacobian (lm.jacobian()).
+  Eigen::MatrixXd* solver_jacobian = nullptr;
+  // The Jacobian last computed at a trial point: its storage and the point.
+  mutable const double* trial_jacobian = nullptr;
+  mutable Eigen::VectorXd trial_x;
 };
 
 std::string explain_undetermined(const std::string& name) {
@@ -120,11 +189,12 @@ std::string explain_undetermined(const std::string& name) {
 }
 
 // d model / d theta streamed into out's rows (times sign), the model force
-// (optional) into model; the dual numbers live one sample at a time.
+// (optional) into model, the residual at the rows (optional) into residual;
+// the dual numbers live one sample at a time.
 template <int N>
 void jacobian_with(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
-                   const std::vector<int>& columns, const std::vector<std::size_t>& rows, double sign,
-                   Eigen::Ref<Eigen::MatrixXd> out, std::vector<double>* model) {
+                   const std::vector<int>& columns, const RowSelection& rows, double sign,
+                   Eigen::Ref<Eigen::MatrixXd> out, std::vector<double>* model, Eigen::VectorXd* residual) {
   using T = FixedDual<N>;
   std::vector<T> dual(theta.size());
   for (std::size_t i = 0; i < theta.size(); ++i) dual[i] = T(theta[i]);
@@ -133,7 +203,12 @@ void jacobian_with(const ModelData& data, const ModelParams& params, const std::
   std::size_t r = 0;
   auto row = [&](std::size_t i, const T& force, const T&) {
     if (model) (*model)[i] = force.value();
-    if (r >= rows.size() || rows[r] != i) return;
+    if (!rows.selects(i, r)) return;
+    if (residual) {
+      // As ModelFunctor's plain evaluation.
+      const double e = data.series.force_n[i] - force.value();
+      (*residual)[static_cast<Eigen::Index>(r)] = std::isfinite(e) ? e : 1e30;
+    }
     const auto& d = force.derivatives();
     for (std::size_t j = 0; j < columns.size(); ++j) {
       const double v = d[static_cast<Eigen::Index>(j)];
@@ -142,6 +217,33 @@ void jacobian_with(const ModelData& data, const ModelParams& params, const std::
     ++r;
   };
   simulate_streamed<T>(data, params, dual, SampleSink<T>(row));
+}
+
+void jacobian_rows(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
+                   const std::vector<int>& columns, const RowSelection& rows, double sign,
+                   Eigen::Ref<Eigen::MatrixXd> out, std::vector<double>* model, Eigen::VectorXd* residual) {
+  // The derivative vector's length sets the cost of every operation: the
+  // next even width (whole SSE2 registers). Each derivative is computed on
+  // its own, element by element, so the padding changes no value.
+  const std::size_t k = columns.size();
+  switch ((k + 1) / 2) {
+    case 0:
+    case 1: return jacobian_with<2>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 2: return jacobian_with<4>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 3: return jacobian_with<6>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 4: return jacobian_with<8>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 5: return jacobian_with<10>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 6: return jacobian_with<12>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 7: return jacobian_with<14>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 8: return jacobian_with<16>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 9: return jacobian_with<18>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 10: return jacobian_with<20>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 11: return jacobian_with<22>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 12: return jacobian_with<24>(data, params, theta, columns, rows, sign, out, model, residual);
+    default: break;
+  }
+  if (k <= 32) return jacobian_with<32>(data, params, theta, columns, rows, sign, out, model, residual);
+  throw std::invalid_argument("model_jacobian: more than 32 free parameters");
 }
 
 }  // namespace
@@ -155,16 +257,7 @@ void model_jacobian_into(const ModelData& data, const ModelParams& params, const
   if (out.rows() != static_cast<Eigen::Index>(rows.size()) || out.cols() != static_cast<Eigen::Index>(columns.size())) {
     throw std::invalid_argument("model_jacobian: output of the wrong size");
   }
-  // The derivative vector's length sets the cost of every operation; each
-  // derivative is computed on its own, so the padding changes no value.
-  const std::size_t k = columns.size();
-  if (k <= 4) return jacobian_with<4>(data, params, theta, columns, rows, sign, out, model);
-  if (k <= 8) return jacobian_with<8>(data, params, theta, columns, rows, sign, out, model);
-  if (k <= 12) return jacobian_with<12>(data, params, theta, columns, rows, sign, out, model);
-  if (k <= 16) return jacobian_with<16>(data, params, theta, columns, rows, sign, out, model);
-  if (k <= 24) return jacobian_with<24>(data, params, theta, columns, rows, sign, out, model);
-  if (k <= 32) return jacobian_with<32>(data, params, theta, columns, rows, sign, out, model);
-  throw std::invalid_argument("model_jacobian: more than 32 free parameters");
+  jacobian_rows(data, params, theta, columns, RowSelection{&rows, nullptr, rows.size()}, sign, out, model, nullptr);
 }
 
 Eigen::MatrixXd model_jacobian(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
@@ -211,21 +304,24 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
   for (std::size_t k = 0; k < initial.specs.size(); ++k) {
     if (!initial.specs[k].fixed) free.push_back(static_cast<int>(k));
   }
-  const auto rows = fit_indices(in_fit);
-  result.n = rows.size();
+  // The fit samples are selected by the mask itself (an index per sample
+  // and fit would be the largest array after the Jacobian).
+  const auto fit_samples = static_cast<std::size_t>(std::count_if(in_fit.begin(), in_fit.end(), [](char c) { return c != 0; }));
+  result.n = fit_samples;
   result.k = free.size();
-  if (free.empty() || rows.size() <= free.size()) {
+  if (free.empty() || fit_samples <= free.size()) {
     result.rss = residual_sum_of_squares(data, initial, in_fit);
     result.warnings.push_back("too few fit samples for the model's parameters");
     return result;
   }
 
-  ModelFunctor functor(data, initial, rows, free);
+  ModelFunctor functor(data, initial, in_fit, fit_samples, free);
   Eigen::VectorXd x(static_cast<Eigen::Index>(free.size()));
   for (std::size_t j = 0; j < free.size(); ++j) {
     x[static_cast<Eigen::Index>(j)] = initial.theta[static_cast<std::size_t>(free[j])] + ModelFunctor::kShift;
   }
   Eigen::LevenbergMarquardt<ModelFunctor> lm(functor);
+  functor.solver_jacobian = &lm.jacobian();
   lm.setMaxfev(options.max_iterations * 10);
   lm.setFtol(options.tolerance);
   lm.setXtol(options.tolerance);
@@ -248,7 +344,8 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
   auto status = lm.minimizeInit(x);
   std::vector<double> costs;
   bool stalled = false;
-  if (status != Eigen::LevenbergMarquardtSpace::ImproperInputParameters) {
+  const bool started = status != Eigen::LevenbergMarquardtSpace::ImproperInputParameters;
+  if (started) {
     do {
       status = lm.minimizeOneStep(x);
       const double cost = lm.fnorm() * lm.fnorm();
@@ -272,9 +369,11 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
   result.params.theta = functor.full_theta(x);
 
   // Residual, effective sample count, AICc.
-  // (The solver's own vectors and Jacobian are reused: it is done.)
+  // (The solver's own vectors and Jacobian are reused: it is done.) The
+  // solver keeps its residual at x: evaluated again only when it never
+  // started.
   Eigen::VectorXd& fvec = lm.fvec();
-  functor(x, fvec);
+  if (!started) functor(x, fvec);
   result.rss = fvec.squaredNorm();
   result.n_effective = effective_sample_count(fvec.data(), static_cast<std::size_t>(fvec.size()));
   result.aicc = aicc(result.rss, result.n, result.n_effective, result.k);
@@ -283,7 +382,7 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
   Eigen::MatrixXd& jac = lm.jacobian();
   functor.df(x, jac);
   const Eigen::MatrixXd jtj = jac.transpose() * jac;
-  const double dof = static_cast<double>(rows.size() - free.size());
+  const double dof = static_cast<double>(fit_samples - free.size());
   const double s2 = result.rss / dof * (static_cast<double>(result.n) / result.n_effective);
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(jtj);
   const Eigen::VectorXd ev = eig.eigenvalues();
@@ -302,11 +401,13 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
   // parameter keeps the larger of the two standard errors.
   {
     std::map<int, Eigen::VectorXd> score;
-    for (std::size_t r = 0; r < rows.size(); ++r) {
-      const int block = data.motion.block_of.empty() ? 0 : data.motion.block_of[rows[r]];
+    for (std::size_t i = 0, r = 0; i < in_fit.size(); ++i) {
+      if (!in_fit[i]) continue;
+      const int block = data.motion.block_of.empty() ? 0 : data.motion.block_of[i];
       auto it = score.find(block);
       if (it == score.end()) it = score.emplace(block, Eigen::VectorXd::Zero(jac.cols())).first;
       it->second += jac.row(static_cast<Eigen::Index>(r)).transpose() * fvec[static_cast<Eigen::Index>(r)];
+      ++r;
     }
     const double groups = static_cast<double>(score.size());
     if (groups >= 4) {

@@ -173,8 +173,6 @@ MotionSegmentation segment_motion(const MeasuredSeries& s, const SegmentationOpt
   m.direction.assign(n, 0);
   m.pass_of.assign(n, -1);
   m.distance_since_start_m.assign(n, 0.0);
-  m.time_since_start_s.assign(n, 0.0);
-  m.dwell_before_s.assign(n, 0.0);
   m.heldout.assign(n, 0);
   m.block_of.assign(n, 0);
   if (n == 0) return m;
@@ -236,27 +234,12 @@ MotionSegmentation segment_motion(const MeasuredSeries& s, const SegmentationOpt
       m.direction[i] = pass.direction;
       m.pass_of[i] = static_cast<int>(p);
       m.distance_since_start_m[i] = std::fabs(s.position_m[i] - s.position_m[pass.first]);
-      m.time_since_start_s[i] = s.time_s[i] - s.time_s[pass.first];
-      m.dwell_before_s[i] = pass.dwell_before_s;
       pass_speed.push_back(speed[i]);
       if (s.has_normal()) normal += s.normal_force_n[i];
     }
     pass.median_speed_m_per_s = percentile(pass_speed, 0.5);
     pass.mean_normal_n = s.has_normal() ? normal / static_cast<double>(pass.last - pass.first + 1) : 0.0;
   }
-
-  // The hold's edges are found on smoothed speed, so motion ends and starts
-  // inside it: its first half keeps the dwell of the motion arriving, its
-  // second half carries its own duration, the dwell of the motion leaving.
-  for (std::size_t k = 0; k < m.holds.size(); ++k) {
-    const Hold& h = m.holds[k];
-    const double mid = 0.5 * (s.time_s[h.first] + s.time_s[h.last]);
-    const double arriving = h.first > 0 ? m.dwell_before_s[h.first - 1] : 0.0;
-    for (std::size_t i = h.first; i <= h.last; ++i) {
-      m.dwell_before_s[i] = s.time_s[i] < mid ? arriving : s.time_s[h.last] - s.time_s[h.first];
-    }
-  }
-
 
   // Condition levels: speed within a factor 1.25, load within 10 %.
   std::vector<double> speeds, loads;

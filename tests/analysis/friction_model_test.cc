@@ -1,9 +1,11 @@
 #include <cmath>
+#include <cstring>
 
 #include <gtest/gtest.h>
 
 #include "analysis/autodiff.h"
 #include "analysis/friction_model.h"
+#include "analysis/model_fit.h"
 #include "tests/analysis/synthetic_run.h"
 
 namespace tribo::analysis {
@@ -105,6 +107,51 @@ TEST(FrictionModel, AutodiffJacobianMatchesFiniteDifferencesForEveryEffect) {
       if (std::fabs(numeric - exact) <= 1e-4 * scale + 1e-6 * std::fabs(exact) + 1e-15) ++agree;
     }
     EXPECT_GE(static_cast<double>(agree), 0.99 * static_cast<double>(fu.size())) << p.specs[static_cast<std::size_t>(k)].name;
+  }
+}
+
+// The fit evaluates its trial points with their Jacobian (analysis/model_fit.cc,
+// ModelFunctor) and takes the residual from the dual numbers' values: they
+// must be the plain simulation's, bit for bit, for every effect and every
+// derivative width, or the fit would change with that choice.
+TEST(FrictionModel, TheAutodiffSimulationsForceIsThePlainOneBitForBit) {
+  Fixture f;
+  const std::vector<std::pair<Effect, std::vector<double>>> effects = {
+      {Effect::kDwellStiction, {0.03, 2.0}},     {Effect::kFrictionalLag, {0.0213}},
+      {Effect::kVelocityStrengthening, {0.005}}, {Effect::kLoadDependence, {-0.1}},
+      {Effect::kPositionPeriodic, {0.05, 0.02, 0.9e-6}}, {Effect::kDirectionAsymmetry, {0.05, -0.1}},
+      {Effect::kTiltOffset, {0.01}},             {Effect::kDrift, {}},
+      {Effect::kPreslidingHysteresis, {0.4}},    {Effect::kBacklash, {0.05e-6}}};
+  std::vector<ModelParams> models;
+  for (bool from_rest : {false, true}) {
+    ModelParams p = f.base();
+    p.structure.state_from_rest = from_rest;
+    for (const auto& [e, values] : effects) p = with_effect(p, e, f.data, values);
+    for (std::size_t k = 0; k < p.theta.size(); ++k) {
+      if (p.specs[k].name.rfind("drift_", 0) == 0) p.theta[k] = 0.3;
+    }
+    models.push_back(p);
+  }
+  for (bool slip : {false, true}) {
+    ModelParams p = f.base();
+    p.structure.rate_state_slip_law = slip;
+    models.push_back(with_effect(p, Effect::kRateState, f.data));
+  }
+  std::vector<std::size_t> rows(f.series.size());
+  for (std::size_t i = 0; i < rows.size(); ++i) rows[i] = i;
+  for (const ModelParams& p : models) {
+    const std::vector<double> plain = simulate(f.data, p);
+    for (std::size_t width : {std::size_t{1}, std::size_t{3}, std::size_t{6}, std::size_t{9}, std::size_t{13}, p.theta.size()}) {
+      if (width > p.theta.size()) continue;
+      std::vector<int> columns;
+      for (std::size_t k = 0; k < width; ++k) columns.push_back(static_cast<int>(p.theta.size() - 1 - k));
+      std::vector<double> dual_force;
+      model_jacobian(f.data, p, p.theta, columns, {rows.front()}, &dual_force);
+      ASSERT_EQ(dual_force.size(), plain.size());
+      std::size_t differing = 0;
+      for (std::size_t i = 0; i < plain.size(); ++i) differing += std::memcmp(&plain[i], &dual_force[i], sizeof(double)) != 0;
+      EXPECT_EQ(differing, 0u) << width << " derivative columns, " << p.theta.size() << " parameters";
+    }
   }
 }
 
