@@ -149,17 +149,21 @@ class ExistingScheduler(unittest.TestCase):
                         proc.wait(timeout=30)
 
 
+def assert_refused(test, tmp, spec, field):
+    """The campaign refuses SPEC before any run, naming FIELD, and writes nothing; returns its stderr."""
+    out = os.path.join(tmp, "out")
+    result = campaign(spec, "--out", out, timeout=60)
+    test.assertEqual(result.returncode, 2, result.stderr)
+    test.assertIn("refused before any run", result.stderr)
+    test.assertIn(field, result.stderr)
+    test.assertFalse(os.path.exists(out), "nothing may run or be written")
+    return result.stderr
+
+
 class RefusedSpecs(unittest.TestCase):
     def refused(self, body, field):
         with tempfile.TemporaryDirectory() as tmp:
-            spec = write_spec(tmp, body)
-            out = os.path.join(tmp, "out")
-            result = campaign(spec, "--out", out, timeout=60)
-            self.assertEqual(result.returncode, 2, result.stderr)
-            self.assertIn("refused before any run", result.stderr)
-            self.assertIn(field, result.stderr)
-            self.assertFalse(os.path.exists(out), "nothing may run or be written")
-            return result.stderr
+            return assert_refused(self, tmp, write_spec(tmp, body), field)
 
     def test_unknown_override_path_names_the_field(self):
         stderr = self.refused('[grid]\n"sim.friction.coulomb_coef" = [0.1]\n', "sim.friction.coulomb_coef")
@@ -280,13 +284,7 @@ class ScorecardSweep(unittest.TestCase):
             with open(spec, "w", encoding="utf-8") as f:
                 f.write(f'config = "{os.path.join(ARGS.source_dir, "config/tribod.textproto")}"\n'
                         'compute = ["scorecard"]\n' + body)
-            out = os.path.join(tmp, "out")
-            result = campaign(spec, "--out", out, timeout=60)
-            self.assertEqual(result.returncode, 2, result.stderr)
-            self.assertIn("refused before any run", result.stderr)
-            self.assertIn(field, result.stderr)
-            self.assertFalse(os.path.exists(out), "nothing may run or be written")
-            return result.stderr
+            return assert_refused(self, tmp, spec, field)
 
     def test_bad_parameter_path_names_the_field(self):
         stderr = self.refused('[grid]\n"sim.friction.rate_state.direct_coef" = [0.02]\n',
