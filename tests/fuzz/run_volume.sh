@@ -12,7 +12,9 @@
 #                   client_session's run recordings cheaper); the committed corpus
 #                   is copied there, new inputs and findings stay there
 #   FUZZ_NICE       nice increment (default 10: the machine stays usable)
-#   FUZZ_TIMEOUT    seconds per input before libFuzzer calls it a timeout (default 10)
+#   FUZZ_TIMEOUT    seconds per input before libFuzzer calls it a timeout (default 10;
+#                   wall-clock: at nice 19 beside other work raise it, and re-run any
+#                   timeout- artifact alone to tell a hang from CPU starvation)
 #   FUZZ_MAX_SECONDS  stop a target after this long even if short of EXECUTIONS
 #                   (default 0: no limit); the shortfall is then reported as a failure
 #   FUZZ_CORPUS     a directory of inputs to start from besides the committed seed
