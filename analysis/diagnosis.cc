@@ -580,51 +580,67 @@ std::tuple<ModelStructure, LugreFit, PassStartChoice> choose_pass_start_state(co
 
 namespace {
 
+// Why a contact's fit is not physical: the base model's values past their
+// bounds and each added law's (empty when it is).
+std::string contact_objection(const ModelData& data, const FitResult& fit) {
+  std::string objection;
+  const auto add = [&](const std::string& o) {
+    if (!o.empty()) objection += (objection.empty() ? "" : "; ") + o;
+  };
+  for (const std::string& w : base_bound_warnings(data, fit)) {
+    if (w.rfind("base model out of bounds", 0) == 0) add(w);
+  }
+  for (Effect law : fit.params.structure.effects) add(out_of_bounds(data, fit, law));
+  return objection;
+}
+
 // The nested contact laws, each fitted on top of the last as its extension
-// from the residual signature's starting values; a richer one is kept when it
-// lowers the held-out RMS by options.min_heldout_gain and all its laws are
-// within their physical bounds (DiagnosisOptions::choose_base_contact).
+// from the residual signature's starting values. Among the contacts whose
+// fits are physical (contact_objection), a richer one is kept when it lowers
+// the held-out RMS by options.min_heldout_gain; plain LuGre is judged by the
+// same bounds, so when no contact is physical the held-out error alone
+// decides, with a warning (DiagnosisOptions::choose_base_contact).
 BaseContactChoice choose_base_contact(const ModelData& data, const DiagnosisOptions& options, const std::vector<char>& in_fit,
                                       const std::vector<char>& heldout, Current& current) {
   BaseContactChoice choice;
   const std::vector<double>& force = data.series.force_n;
-  double best_rms = rms_over(force, current.model, heldout);
-  choice.options.push_back({"lugre", best_rms, ""});
-  choice.chosen = "lugre";
-  Current best = current;
-  Current step = current;
+  std::vector<Current> fitted;
+  fitted.push_back(current);
+  choice.options.push_back({"lugre", rms_over(force, current.model, heldout), contact_objection(data, current.fit)});
   std::string name = "lugre";
   for (Effect e : {Effect::kPreslidingHysteresis, Effect::kRateState}) {
-    const SignatureInput input{data, step.fit.params, step.model, step.friction, in_fit};
+    const Current& last = fitted.back();
+    const SignatureInput input{data, last.fit.params, last.model, last.friction, in_fit};
     const Signature sig = compute_signature(e, input);
     const std::string law = e == Effect::kPreslidingHysteresis ? "elasto_plastic" : "rate_state";
     if (!sig.applicable) {
-      choice.options.back().note = "+" + law + " not tried: " + sig.summary;
+      choice.not_tried = "+" + law + " not tried: " + sig.summary;
       break;
     }
-    FitResult fit = fit_extension(data, step.fit.params, e, sig, in_fit, options);
-    // Every law of the contact within its physical bounds, judged on this fit
-    // (a law at a bound alone may come back inside with the next one).
-    std::string objection;
-    for (Effect present : fit.params.structure.effects) {
-      const std::string o = out_of_bounds(data, fit, present);
-      if (!o.empty()) objection += (objection.empty() ? "" : "; ") + o;
-    }
-    step = evaluate(data, std::move(fit));
+    fitted.push_back(evaluate(data, fit_extension(data, last.fit.params, e, sig, in_fit, options)));
     name += "+" + law;
-    const double rms = rms_over(force, step.model, heldout);
-    choice.options.push_back({name, rms, objection});
-    if (objection.empty() && rms <= best_rms * (1.0 - options.min_heldout_gain)) {
-      best = step;
-      best_rms = rms;
-      choice.chosen = name;
-    }
+    choice.options.push_back({name, rms_over(force, fitted.back().model, heldout), contact_objection(data, fitted.back().fit)});
   }
-  if (choice.chosen != "lugre") {
-    FitResult polished = fit_model(data, best.fit.params, in_fit, options.lugre.fit);
-    if (polished.rss <= best.fit.rss) best = evaluate(data, std::move(polished));
+  std::vector<std::size_t> pool;
+  for (std::size_t k = 0; k < choice.options.size(); ++k) {
+    if (choice.options[k].note.empty()) pool.push_back(k);
   }
-  current = std::move(best);
+  if (pool.empty()) {
+    for (std::size_t k = 0; k < choice.options.size(); ++k) pool.push_back(k);
+    choice.warning = "every contact law tried is at or past a physical bound (see base_model.contact_choice); "
+                     "the one kept is chosen on held-out error alone";
+  }
+  std::size_t best = pool.front();
+  for (std::size_t k : pool) {
+    if (choice.options[k].heldout_rms <= choice.options[best].heldout_rms * (1.0 - options.min_heldout_gain)) best = k;
+  }
+  choice.chosen = choice.options[best].name;
+  Current kept = std::move(fitted[best]);
+  if (best > 0) {
+    FitResult polished = fit_model(data, kept.fit.params, in_fit, options.lugre.fit);
+    if (polished.rss <= kept.fit.rss) kept = evaluate(data, std::move(polished));
+  }
+  current = std::move(kept);
   return choice;
 }
 
@@ -801,6 +817,7 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
   for (std::size_t i = 0; i < series.size(); ++i) compared[i] = in_fit[i] || heldout[i];
   out.unexplained = describe_unexplained(data, residual, compared, out.noise_floor, out.rejected);
   out.warnings = out.final_fit.warnings;
+  if (out.base_contact && !out.base_contact->warning.empty()) out.warnings.push_back(out.base_contact->warning);
   for (auto& w : base_bound_warnings(data, out.final_fit)) {
     if (std::find(out.warnings.begin(), out.warnings.end(), w) == out.warnings.end()) out.warnings.push_back(w);
   }

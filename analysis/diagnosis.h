@@ -64,8 +64,9 @@ struct DiagnosisOptions {
   // The contact law as a decision on held-out data (issue 15, "base-model
   // choice"): plain LuGre, LuGre with Dupont's elasto-plastic presliding, and
   // that with the rate-and-state dependence (the simulated instrument's
-  // default contact), nested; a richer contact is kept when it lowers the
-  // held-out RMS by min_heldout_gain. The chosen contact's extensions are
+  // default contact), nested; among those within physical bounds (LuGre
+  // too), a richer contact is kept when it lowers the held-out RMS by
+  // min_heldout_gain. The chosen contact's extensions are
   // part of the base, not accepted effects. Off by default (tribo-fit
   // --base-model choose).
   bool choose_base_contact = false;
@@ -76,10 +77,12 @@ struct BaseContactChoice {
   struct Option {
     std::string name;         // "lugre", "lugre+elasto_plastic", "lugre+elasto_plastic+rate_state"
     double heldout_rms = 0;   // force units, over the held-out samples
-    std::string note;         // why the next richer one was not tried, if so
+    std::string note;         // why its fit is not physical (a value past a bound), if so
   };
   std::vector<Option> options;
   std::string chosen;
+  std::string not_tried;      // why the next richer law was not tried, if so
+  std::string warning;        // when no contact tried was physical
 };
 
 // The evidence for the state each pass starts from, when it was chosen.

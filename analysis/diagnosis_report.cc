@@ -101,6 +101,7 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
       options.push_back(std::move(option));
     }
     j["base_model"]["contact_choice"] = {{"chosen", d.base_contact->chosen}, {"options", std::move(options)}};
+    if (!d.base_contact->not_tried.empty()) j["base_model"]["contact_choice"]["not_tried"] = d.base_contact->not_tried;
   }
   if (d.pass_start) {
     j["base_model"]["pass_start_state"] = {
@@ -187,7 +188,8 @@ std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
          d.pass_start->heldout_rms_modelled_holds, d.pass_start->heldout_rms_state_from_rest);
   }
   if (d.base_contact) {
-    line("  contact law chosen on held-out data: %s", d.base_contact->chosen.c_str());
+    line("  contact law chosen on held-out data: %s%s%s", d.base_contact->chosen.c_str(),
+         d.base_contact->not_tried.empty() ? "" : "; ", d.base_contact->not_tried.c_str());
     for (const auto& o : d.base_contact->options) {
       line("    %-34s held-out RMS %.4g%s%s", o.name.c_str(), o.heldout_rms, o.note.empty() ? "" : "; ", o.note.c_str());
     }
