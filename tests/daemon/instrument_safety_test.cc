@@ -436,21 +436,26 @@ TEST(Autotune, IsRecordedLikeARun) {
   ASSERT_FALSE(archive.fetch_samples(fetch, fetched));
   ASSERT_EQ(sample_count(fetched.samples()), 100);
   EXPECT_EQ(fetched.samples().lateral_position_m(99), run->samples.lateral_position_m(99));
-  // An experiment stopped by an emergency stop is recorded as a FAULT with its fault.
-  f.sink.clear();
+  // An experiment stopped by an emergency stop is recorded as a FAULT with its
+  // fault. On an instrument whose experiment lasts up to 10 minutes (1000
+  // cycles): the unpaced loop would finish the 5 s one before the stop lands.
+  ServiceFixture g;
+  g.config.mutable_autotune()->set_cycles(1000);
+  g.config.mutable_autotune()->set_max_duration_s(600);
+  g.start();
   std::promise<std::optional<v1::Error>> outcome;
-  f.service->autotune_async(v1::Autotune{}, [&](std::optional<v1::Error> e, const v1::AutotuneReply&) {
+  g.service->autotune_async(v1::Autotune{}, [&](std::optional<v1::Error> e, const v1::AutotuneReply&) {
     outcome.set_value(std::move(e));
   });
   v1::EmergencyStopReply stopped;
-  ASSERT_FALSE(f.service->emergency_stop("test: recorded", stopped));
+  ASSERT_FALSE(g.service->emergency_stop("test: recorded", stopped));
   ASSERT_TRUE(outcome.get_future().get());
-  const auto after = wire::list_recorded_runs(f.dir.path());
-  ASSERT_EQ(after.size(), 2u);
+  const auto after = wire::list_recorded_runs(g.dir.path());
+  ASSERT_EQ(after.size(), 1u);
   EXPECT_EQ(after.front().protocol_name(), "autotune");
   EXPECT_EQ(after.front().exit_status(), v1::FAULT);
   EXPECT_NE(after.front().reason().find("test: recorded"), std::string::npos) << after.front().reason();
-  const auto metadata = wire::read_run_metadata(f.dir.path() / after.front().run_id(), read_error);
+  const auto metadata = wire::read_run_metadata(g.dir.path() / after.front().run_id(), read_error);
   ASSERT_TRUE(metadata) << read_error;
   EXPECT_EQ(metadata->faults_size(), 1);
 }
