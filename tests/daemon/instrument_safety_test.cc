@@ -376,6 +376,10 @@ TEST(Session, RunsOnTheOneBackendStayBitIdentical) {
 
 TEST(Autotune, AnEmergencyStopEndsTheExperimentAndLatches) {
   ServiceFixture f;
+  // An experiment of up to 1000 cycles / 600 s: the unpaced loop would finish
+  // the config's 5 s one before the stop lands.
+  f.config.mutable_autotune()->set_cycles(1000);
+  f.config.mutable_autotune()->set_max_duration_s(600);
   f.start();
   std::promise<std::pair<std::optional<v1::Error>, v1::AutotuneReply>> outcome;
   v1::Autotune request;
