@@ -1,5 +1,6 @@
 #include "analysis/detectability.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -11,15 +12,16 @@ namespace {
 // mean square, small enough that the Jacobian costs little memory.
 constexpr std::size_t kMaxRows = 20000;
 
+// The marked rows, every k-th of them so that at most kMaxRows remain; total
+// receives how many are marked.
 std::vector<std::size_t> every_kth(const std::vector<char>& mask, std::size_t& total) {
-  std::vector<std::size_t> all;
-  for (std::size_t i = 0; i < mask.size(); ++i) {
-    if (mask[i]) all.push_back(i);
-  }
-  total = all.size();
-  const std::size_t stride = std::max<std::size_t>(1, (all.size() + kMaxRows - 1) / kMaxRows);
+  total = static_cast<std::size_t>(std::count_if(mask.begin(), mask.end(), [](char c) { return c != 0; }));
+  const std::size_t stride = std::max<std::size_t>(1, (total + kMaxRows - 1) / kMaxRows);
   std::vector<std::size_t> rows;
-  for (std::size_t k = 0; k < all.size(); k += stride) rows.push_back(all[k]);
+  std::size_t seen = 0;
+  for (std::size_t i = 0; i < mask.size(); ++i) {
+    if (mask[i] && seen++ % stride == 0) rows.push_back(i);
+  }
   return rows;
 }
 
@@ -37,8 +39,8 @@ std::vector<int> free_columns(const ModelParams& p) {
   return cols;
 }
 
-// The strength parameter, a typical strength (the extension's own scale) and
-// how the other parameters of the extension are set.
+// The parameter that carries an effect's strength, and in words how the
+// extension's other parameters are set (at_strength()).
 struct Axis {
   std::string parameter;
   std::string words;

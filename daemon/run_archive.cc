@@ -58,37 +58,39 @@ wire::RowIndex& RunArchive::index_of(const std::string& run_id) {
   return indexes_[run_id];
 }
 
-std::optional<v1::RunListing> RunArchive::listing_of(const fs::path& dir) {
-  const std::string run_id = dir.filename().string();
+const v1::RunListing* RunArchive::kept_listing(const fs::path& dir, MetadataStamp& stamp) const {
   std::error_code size_error, time_error;
-  const auto bytes = fs::file_size(dir / wire::kMetadataFile, size_error);
-  const auto modified = fs::last_write_time(dir / wire::kMetadataFile, time_error);
-  if (size_error || time_error) {
-    listings_.erase(run_id);
-    return std::nullopt;
+  stamp.bytes = fs::file_size(dir / wire::kMetadataFile, size_error);
+  stamp.modified = fs::last_write_time(dir / wire::kMetadataFile, time_error);
+  stamp.readable = !size_error && !time_error;
+  const auto kept = listings_.find(dir.filename().string());
+  if (!stamp.readable || kept == listings_.end() || kept->second.stamp.bytes != stamp.bytes ||
+      kept->second.stamp.modified != stamp.modified) {
+    return nullptr;
   }
-  auto cached = listings_.find(run_id);
-  if (cached != listings_.end() && cached->second.metadata_bytes == bytes &&
-      cached->second.metadata_modified == modified) {
-    return cached->second.listing;
-  }
-  auto listing = wire::read_run_listing(dir);
-  if (!listing) {
-    listings_.erase(run_id);
-    return std::nullopt;
-  }
+  return &kept->second.listing;
+}
+
+std::optional<v1::RunListing> RunArchive::listing_of(const fs::path& dir) {
+  MetadataStamp stamp;
+  if (const v1::RunListing* kept = kept_listing(dir, stamp)) return *kept;
+  const std::string run_id = dir.filename().string();
+  listings_.erase(run_id);
+  auto listing = stamp.readable ? wire::read_run_listing(dir) : std::nullopt;
+  if (!listing) return std::nullopt;
   cut_strings(*listing);
-  if (listing->finalized()) {
-    listings_[run_id] = CachedListing{bytes, modified, *listing};
-  } else {
-    listings_.erase(run_id);
-  }
+  if (listing->finalized()) listings_[run_id] = CachedListing{stamp, *listing};
   return listing;
 }
 
+// Only the stop document is asked for: a run being recorded is not counted
+// (its listing would scan the whole samples file on every page fetched).
 bool RunArchive::finalized(const fs::path& dir) {
-  const auto listing = listing_of(dir);
-  return listing && listing->finalized();
+  MetadataStamp stamp;
+  if (kept_listing(dir, stamp)) return true;  // only finalized runs are kept
+  std::string error;
+  const auto metadata = wire::read_run_metadata(dir, error);
+  return metadata && metadata->has_stop();
 }
 
 // The listing stops, marked truncated, before the reply outgrows kMaxListingBytes.

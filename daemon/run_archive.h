@@ -43,11 +43,18 @@ class RunArchive {
   // and modification time (a run being recorded is always read afresh: its
   // sample count is the samples file's, which grows under an unchanged
   // metadata.json).
+  struct MetadataStamp {
+    bool readable = false;
+    std::uintmax_t bytes = 0;
+    std::filesystem::file_time_type modified;
+  };
   struct CachedListing {
-    std::uintmax_t metadata_bytes = 0;
-    std::filesystem::file_time_type metadata_modified;
+    MetadataStamp stamp;
     v1::RunListing listing;
   };
+  // dir's kept listing if its metadata.json is unchanged, else null; stamp
+  // receives the file's present size and time.
+  const v1::RunListing* kept_listing(const std::filesystem::path& dir, MetadataStamp& stamp) const;
 
   std::filesystem::path data_dir_;
   std::map<std::string, wire::RowIndex> indexes_;
