@@ -76,7 +76,22 @@ ControllerParams controller_params_from_config(const v1::DaemonConfig& config) {
   return p;
 }
 
-Controller::Controller(const ControllerParams& params) : params_(params) {}
+Controller::Controller(const ControllerParams& params)
+    : params_(params),
+      lateral_terms_(pid_terms(params.lateral, params.period_s)),
+      lateral_force_terms_(pid_terms(params.lateral_force, params.period_s)),
+      normal_force_terms_(pid_terms(params.normal_force, params.period_s)),
+      normal_displacement_terms_(pid_terms(params.normal_displacement, params.period_s)) {}
+
+PidTerms& Controller::terms_ref(Loop loop) {
+  switch (loop) {
+    case Loop::kLateralDisplacement: return lateral_terms_;
+    case Loop::kLateralForce: return lateral_force_terms_;
+    case Loop::kNormalForce: return normal_force_terms_;
+    case Loop::kNormalDisplacement: break;
+  }
+  return normal_displacement_terms_;
+}
 
 PidGains& Controller::gains_ref(Loop loop) {
   switch (loop) {
@@ -105,6 +120,7 @@ const PidGains& Controller::gains(Loop loop) const {
 void Controller::set_gains(Loop loop, const PidGains& gains) {
   pid_change_gains(gains_ref(loop), gains, state_ref(loop));
   gains_ref(loop) = gains;
+  terms_ref(loop) = pid_terms(gains, params_.period_s);
 }
 
 ControlOutput Controller::step(const Setpoints& sp, const hal::SensorFrame& sensors) {
@@ -138,7 +154,8 @@ double Controller::normal_step(const TickSetpoints& sp, const hal::SensorFrame& 
       out.flags |= v1::NORMAL_CLOSED_LOOP;
       const PidGains& g = params_.normal_force;
       if (enter) pid_reset(g, sp.normal, f.normal_force_n, sp.normal, drive_.normal_force_n, normal_force_);
-      const double u = pid_update(g, sp.normal, f.normal_force_n, sp.normal, params_.period_s, normal_force_);
+      const double u = pid_update(g, normal_force_terms_, sp.normal, f.normal_force_n, sp.normal, params_.period_s,
+                                  normal_force_);
       if (normal_force_.input_invalid) out.flags |= v1::SENSOR_INVALID;
       return u;
     }
@@ -147,7 +164,8 @@ double Controller::normal_step(const TickSetpoints& sp, const hal::SensorFrame& 
       const PidGains& g = params_.normal_displacement;
       const double ff = k * sp.normal;
       if (enter) pid_reset(g, sp.normal, f.normal_displacement_m, ff, drive_.normal_force_n, normal_displacement_);
-      const double u = pid_update(g, sp.normal, f.normal_displacement_m, ff, params_.period_s, normal_displacement_);
+      const double u = pid_update(g, normal_displacement_terms_, sp.normal, f.normal_displacement_m, ff, params_.period_s,
+                                  normal_displacement_);
       if (normal_displacement_.input_invalid) out.flags |= v1::SENSOR_INVALID;
       out.normal_setpoint_n = u;  // the recorded normal setpoint is the commanded drive
       return u;
@@ -159,7 +177,7 @@ double Controller::normal_step(const TickSetpoints& sp, const hal::SensorFrame& 
 double Controller::lateral_hold(const hal::SensorFrame& f, ControlOutput& out) {
   const PidGains& g = params_.lateral;
   const double ff = params_.lateral_spring_n_per_m * hold_position_m_;
-  const double u = pid_update(g, hold_position_m_, f.lateral_position_m, ff, params_.period_s,
+  const double u = pid_update(g, lateral_terms_, hold_position_m_, f.lateral_position_m, ff, params_.period_s,
                               lateral_displacement_);
   if (lateral_displacement_.input_invalid) out.flags |= v1::SENSOR_INVALID;
   if (lateral_displacement_.saturated) out.flags |= v1::LATERAL_OUTPUT_SATURATED;
@@ -185,7 +203,7 @@ double Controller::lateral_step(const TickSetpoints& sp, const hal::SensorFrame&
       const PidGains& g = params_.lateral;
       const double ff = k * sp.lateral;
       if (enter) pid_reset(g, sp.lateral, std::isfinite(x) ? x : sp.lateral, ff, drive_.lateral_force_n, lateral_displacement_);
-      const double u = pid_update(g, sp.lateral, x, ff, params_.period_s, lateral_displacement_);
+      const double u = pid_update(g, lateral_terms_, sp.lateral, x, ff, params_.period_s, lateral_displacement_);
       if (lateral_displacement_.input_invalid) out.flags |= v1::SENSOR_INVALID;
       if (lateral_displacement_.saturated) out.flags |= v1::LATERAL_OUTPUT_SATURATED;
       out.lateral_setpoint_m = sp.lateral;
@@ -210,7 +228,8 @@ double Controller::lateral_step(const TickSetpoints& sp, const hal::SensorFrame&
         pid_reset(g, sp.lateral, std::isfinite(f.lateral_force_n) ? f.lateral_force_n : sp.lateral,
                   std::isfinite(ff) ? ff : sp.lateral, drive_.lateral_force_n, lateral_force_);
       }
-      const double u = pid_update(g, sp.lateral, f.lateral_force_n, ff, params_.period_s, lateral_force_);
+      const double u = pid_update(g, lateral_force_terms_, sp.lateral, f.lateral_force_n, ff, params_.period_s,
+                                  lateral_force_);
       if (lateral_force_.input_invalid) out.flags |= v1::SENSOR_INVALID;
       if (lateral_force_.saturated) out.flags |= v1::LATERAL_OUTPUT_SATURATED;
       return u;

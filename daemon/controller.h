@@ -99,7 +99,11 @@ class Controller {
   double lateral_step(const TickSetpoints& sp, const hal::SensorFrame& f, ControlOutput& out);
   double lateral_hold(const hal::SensorFrame& f, ControlOutput& out);
 
+  PidTerms& terms_ref(Loop loop);
+
   ControllerParams params_;
+  // pid_terms of each loop's gains at params_.period_s, kept with the gains.
+  PidTerms lateral_terms_, lateral_force_terms_, normal_force_terms_, normal_displacement_terms_;
   PidState lateral_displacement_, lateral_force_, normal_force_, normal_displacement_;
   bool normal_active_ = false;
   NormalMode normal_mode_ = NormalMode::kOpenLoopForce;

@@ -51,6 +51,26 @@ DriveStiffness drive_stiffness(const ElectrostaticAxis& a, double force_n, doubl
   return DriveStiffness{t.gap_closed, t.ratio};
 }
 
+bool stiffness_certainly_above(const ElectrostaticAxis& a, double force_n, double position_m,
+                               double support_stiffness_n_per_m, double min_ratio) {
+  const double g_pos = a.gap_positive_m - position_m;
+  const double g_neg = a.gap_negative_m + position_m;
+  if (!(g_pos > 0) || !(g_neg > 0) || !(min_ratio >= 0) || !(a.spring_n_per_m > 0)) return false;
+  const bool positive = force_n >= 0;  // the active plate, as stiffness_terms picks it
+  const double g_active = positive ? g_pos : g_neg;
+  const double g_other = positive ? g_neg : g_pos;
+  const double g_other_cubed = g_other * g_other * g_other;
+  // Both sides of k_total - min k >= k_e, times g_a g_o^3 > 0; every term is
+  // non-negative, so each carries a relative rounding error of a few 1e-16.
+  const double ea_bias_sq = a.permittivity_f_per_m * a.plate_area_m2 * a.bias_v * a.bias_v;
+  const double pulled = 2.0 * std::fabs(force_n) * g_other_cubed + ea_bias_sq * (g_other + g_active);
+  const double k_total = a.spring_n_per_m + support_stiffness_n_per_m;
+  const double k_floor = min_ratio * a.spring_n_per_m;
+  const double box = g_active * g_other_cubed;
+  constexpr double kMargin = 1e-9;
+  return (k_total - k_floor) * box > pulled + kMargin * (pulled + (k_total + k_floor) * box);
+}
+
 DriveAssessment assess_drive(const ElectrostaticAxis& a, double force_n, double position_m,
                              double support_stiffness_n_per_m) {
   DriveAssessment out;

@@ -58,4 +58,15 @@ struct DriveStiffness {
 DriveStiffness drive_stiffness(const ElectrostaticAxis& axis, double force_n, double position_m,
                                double support_stiffness_n_per_m);
 
+// true when the drive certainly keeps the gap open and k_eff / k at or above
+// min_ratio, i.e. drive_stiffness(...) certainly gives !gap_closed and
+// stiffness_ratio >= min_ratio; false when that is not certain (near the
+// limit, beyond it, or not finite: then ask drive_stiffness). Decided without
+// a division (issue 17: drive_stiffness's ten a tick cost the supervisor most
+// of its time), from k_e g_a g_o^3 = 2 |F| g_o^3 + eps A Vb^2 (g_o + g_a) (g_a
+// the active plate's gap, g_o the other's), with a relative margin of 1e-9
+// against rounding that is ~1e-15: the supervisor's decisions stay the same.
+bool stiffness_certainly_above(const ElectrostaticAxis& axis, double force_n, double position_m,
+                               double support_stiffness_n_per_m, double min_ratio);
+
 }  // namespace tribo::daemon

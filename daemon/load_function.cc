@@ -48,16 +48,17 @@ double path_end(const AxisPath& p, double begin, double duration_s) {
 }
 
 double path_value(const AxisPath& p, double begin, double end, double t_s, double duration_s) {
-  const double fraction = t_s / duration_s;
+  // The fraction is divided out only by the shapes that use it (a hold, most
+  // ticks of a protocol on the normal axis, needs no division).
   switch (p.shape) {
     case Shape::kHold: return begin;
-    case Shape::kRamp: return begin + (end - begin) * fraction;
+    case Shape::kRamp: return begin + (end - begin) * (t_s / duration_s);
     case Shape::kSine:
-      return begin + (end - begin) * fraction +
+      return begin + (end - begin) * (t_s / duration_s) +
              sine_amplitude(p, t_s, duration_s) *
                  std::sin(2.0 * std::numbers::pi * p.sine_frequency_hz * t_s);
     case Shape::kVelocityProfile:
-      return begin + p.rate_begin * t_s + (p.rate_end - p.rate_begin) * t_s * fraction * 0.5;
+      return begin + p.rate_begin * t_s + (p.rate_end - p.rate_begin) * t_s * (t_s / duration_s) * 0.5;
   }
   return begin;
 }

@@ -39,8 +39,23 @@ void pid_reset(const PidGains& g, double setpoint, double measurement, double fe
   s.input_invalid = false;
 }
 
+PidTerms pid_terms(const PidGains& g, double dt_s) {
+  PidTerms t;
+  t.filter_time_s = filter_time_s(g);
+  t.ki_dt = g.ki * dt_s;
+  if (g.anti_windup == AntiWindup::kBackCalculation) {
+    t.tracking_gain = std::min(1.0, dt_s / pid_tracking_time_s(g, dt_s));
+  }
+  return t;
+}
+
 double pid_update(const PidGains& g, double setpoint, double measurement, double feedforward,
                   double dt_s, PidState& s) {
+  return pid_update(g, pid_terms(g, dt_s), setpoint, measurement, feedforward, dt_s, s);
+}
+
+double pid_update(const PidGains& g, const PidTerms& t, double setpoint, double measurement,
+                  double feedforward, double dt_s, PidState& s) {
   if (!(dt_s > 0) || !std::isfinite(dt_s) || !std::isfinite(setpoint) ||
       !std::isfinite(measurement) || !std::isfinite(feedforward)) {
     s.input_invalid = true;
@@ -51,11 +66,14 @@ double pid_update(const PidGains& g, double setpoint, double measurement, double
   const double p = proportional(g, setpoint, measurement);
 
   const double d_input = g.setpoint_weight_d * setpoint - measurement;
-  const double tf = filter_time_s(g);
-  s.derivative = (tf * s.derivative + g.kd * (d_input - s.previous_d_input)) / (tf + dt_s);
+  const double tf = t.filter_time_s;
+  // A zero numerator divides to itself (its sign kept: tf + dt > 0): without
+  // D (kd = 0, no filter memory) the division is skipped, same bits.
+  const double d_numerator = tf * s.derivative + g.kd * (d_input - s.previous_d_input);
+  s.derivative = d_numerator == 0 ? d_numerator : d_numerator / (tf + dt_s);
   s.previous_d_input = d_input;
 
-  const double candidate = s.integral + g.ki * dt_s * error;
+  const double candidate = s.integral + t.ki_dt * error;
   const double unclamped = p + candidate + s.derivative + g.feedforward_gain * feedforward;
   const double output = std::clamp(unclamped, g.output_min, g.output_max);
   switch (g.anti_windup) {
@@ -68,11 +86,9 @@ double pid_update(const PidGains& g, double setpoint, double measurement, double
       if (!winding_up) s.integral = candidate;
       break;
     }
-    case AntiWindup::kBackCalculation: {
-      const double gain = std::min(1.0, dt_s / pid_tracking_time_s(g, dt_s));
-      s.integral = candidate + gain * (output - unclamped);
+    case AntiWindup::kBackCalculation:
+      s.integral = candidate + t.tracking_gain * (output - unclamped);
       break;
-    }
   }
   s.saturated = output != unclamped;
   s.output = output;

@@ -88,6 +88,21 @@ void pid_reset(const PidGains& g, double setpoint, double measurement, double fe
 double pid_update(const PidGains& g, double setpoint, double measurement, double feedforward,
                   double dt_s, PidState& s);
 
+// The terms of an update that depend only on the gains and the period,
+// computed by the operations pid_update uses for them: a caller that steps
+// the same gains every tick computes them once per gain change (the
+// controller; issue 17: two divisions a tick fewer) and gets the same outputs.
+struct PidTerms {
+  double filter_time_s = 0;  // 1 / (2 pi derivative_filter_hz), 0 unfiltered
+  double ki_dt = 0;          // ki dt
+  double tracking_gain = 0;  // BACK_CALCULATION: min(1, dt / tracking time)
+};
+PidTerms pid_terms(const PidGains& g, double dt_s);
+
+// pid_update with the terms of pid_terms(g, dt_s).
+double pid_update(const PidGains& g, const PidTerms& terms, double setpoint, double measurement,
+                  double feedforward, double dt_s, PidState& s);
+
 // Switches from old_gains to new_gains without a step in the output.
 void pid_change_gains(const PidGains& old_gains, const PidGains& new_gains, PidState& s);
 

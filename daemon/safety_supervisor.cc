@@ -288,18 +288,24 @@ TripReason SafetySupervisor::evaluate(const SupervisorInput& in, std::uint64_t t
   if (p_.min_stiffness_ratio > 0) {
     const double z = f.normal_displacement_m;
     const double contact = loaded && z > 0 ? normal / z : 0.0;
-    // The full assessment (voltages for the message) only when it trips.
-    const DriveStiffness n = drive_stiffness(p_.normal_axis, in.drive.normal_force_n, z, contact);
-    if (n.gap_closed || n.stiffness_ratio < p_.min_stiffness_ratio) {
-      return latch_snap_down(TripReason::kSnapDownNormal, tick,
-                             assess_drive(p_.normal_axis, in.drive.normal_force_n, z, contact),
-                             in.drive.normal_force_n, z);
+    // Most ticks are far from the limit: a division-free certificate clears
+    // them; otherwise the exact ratio decides, and the full assessment
+    // (voltages for the message) is made only when it trips.
+    if (!stiffness_certainly_above(p_.normal_axis, in.drive.normal_force_n, z, contact, p_.min_stiffness_ratio)) {
+      const DriveStiffness n = drive_stiffness(p_.normal_axis, in.drive.normal_force_n, z, contact);
+      if (n.gap_closed || n.stiffness_ratio < p_.min_stiffness_ratio) {
+        return latch_snap_down(TripReason::kSnapDownNormal, tick,
+                               assess_drive(p_.normal_axis, in.drive.normal_force_n, z, contact),
+                               in.drive.normal_force_n, z);
+      }
     }
-    const DriveStiffness l = drive_stiffness(p_.lateral_axis, in.drive.lateral_force_n, x, 0.0);
-    if (l.gap_closed || l.stiffness_ratio < p_.min_stiffness_ratio) {
-      return latch_snap_down(TripReason::kSnapDownLateral, tick,
-                             assess_drive(p_.lateral_axis, in.drive.lateral_force_n, x, 0.0),
-                             in.drive.lateral_force_n, x);
+    if (!stiffness_certainly_above(p_.lateral_axis, in.drive.lateral_force_n, x, 0.0, p_.min_stiffness_ratio)) {
+      const DriveStiffness l = drive_stiffness(p_.lateral_axis, in.drive.lateral_force_n, x, 0.0);
+      if (l.gap_closed || l.stiffness_ratio < p_.min_stiffness_ratio) {
+        return latch_snap_down(TripReason::kSnapDownLateral, tick,
+                               assess_drive(p_.lateral_axis, in.drive.lateral_force_n, x, 0.0),
+                               in.drive.lateral_force_n, x);
+      }
     }
   }
   return TripReason::kNone;

@@ -29,6 +29,7 @@ SimInstrument::SimInstrument(const InstrumentParams& params, std::uint64_t seed)
       plant_{params.lateral, params.friction},
       tan_tilt_(params.tilt.enabled ? std::tan(params.tilt.angle_rad) : 0.0),
       tan_slope_(std::tan(params.sample.slope_rad)),
+      hertz_coefficient_(hertz_coefficient(params.normal)),
       electronics_(params.lateral_drive),
       lateral_sensor_(params.lateral_sensing, derive_seed(seed, kLateralPositionWhite),
                       derive_seed(seed, kLateralPositionLowFrequency)),
@@ -62,7 +63,7 @@ void SimInstrument::settle_normal_axis(double command_n) {
   const double surface = tip_sample_position_m() * tan_slope_;
   // Quasi-static: solve only when the force or the surface under the tip changed.
   if (force != settled_force_n_ || surface != settled_surface_m_ || truth_.time_s == 0) {
-    truth_.normal = solve_normal_equilibrium(params_.normal, force, surface, truth_.normal.depth_m);
+    truth_.normal = solve_normal_equilibrium(params_.normal, hertz_coefficient_, force, surface, truth_.normal.depth_m);
     settled_force_n_ = force;
     settled_surface_m_ = surface;
   }

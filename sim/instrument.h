@@ -157,6 +157,7 @@ class SimInstrument {
   InstrumentParams params_;
   LateralPlant plant_;
   double tan_tilt_ = 0, tan_slope_ = 0;
+  double hertz_coefficient_ = 0;  // of params_.normal, for the solve every tick
   mutable InstrumentTruth truth_;     // friction_n, drive_force_n filled in lazily by truth()
   mutable bool friction_stale_ = false;
   Measurement measurement_;

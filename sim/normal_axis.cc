@@ -5,13 +5,9 @@
 
 namespace tribo::sim {
 
-namespace {
-
 double hertz_coefficient(const NormalAxisParams& p) {
   return 4.0 / 3.0 * p.reduced_modulus_pa * std::sqrt(p.tip_radius_m);
 }
-
-}  // namespace
 
 double normal_actuator_force_n(const NormalAxisParams& p, double command_n, double measured_m,
                                double true_m) {
@@ -23,6 +19,11 @@ double normal_actuator_force_n(const NormalAxisParams& p, double command_n, doub
 
 NormalEquilibrium solve_normal_equilibrium(const NormalAxisParams& p, double force_n,
                                            double surface_height_m, double depth_guess_m) {
+  return solve_normal_equilibrium(p, hertz_coefficient(p), force_n, surface_height_m, depth_guess_m);
+}
+
+NormalEquilibrium solve_normal_equilibrium(const NormalAxisParams& p, double stiff, double force_n,
+                                           double surface_height_m, double depth_guess_m) {
   const double k = p.spring_n_per_m;
   // With d = z + h the Hertz approach: F + k h = k d + K d^(3/2).
   const double pressing = force_n + k * surface_height_m;
@@ -31,7 +32,6 @@ NormalEquilibrium solve_normal_equilibrium(const NormalAxisParams& p, double for
   // Both sqrt(F'/k) and cbrt(F'/K) lie above the root, so Newton from the
   // smaller one descends monotonically onto it; from a guess below the root
   // the first step lands above it.
-  const double stiff = hertz_coefficient(p);
   double u = depth_guess_m > 0 ? std::sqrt(depth_guess_m)
                                : std::min(std::sqrt(pressing / k), std::cbrt(pressing / stiff));
   for (int i = 0; i < 60; ++i) {

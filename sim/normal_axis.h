@@ -58,6 +58,14 @@ double normal_actuator_force_n(const NormalAxisParams& p, double command_n, doub
 NormalEquilibrium solve_normal_equilibrium(const NormalAxisParams& p, double actuator_force_n,
                                            double surface_height_m = 0, double depth_guess_m = 0);
 
+// Hertz's (4/3) E* sqrt(R), N/m^1.5.
+double hertz_coefficient(const NormalAxisParams& p);
+// The same solve with hertz_coefficient(p) computed once by the caller (the
+// simulated instrument solves every tick: a square root fewer, same bits).
+NormalEquilibrium solve_normal_equilibrium(const NormalAxisParams& p, double hertz_coefficient,
+                                           double actuator_force_n, double surface_height_m,
+                                           double depth_guess_m);
+
 // What the transducer reports as the normal load.
 double reported_normal_force_n(const NormalAxisParams& p, double command_n, double measured_m);
 

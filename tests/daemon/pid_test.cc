@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numbers>
 
@@ -221,6 +224,73 @@ TEST(Pid, InvalidInputHoldsTheOutputAndLeavesTheStateAlone) {
   // Then it continues exactly as if those calls had not happened.
   EXPECT_EQ(pid_update(g, 1.0, 0.25, 0, 0.01, s), pid_update(g, 1.0, 0.25, 0, 0.01, twin));
   EXPECT_FALSE(s.input_invalid);
+}
+
+// pid_update as it was before the controller kept its terms (issue 17),
+// written out: every division made every call.
+double reference_update(const PidGains& g, double r, double y, double f, double dt, PidState& s) {
+  const double error = r - y;
+  const double p = g.kp * (g.setpoint_weight_p * r - y);
+  const double d_input = g.setpoint_weight_d * r - y;
+  const double tf = g.derivative_filter_hz > 0 ? 1.0 / (2.0 * std::numbers::pi * g.derivative_filter_hz) : 0.0;
+  s.derivative = (tf * s.derivative + g.kd * (d_input - s.previous_d_input)) / (tf + dt);
+  s.previous_d_input = d_input;
+  const double candidate = s.integral + g.ki * dt * error;
+  const double unclamped = p + candidate + s.derivative + g.feedforward_gain * f;
+  const double output = std::clamp(unclamped, g.output_min, g.output_max);
+  if (g.anti_windup == AntiWindup::kConditionalIntegration) {
+    if (!((unclamped > g.output_max && error > 0) || (unclamped < g.output_min && error < 0))) s.integral = candidate;
+  } else if (g.anti_windup == AntiWindup::kBackCalculation) {
+    s.integral = candidate + std::min(1.0, dt / pid_tracking_time_s(g, dt)) * (output - unclamped);
+  } else {
+    s.integral = candidate;
+  }
+  s.output = output;
+  return output;
+}
+
+std::uint64_t bits(double x) { return std::bit_cast<std::uint64_t>(x); }
+
+// The controller's path (pid_terms once, then pid_update with them, which
+// skips the derivative's division when its numerator is zero) gives the
+// reference's outputs and states bit for bit: with and without D and its
+// filter, each anti-windup, through saturation, and from a derivative of -0
+// (left by a gain change to kd = 0 while D was negative), whose sign a
+// skipped division must keep.
+TEST(Pid, KeptTermsGiveTheBitsOfEveryDivisionMadeEveryCall) {
+  int steps = 0;
+  for (double kd : {0.0, 0.5}) {
+    for (double filter_hz : {0.0, 1000.0}) {
+      for (AntiWindup aw : {AntiWindup::kNone, AntiWindup::kConditionalIntegration, AntiWindup::kBackCalculation}) {
+        PidGains g = gains();
+        g.kd = kd;
+        g.derivative_filter_hz = filter_hz;
+        g.anti_windup = aw;
+        g.feedforward_gain = 1;
+        g.output_min = -3;
+        g.output_max = 3;
+        const double dt = 1e-4;
+        PidState fast, slow;
+        pid_reset(g, 0, 0, 0, 0, fast);
+        pid_reset(g, 0, 0, 0, 0, slow);
+        if (kd == 0) {
+          fast.derivative = slow.derivative = -0.0;
+          fast.previous_d_input = slow.previous_d_input = 0.25;  // 0 kd (y' - 0.25) = -0 for y' > 0.25
+        }
+        const PidTerms terms = pid_terms(g, dt);
+        for (int i = 0; i < 400; ++i) {
+          const double r = 1e-6 * i, y = r - 0.3 * std::sin(0.05 * i) - (i < 200 ? 0.0 : 0.26), f = 0.01 * i;
+          const double a = pid_update(g, terms, r, y, f, dt, fast);
+          const double b = reference_update(g, r, y, f, dt, slow);
+          ASSERT_EQ(bits(a), bits(b)) << "step " << i;
+          ASSERT_EQ(bits(fast.derivative), bits(slow.derivative)) << "step " << i;
+          ASSERT_EQ(bits(fast.integral), bits(slow.integral)) << "step " << i;
+          ++steps;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(steps, 12 * 400);
 }
 
 }  // namespace
