@@ -20,10 +20,11 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3, help="runs per config (best CPU time kept)")
     parser.add_argument("--protocol", default="config/protocols/identification.textproto")
+    parser.add_argument("--config", action="append", help="only this config (repeatable; default: the four named)")
     args = parser.parse_args()
     from tribo_client import sim
     protocol = sim.load_protocol(os.path.join(SOURCE_DIR, args.protocol))
-    for name in CONFIGS:
+    for name in args.config or CONFIGS:
         config = sim.load_config(os.path.join(SOURCE_DIR, name))
         best = None
         for seed in range(1, args.repeat + 1):
