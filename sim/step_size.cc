@@ -1,5 +1,7 @@
 #include "sim/step_size.h"
 
+#include "sim/quarter_sine.h"
+
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -96,8 +98,10 @@ LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs&
     const double mid = 0.5 * (1.0 + r);
     if (hi > r && lo < 1.0) {
       const double nearest = std::clamp(mid, lo, hi);  // where the slope is largest within reach
-      const double slope = std::numbers::pi / (2.0 * (1.0 - r)) *
-                           std::cos(std::numbers::pi * (nearest - mid) / (1.0 - r));
+      // cos of an angle within [-pi/2, pi/2] (nearest lies between r and 1) as
+      // the sine of its distance to pi/2, by sim/quarter_sine.h.
+      const double angle = std::numbers::pi * (nearest - mid) / (1.0 - r);
+      const double slope = std::numbers::pi / (2.0 * (1.0 - r)) * sine_on_quarter(std::numbers::pi / 2 - std::fabs(angle));
       steepness = 1.0 + std::min(hi, 1.0) * std::max(0.0, slope);
     }
   }
