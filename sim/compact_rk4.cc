@@ -17,9 +17,7 @@ struct CompactState {
 template <bool kDwell, bool kRateState, bool kLag>
 struct CompactPlant {
   // lateral_derivative without backlash and Maxwell-slip elements.
-  // With an anchor (kRateState only) the rate-and-state terms come from it.
-  static CompactState derivative(const LateralPlant& plant, const LateralInputs& in, const CompactState& s,
-                                 const ContactAnchor* anchor = nullptr) {
+  static CompactState derivative(const LateralPlant& plant, const LateralInputs& in, const CompactState& s) {
     const FrictionModel& m = plant.friction;
     const LateralAxisParams& axis = plant.axis;
     CompactState r;
@@ -27,22 +25,12 @@ struct CompactPlant {
     const double v = s.v - in.sample_velocity_m_per_s;
     if (in.levels.in_contact()) {
       const ContactPoint c{v, kLag ? s.lag : v, s.x - in.sample_offset_m, s.age, s.phi};
-      NearStribeck near;
-      if constexpr (kRateState) {
-        if (anchor) near = stribeck_n_near(m, in.levels, c, *anchor);
-      }
-      const LugreOutput out =
-          lugre_bristle_at(m.lugre, kRateState && anchor ? near.stribeck_n : stribeck_n(m, in.levels, c), v, s.z);
+      const double g = stribeck_n(m, in.levels, c) / m.lugre.sigma0_n_per_m;
+      const LugreOutput out = lugre_bristle(m.lugre, g, v, s.z);
       r.z = out.dz_dt_m_per_s;
       friction_n = out.force_n;
-      if constexpr (kDwell) {
-        r.age = kRateState && anchor ? dwell_age_rate_near(v, s.age, *anchor)
-                                     : 1.0 - std::fabs(v) * s.age / m.dwell_stiction.memory_length_m;
-      }
-      if constexpr (kRateState) {
-        r.phi = anchor ? rate_state_rate_near(m.rate_state, v - r.z, s.phi, near.state_log, *anchor)
-                       : rate_state_rate(m.rate_state, v - r.z, s.phi);
-      }
+      if constexpr (kDwell) r.age = 1.0 - std::fabs(v) * s.age / m.dwell_stiction.memory_length_m;
+      if constexpr (kRateState) r.phi = rate_state_rate(m.rate_state, v - r.z, s.phi);
     }
     if constexpr (kLag) r.lag = (v - s.lag) / m.frictional_lag.time_constant_s;
     const double plate_n = in.drive.force_n(s.x) - axis.spring_n_per_m * s.x - axis.damping_n_s_per_m * s.v;
@@ -62,38 +50,22 @@ struct CompactPlant {
     if constexpr (kRateState) out.phi = s.phi + h * r.phi;
   }
 
-  // One sub-step, as the general substep without frozen contact (its
-  // later stages from the start's rate-and-state anchor).
+  // One sub-step, as the general substep without frozen contact.
   static void substep(const LateralPlant& plant, const LateralInputs& in, double h, SubstepScheme scheme,
-                      CompactState& s, const CompactState* first, const ContactAnchor* given) {
+                      CompactState& s, const CompactState* first) {
     CompactState tmp = s;
     const CompactState k1 = first ? *first : derivative(plant, in, s);
-    ContactAnchor start;
-    const ContactAnchor* anchor = nullptr;
-    if constexpr (kRateState) {
-      if (in.levels.rate_state_n > 0) {
-        const double v = s.v - in.sample_velocity_m_per_s;
-        if (given && given->valid) {
-          start = *given;
-          set_anchor_slip(plant.friction, v - k1.z, start);
-        } else {
-          start = contact_anchor(plant.friction, ContactPoint{v, kLag ? s.lag : v, s.x - in.sample_offset_m, s.age, s.phi},
-                                 v - k1.z);
-        }
-        anchor = &start;
-      }
-    }
     if (scheme == SubstepScheme::kMidpoint) {
       add_scaled(tmp, s, k1, h / 2);
-      add_scaled(s, s, derivative(plant, in, tmp, anchor), h);
+      add_scaled(s, s, derivative(plant, in, tmp), h);
       return;
     }
     add_scaled(tmp, s, k1, h / 2);
-    const CompactState k2 = derivative(plant, in, tmp, anchor);
+    const CompactState k2 = derivative(plant, in, tmp);
     add_scaled(tmp, s, k2, h / 2);
-    const CompactState k3 = derivative(plant, in, tmp, anchor);
+    const CompactState k3 = derivative(plant, in, tmp);
     add_scaled(tmp, s, k3, h);
-    const CompactState k4 = derivative(plant, in, tmp, anchor);
+    const CompactState k4 = derivative(plant, in, tmp);
     CompactState sum = k1;
     add_scaled(sum, k1, k2, 2.0);
     add_scaled(sum, sum, k3, 2.0);
@@ -102,8 +74,7 @@ struct CompactPlant {
   }
 
   static bool integrate(const LateralPlant& plant, const LateralInputs& in, double dt_s, int substeps,
-                        LateralState& full, const LateralRate* first, SubstepScheme scheme,
-                        const ContactAnchor* start) {
+                        LateralState& full, const LateralRate* first, SubstepScheme scheme) {
     CompactState s{full.position_m, full.velocity_m_per_s, full.bristle_m, full.lag_velocity_m_per_s,
             full.contact_age_s, full.rate_state_s};
     CompactState first_rate;
@@ -114,7 +85,7 @@ struct CompactPlant {
     const double h = dt_s / substeps;
     bool stopped = false;
     for (int i = 0; i < substeps; ++i) {
-      substep(plant, in, h, scheme, s, i == 0 && first ? &first_rate : nullptr, i == 0 ? start : nullptr);
+      substep(plant, in, h, scheme, s, i == 0 && first ? &first_rate : nullptr);
       stopped |= apply_stops(in.drive, s.x, s.v);
     }
     full.position_m = s.x;
@@ -141,7 +112,7 @@ bool compact_rk4_applies(const LateralPlant& plant, const LateralState& s) {
 
 bool integrate_lateral_compact(const LateralPlant& plant, const LateralInputs& in, double dt_s,
                                int substeps, LateralState& s, const LateralRate* first,
-                               SubstepScheme scheme, const ContactAnchor* start) {
+                               SubstepScheme scheme) {
   const FrictionModel& m = plant.friction;
   // The named configs' combinations (plain LuGre; dwell with rate-and-state,
   // dissertation_fit) and their neighbours. Frictional lag, which no named
@@ -149,10 +120,10 @@ bool integrate_lateral_compact(const LateralPlant& plant, const LateralInputs& i
   // GCC's inlining limits weigh (eight instances pushed the normal-axis solve
   // and the sensors out of line: -6 %, measured).
   switch ((m.dwell_stiction.enabled ? 2 : 0) | (m.rate_state.enabled ? 1 : 0)) {
-    case 0: return CompactPlant<false, false, false>::integrate(plant, in, dt_s, substeps, s, first, scheme, start);
-    case 1: return CompactPlant<false, true, false>::integrate(plant, in, dt_s, substeps, s, first, scheme, start);
-    case 2: return CompactPlant<true, false, false>::integrate(plant, in, dt_s, substeps, s, first, scheme, start);
-    default: return CompactPlant<true, true, false>::integrate(plant, in, dt_s, substeps, s, first, scheme, start);
+    case 0: return CompactPlant<false, false, false>::integrate(plant, in, dt_s, substeps, s, first, scheme);
+    case 1: return CompactPlant<false, true, false>::integrate(plant, in, dt_s, substeps, s, first, scheme);
+    case 2: return CompactPlant<true, false, false>::integrate(plant, in, dt_s, substeps, s, first, scheme);
+    default: return CompactPlant<true, true, false>::integrate(plant, in, dt_s, substeps, s, first, scheme);
   }
 }
 

@@ -28,6 +28,6 @@ bool compact_rk4_applies(const LateralPlant& plant, const LateralState& s);
 // integrate_lateral for a plant where compact_rk4_applies.
 bool integrate_lateral_compact(const LateralPlant& plant, const LateralInputs& in, double dt_s,
                                int substeps, LateralState& s, const LateralRate* first,
-                               SubstepScheme scheme, const ContactAnchor* start = nullptr);
+                               SubstepScheme scheme);
 
 }  // namespace tribo::sim

@@ -41,8 +41,6 @@
 // negligible when D_c / |v| << gamma.
 #pragma once
 
-#include <cmath>
-
 #include "sim/lugre_friction.h"
 #include "sim/maxwell_slip.h"
 
@@ -178,84 +176,12 @@ double static_friction_n(const FrictionModel& m, const FrictionLevels& levels, c
 // Both at the same contact point (sliding: stribeck_n; at rest towards
 // sgn(direction): static_friction_n), the same values bit for bit, with the
 // terms they share (dwell, the rate-and-state state's log, M_p) evaluated once.
-struct ContactAnchor;  // below
-
 struct SlidingAndStatic {
   double sliding_n = 0;
   double static_n = 0;
 };
-// With anchor given and rate_state on, it also gets the anchor's terms at c
-// but the slip rate's (set_anchor_slip), from the same evaluations: what
-// contact_anchor would compute there, without computing it twice.
 SlidingAndStatic stribeck_and_static_n(const FrictionModel& m, const FrictionLevels& levels,
-                                       const ContactPoint& c, double direction, ContactAnchor* anchor = nullptr);
-
-// The slow and smooth terms of the contact law at the start of an
-// integration sub-step, from which its later RK4 stages evaluate theirs
-// (issue 14: speed; made when rate_state is on). Over one sub-step the
-// stages' state phi, Stribeck speed |v_S|, slip rate |v_s| and contact age
-// move by a small fraction (phi: < 1e-3 of itself; the speeds mostly < 1/64
-// of V* + speed, measured on sim_bench's scratch; the age by < 1e-4 s of
-// age + gamma >= 200 s), so
-//   ln(V* phi / D_c)   = ln(V* phi_0 / D_c) + log1p((phi - phi_0) / phi_0)
-//   ln(1 + |v| / V*)   = ln(1 + |v_0| / V*) + log1p((|v| - |v_0|) / (V* + |v_0|))
-//   exp(-|v| / v_S0)   = exp(-|v_0| / v_S0) exp(-(|v| - |v_0|) / v_S0)   (exponent 1)
-//   1 / (theta + gamma) = q (1 - d + d^2),  q = 1 / (theta_0 + gamma), d = (theta - theta_0) q
-// with the small log1p and exp by their Taylor series while the fraction
-// is within kAnchorReach (1/32; for phi kStateReach, 1/1024; the
-// remainders are below 2e-16) and d within 2^-16 (d^3 < 4e-15), the
-// functions themselves beyond; and the
-// divisions by parameters (v_S0, D_c, the dwell memory) as multiplications
-// by reciprocals taken once. The same values but for rounding, at a
-// fraction of the cost of glibc's log, log1p, exp and of the divisions.
-inline constexpr double kAnchorReach = 1.0 / 32;
-inline constexpr double kDwellReach = 1.0 / 65536;
-inline constexpr double kStateReach = 1.0 / 1024;  // phi's steps (< 1e-3 of itself, measured)
-
-struct ContactAnchor {
-  bool valid = false;       // filled at a contact point (with rate_state on)
-  double speed = 0;         // |v_S|
-  double shape = 1;         // stribeck_shape(|v_S|)
-  double direct_log = 0;    // ln(1 + |v_S| / V*)
-  double direct_scale = 0;  // 1 / (V* + |v_S|)
-  double state = 0;         // phi
-  double state_log = 0;     // ln(V* phi / D_c)
-  double state_scale = 0;   // 1 / phi; 0 near the floor kMinRateStateRatio (no series)
-  double slip = 0;          // |v_s|
-  double slip_log = 0;      // ln(1 + |v_s| / V*)
-  double slip_scale = 0;    // 1 / (V* + |v_s|)
-  double age = 0;           // theta (dwell)
-  double age_scale = 0;     // 1 / (theta + gamma)
-  double inv_stribeck_velocity = 0;  // 1 / v_S0
-  double state_per_memory = 0;       // V* / D_c
-  double inv_memory = 0;             // 1 / D_c
-  double inv_dwell_memory = 0;       // 1 / D_c of the dwell
-};
-
-// The anchor at contact point c with slip rate v_s (rate_state enabled).
-ContactAnchor contact_anchor(const FrictionModel& m, const ContactPoint& c, double slip_rate_m_per_s);
-
-// Sets the anchor's slip-rate terms (the first stage's slip rate).
-void set_anchor_slip(const FrictionModel& m, double slip_rate_m_per_s, ContactAnchor& anchor);
-
-// d theta/dt of the dwell age at velocity v (1 - |v| theta / D_c), from the anchor.
-inline double dwell_age_rate_near(double velocity_m_per_s, double age_s, const ContactAnchor& a) {
-  return 1.0 - std::abs(velocity_m_per_s) * (age_s * a.inv_dwell_memory);
-}
-
-// stribeck_n at c, and the state's log ln(max(V* phi / D_c, ...)), from the anchor.
-struct NearStribeck {
-  double stribeck_n = 0;
-  double state_log = 0;
-};
-NearStribeck stribeck_n_near(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c,
-                             const ContactAnchor& anchor);
-
-// rate_state_rate at slip rate v_s and state phi, with the state's log from
-// stribeck_n_near at the same point (the slip law's ln x is its sum with
-// ln(1 + |v_s| / V*)).
-double rate_state_rate_near(const RateStateParams& p, double slip_rate_m_per_s, double state_s, double state_log,
-                            const ContactAnchor& anchor);
+                                       const ContactPoint& c, double direction);
 
 // Lower bound on M_p M_d over all positions and directions (for step sizes).
 double modulation_floor(const FrictionModel& m);

@@ -99,20 +99,18 @@ StepReport SimInstrument::step(const DriveInput& drive, double dt_s) {
   inputs_.sample_velocity_m_per_s = truth_.sample_velocity_m_per_s;
   inputs_.sample_offset_m = truth_.sample_offset_m;
   // S at the tick's start: the first evaluation of the step reuses it.
-  ContactAnchor anchor_now;  // and the rate-and-state terms there (the first sub-step's anchor)
-  const double stribeck_now = limit_to_static_friction(plant_, inputs_, lateral, &anchor_now);
+  const double stribeck_now = limit_to_static_friction(plant_, inputs_, lateral);
 
   // A handover first integrates its dead interval under the bias alone.
   AdvanceReport report;
   if (truth_.dead_time_s > 0) {
     LateralInputs dead = inputs_;
     dead.drive = dead_field;
-    report = advance_lateral(plant_, dead, params_.integrator, truth_.dead_time_s, lateral, &stribeck_now, &anchor_now);
+    report = advance_lateral(plant_, dead, params_.integrator, truth_.dead_time_s, lateral, &stribeck_now);
   }
   if (truth_.dead_time_s < dt_s) {
     const AdvanceReport rest = advance_lateral(plant_, inputs_, params_.integrator, dt_s - truth_.dead_time_s, lateral,
-                                               truth_.dead_time_s > 0 ? nullptr : &stribeck_now,
-                                               truth_.dead_time_s > 0 ? nullptr : &anchor_now);
+                                               truth_.dead_time_s > 0 ? nullptr : &stribeck_now);
     report = AdvanceReport{report.substeps + rest.substeps, report.split || rest.split,
                            report.capped || rest.capped, report.stopped || rest.stopped,
                            report.retried || rest.retried};

@@ -29,13 +29,13 @@ ContactPoint contact_point(const LateralPlant& plant, const LateralInputs& in, c
 }
 
 // Friction force of the bristle(s) at deflection scale g; fills their rates.
-double bristle_force_n(const FrictionModel& m, double stribeck, double g, double v, const LateralState& s,
+double bristle_force_n(const FrictionModel& m, double g, double v, const LateralState& s,
                        LateralEvaluation& e) {
   const LugreParams& p = m.lugre;
   const PreslidingHysteresisParams& h = m.presliding_hysteresis;
   LateralRate& r = e.rate;
   if (!h.enabled) {
-    const LugreOutput out = lugre_bristle_at(p, stribeck, v, s.bristle_m);
+    const LugreOutput out = lugre_bristle(p, g, v, s.bristle_m);
     r.bristle_m = out.dz_dt_m_per_s;
     e.plasticity = out.plasticity;
     return out.force_n;
@@ -66,28 +66,21 @@ double slip_rate_m_per_s(const LateralPlant& plant, double v, const LateralRate&
 }  // namespace
 
 LateralEvaluation lateral_derivative(const LateralPlant& plant, const LateralInputs& in,
-                                     const LateralState& s, const double* stribeck_n_at_s,
-                                     const ContactAnchor* anchor) {
+                                     const LateralState& s, const double* stribeck_n_at_s) {
   const LateralAxisParams& axis = plant.axis;
   const FrictionModel& m = plant.friction;
   LateralEvaluation e;
   LateralRate& r = e.rate;
   const ContactPoint c = contact_point(plant, in, s);
   if (in.levels.in_contact()) {
-    NearStribeck near;
-    if (anchor) near = stribeck_n_near(m, in.levels, c, *anchor);
-    const double stribeck = stribeck_n_at_s ? *stribeck_n_at_s : anchor ? near.stribeck_n : stribeck_n(m, in.levels, c);
-    const double g = stribeck / m.lugre.sigma0_n_per_m;
+    const double g = (stribeck_n_at_s ? *stribeck_n_at_s : stribeck_n(m, in.levels, c)) / m.lugre.sigma0_n_per_m;
     e.deflection_scale_m = g;
-    e.friction_n = bristle_force_n(m, stribeck, g, c.velocity_m_per_s, s, e);
+    e.friction_n = bristle_force_n(m, g, c.velocity_m_per_s, s, e);
     if (m.dwell_stiction.enabled) {
-      r.contact_age_s = anchor ? dwell_age_rate_near(c.velocity_m_per_s, s.contact_age_s, *anchor)
-                               : 1.0 - std::fabs(c.velocity_m_per_s) * s.contact_age_s / m.dwell_stiction.memory_length_m;
+      r.contact_age_s = 1.0 - std::fabs(c.velocity_m_per_s) * s.contact_age_s / m.dwell_stiction.memory_length_m;
     }
     if (m.rate_state.enabled) {
-      const double slip = slip_rate_m_per_s(plant, c.velocity_m_per_s, r);
-      r.rate_state_s = anchor ? rate_state_rate_near(m.rate_state, slip, s.rate_state_s, near.state_log, *anchor)
-                              : rate_state_rate(m.rate_state, slip, s.rate_state_s);
+      r.rate_state_s = rate_state_rate(m.rate_state, slip_rate_m_per_s(plant, c.velocity_m_per_s, r), s.rate_state_s);
     }
   } else {
     for (int i = 0; i < slip_elements(plant); ++i) r.slip_m[i] = 0;  // out of contact nothing slips
@@ -135,12 +128,10 @@ void add_scaled(State& out, const State& s, const LateralRate& r, double h, int 
 // One sub-step (classical RK4 or the explicit midpoint rule); with
 // frozen_contact the contact states keep their value.
 void substep(const LateralPlant& plant, const LateralInputs& in, double h, bool frozen_contact,
-             SubstepScheme scheme, LateralState& s, const LateralRate* first = nullptr,
-             const ContactAnchor* given = nullptr) {
+             SubstepScheme scheme, LateralState& s, const LateralRate* first = nullptr) {
   const int n = slip_elements(plant);
-  const ContactAnchor* anchor = nullptr;
   auto rate = [&](const LateralState& at) {
-    LateralRate r = lateral_derivative(plant, in, at, nullptr, anchor).rate;
+    LateralRate r = lateral_derivative(plant, in, at).rate;
     if (frozen_contact) {
       r.bristle_m = 0;
       r.contact_age_s = 0;
@@ -151,20 +142,6 @@ void substep(const LateralPlant& plant, const LateralInputs& in, double h, bool 
   };
   LateralState tmp = s;
   const LateralRate k1 = first ? *first : rate(s);
-  // The later stages evaluate the rate-and-state terms from the start's
-  // (the slip rate from k1's bristle rate; with frozen contact it is 0).
-  ContactAnchor start;
-  if (in.levels.rate_state_n > 0) {
-    const ContactPoint c = contact_point(plant, in, s);
-    const double slip = frozen_contact ? 0.0 : slip_rate_m_per_s(plant, c.velocity_m_per_s, k1);
-    if (given && given->valid) {
-      start = *given;
-      set_anchor_slip(plant.friction, slip, start);
-    } else {
-      start = contact_anchor(plant.friction, c, slip);
-    }
-    anchor = &start;
-  }
   if (scheme == SubstepScheme::kMidpoint) {
     add_scaled(tmp, s, k1, h / 2, n);
     add_scaled(s, s, rate(tmp), h, n);
@@ -245,21 +222,17 @@ void relax_contact(const LateralPlant& plant, const LateralInputs& in, double h,
 }  // namespace
 
 bool integrate_lateral(const LateralPlant& plant, const LateralInputs& in, double dt_s,
-                       int substeps, LateralState& s, const LateralRate* first, SubstepScheme scheme,
-                       const ContactAnchor* start) {
-  if (compact_rk4_applies(plant, s)) {
-    return integrate_lateral_compact(plant, in, dt_s, substeps, s, first, scheme, start);
-  }
-  return integrate_lateral_general(plant, in, dt_s, substeps, s, first, scheme, start);
+                       int substeps, LateralState& s, const LateralRate* first, SubstepScheme scheme) {
+  if (compact_rk4_applies(plant, s)) return integrate_lateral_compact(plant, in, dt_s, substeps, s, first, scheme);
+  return integrate_lateral_general(plant, in, dt_s, substeps, s, first, scheme);
 }
 
 bool integrate_lateral_general(const LateralPlant& plant, const LateralInputs& in, double dt_s,
-                               int substeps, LateralState& s, const LateralRate* first, SubstepScheme scheme,
-                               const ContactAnchor* start) {
+                               int substeps, LateralState& s, const LateralRate* first, SubstepScheme scheme) {
   const double h = dt_s / substeps;
   bool stopped = false;
   for (int i = 0; i < substeps; ++i) {
-    substep(plant, in, h, false, scheme, s, i == 0 ? first : nullptr, i == 0 ? start : nullptr);
+    substep(plant, in, h, false, scheme, s, i == 0 ? first : nullptr);
     stopped |= apply_stops(in.drive, s.position_m, s.velocity_m_per_s);
   }
   return stopped;
@@ -278,8 +251,7 @@ bool integrate_lateral_split(const LateralPlant& plant, const LateralInputs& in,
   return stopped;
 }
 
-double limit_to_static_friction(const LateralPlant& plant, const LateralInputs& in, LateralState& s,
-                                ContactAnchor* anchor) {
+double limit_to_static_friction(const LateralPlant& plant, const LateralInputs& in, LateralState& s) {
   if (!in.levels.in_contact()) return 0.0;
   const FrictionModel& m = plant.friction;
   const ContactPoint c = contact_point(plant, in, s);
@@ -291,7 +263,7 @@ double limit_to_static_friction(const LateralPlant& plant, const LateralInputs& 
   const PreslidingHysteresisParams& hy = m.presliding_hysteresis;
   if (!hy.enabled) {
     // S sliding and at rest share the point's terms: one evaluation of them.
-    const SlidingAndStatic both = stribeck_and_static_n(m, in.levels, c, s.bristle_m, anchor);
+    const SlidingAndStatic both = stribeck_and_static_n(m, in.levels, c, s.bristle_m);
     s.bristle_m = limit(s.bristle_m, 1.0, both.sliding_n, both.static_n);
     return both.sliding_n;
   }

@@ -116,12 +116,8 @@ struct LateralEvaluation {
 // inputs' levels, already computed (limit_to_static_friction returns it): the
 // same value, not evaluated twice (issue 17: each costs one to four
 // transcendental functions).
-// anchor, if given, is the rate-and-state anchor of the sub-step s is a
-// stage of (sim/friction_effects.h): the integrators' later RK4 stages
-// evaluate the rate-and-state terms from it (issue 14: speed).
 LateralEvaluation lateral_derivative(const LateralPlant& plant, const LateralInputs& in,
-                                     const LateralState& s, const double* stribeck_n_at_s = nullptr,
-                                     const ContactAnchor* anchor = nullptr);
+                                     const LateralState& s, const double* stribeck_n_at_s = nullptr);
 
 // The explicit scheme of one sub-step.
 enum class SubstepScheme { kRk4, kMidpoint };
@@ -129,18 +125,16 @@ enum class SubstepScheme { kRk4, kMidpoint };
 // Advances s by dt with n sub-steps (RK4 or midpoint). Returns true if the
 // plate touched a stop. `first`, if given, is lateral_derivative at s (saves
 // one evaluation).
-// start, if given and valid, is the rate-and-state anchor at s but its slip
-// terms (limit_to_static_friction's): the first sub-step's, not recomputed.
 bool integrate_lateral(const LateralPlant& plant, const LateralInputs& in, double dt_s,
                        int substeps, LateralState& s, const LateralRate* first = nullptr,
-                       SubstepScheme scheme = SubstepScheme::kRk4, const ContactAnchor* start = nullptr);
+                       SubstepScheme scheme = SubstepScheme::kRk4);
 
 // integrate_lateral on every plant, without the specialised path
 // (sim/compact_rk4.h) that integrate_lateral takes where it applies: for the
 // tests that hold the two to the same bits.
 bool integrate_lateral_general(const LateralPlant& plant, const LateralInputs& in, double dt_s,
                                int substeps, LateralState& s, const LateralRate* first = nullptr,
-                               SubstepScheme scheme = SubstepScheme::kRk4, const ContactAnchor* start = nullptr);
+                               SubstepScheme scheme = SubstepScheme::kRk4);
 
 // A plate at a stop stays there while the net force presses it on: the
 // rates of its position x are zeroed.
@@ -182,11 +176,8 @@ bool integrate_lateral_split(const LateralPlant& plant, const LateralInputs& in,
 // contact age) lowers g faster than the bristle relaxes: an instant slip
 // instead of one over the next few nm.
 // Returns S (stribeck_n) at the contact point, which the limit leaves as it
-// was (it moves only the bristles); 0 out of contact. With anchor given (and
-// rate_state on, no Maxwell-slip elements) it also gets the rate-and-state
-// anchor's terms at that point but the slip rate's (issue 14: speed).
-double limit_to_static_friction(const LateralPlant& plant, const LateralInputs& in, LateralState& s,
-                                ContactAnchor* anchor = nullptr);
+// was (it moves only the bristles); 0 out of contact.
+double limit_to_static_friction(const LateralPlant& plant, const LateralInputs& in, LateralState& s);
 
 // Stored energy: kinetic, spring, bristle (or elements), backlash coupling,
 // and the potentials of the held drive field and tip force. With no sample

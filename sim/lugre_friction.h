@@ -23,11 +23,6 @@
 // and while unloading, motion is purely elastic; the steady state is unchanged.
 #pragma once
 
-#include <cmath>
-#include <numbers>
-
-#include "sim/quarter_sine.h"
-
 namespace tribo::sim {
 
 struct LugreParams {
@@ -74,30 +69,6 @@ struct LugreOutput {
 
 // One bristle with deflection scale g: dz/dt and sigma0 z + sigma1 dz/dt + sigma2 v.
 LugreOutput lugre_bristle(const LugreParams& p, double g_m, double velocity_m_per_s, double z_m);
-
-// alpha at u = z / g for r > 0 (plasticity's). The division by 1 - r is off
-// the evaluation's dependency chain (a multiplication by pi / (1 - r)), and
-// the sine is sine_on_quarter's (issue 14: speed).
-[[gnu::always_inline]] inline double elastoplastic_blend(double r, double v, double u) {
-  if ((u > 0) != (v > 0) || u == 0) return 0.0;
-  const double uabs = std::fabs(u);
-  if (uabs <= r) return 0.0;
-  if (uabs >= 1.0) return 1.0;
-  return 0.5 + 0.5 * sine_on_quarter((uabs - 0.5 * (1 + r)) * (std::numbers::pi / (1 - r)));
-}
-
-// lugre_bristle at g = S / sigma0, from S: with elasto-plastic presliding
-// z / g is taken as z sigma0 / S, one division on the evaluation's
-// dependency chain instead of two (issue 14: speed); plain LuGre's
-// operations are lugre_bristle's. Inline: the RK4 stages call it, and
-// GCC's growth limits kept it out of line (measured).
-[[gnu::always_inline]] inline LugreOutput lugre_bristle_at(const LugreParams& p, double s, double v, double z) {
-  if (p.breakaway_ratio <= 0) return lugre_bristle(p, s / p.sigma0_n_per_m, v, z);
-  const double u = z * p.sigma0_n_per_m / s;
-  const double alpha = elastoplastic_blend(p.breakaway_ratio, v, u);
-  const double dz = v - alpha * std::fabs(v) * u;
-  return LugreOutput{dz, p.sigma0_n_per_m * z + p.sigma1_n_s_per_m * dz + p.sigma2_n_s_per_m * v, alpha};
-}
 
 // The plain model at velocity v and bristle deflection z (g = S(v) / sigma0).
 // Out of contact the force is zero and the bristles do not move.

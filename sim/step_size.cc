@@ -169,28 +169,22 @@ bool sane(const LateralPlant& plant, const LateralInputs& in, const LateralState
   if (!in.levels.in_contact()) return true;
   const FrictionModel& m = plant.friction;
   const double dwell = m.dwell_stiction.enabled ? 1.0 + m.dwell_stiction.gain : 1.0;
-  const auto within = [&](double rate_state) {
-    const double g_max = 4.0 * (std::max(in.levels.static_n * dwell, in.levels.coulomb_n) + in.levels.strengthening_n * 40.0 + rate_state) /
-                         (modulation_floor(m) * m.lugre.sigma0_n_per_m);
-    if (std::fabs(s.bristle_m) > g_max) return false;
-    for (double z : s.slip_m) {
-      if (!std::isfinite(z) || std::fabs(z) > 2.0 * g_max) return false;
-    }
-    return true;
-  };
-  // The rate-and-state addition at 1 m/s and an age of 1e6 s: a bound, not a
-  // state. It is at least 0 and only widens the bound, so it is evaluated
-  // (a log1p and a log) only for a tick that the bound without it would
-  // refuse: the same decision (issue 14: speed).
-  if (within(0.0)) return true;
-  return within(std::max(0.0, rate_state_n(m, in.levels, 1.0, 1e6)));
+  // The rate-and-state addition at 1 m/s and an age of 1e6 s: a bound, not a state.
+  const double rate_state = std::max(0.0, rate_state_n(m, in.levels, 1.0, 1e6));
+  const double g_max = 4.0 * (std::max(in.levels.static_n * dwell, in.levels.coulomb_n) + in.levels.strengthening_n * 40.0 + rate_state) /
+                       (modulation_floor(m) * m.lugre.sigma0_n_per_m);
+  if (std::fabs(s.bristle_m) > g_max) return false;
+  for (double z : s.slip_m) {
+    if (!std::isfinite(z) || std::fabs(z) > 2.0 * g_max) return false;
+  }
+  return true;
 }
 
 }  // namespace
 
 AdvanceReport advance_lateral(const LateralPlant& plant, const LateralInputs& in,
                               const IntegratorSettings& settings, double dt_s, LateralState& s,
-                              const double* stribeck_n_at_s, const ContactAnchor* anchor_at_s) {
+                              const double* stribeck_n_at_s) {
   const LateralState start = s;
   const LateralEvaluation now = lateral_derivative(plant, in, s, stribeck_n_at_s);
   // Most ticks need one RK4 sub-step, and then plan_substeps takes RK4 whatever
@@ -208,7 +202,7 @@ AdvanceReport advance_lateral(const LateralPlant& plant, const LateralInputs& in
   }
   const SubstepScheme scheme = settings.midpoint ? SubstepScheme::kMidpoint : SubstepScheme::kRk4;
   bool stopped = plan.split ? integrate_lateral_split(plant, in, dt_s, plan.substeps, s, scheme)
-                            : integrate_lateral(plant, in, dt_s, plan.substeps, s, &now.rate, scheme, anchor_at_s);
+                            : integrate_lateral(plant, in, dt_s, plan.substeps, s, &now.rate, scheme);
   bool retried = false;
   if (!sane(plant, in, s)) {
     // The rate estimate was beaten (a violent transient): redo the tick with

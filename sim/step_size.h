@@ -91,10 +91,9 @@ struct AdvanceReport {
 
 // Integrates the plant over dt_s under held inputs: estimates the rates,
 // plans the sub-steps and the scheme, and runs them.
-// stribeck_n_at_s: as for lateral_derivative (S at s, already computed);
-// anchor_at_s: as for integrate_lateral's start (limit_to_static_friction's).
+// stribeck_n_at_s: as for lateral_derivative (S at s, already computed).
 AdvanceReport advance_lateral(const LateralPlant& plant, const LateralInputs& in,
                               const IntegratorSettings& settings, double dt_s, LateralState& s,
-                              const double* stribeck_n_at_s = nullptr, const ContactAnchor* anchor_at_s = nullptr);
+                              const double* stribeck_n_at_s = nullptr);
 
 }  // namespace tribo::sim

@@ -6,17 +6,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <bit>
-#include <cstdint>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
-#include <string>
 #include <vector>
 
 #include "sim/friction_effects.h"
 #include "sim/lateral_plant.h"
-#include "sim/noise_source.h"
 #include "tests/sim/sim_test_support.h"
 
 namespace tribo::sim {
@@ -450,87 +446,6 @@ TEST(FrictionEffects, RepeatedScratchesReachASteadyState) {
     EXPECT_NEAR((levels[n] / count[n]) / (levels[0] / count[0]), expected, 1e-4) << "pass " << n;
     // The friction follows (within the loop's velocity ripple in the Stribeck region).
     EXPECT_NEAR((middle[n] / count[n]) / (middle[0] / count[0]), expected, 0.015) << "pass " << n;
-  }
-}
-
-}  // namespace
-}  // namespace tribo::sim
-
-namespace tribo::sim {
-namespace {
-
-// The fitted contact (rate-and-state with the slip law, dwell, exponential
-// Stribeck shape) of config/instruments/dissertation_fit.textproto.
-FrictionModel fitted_contact() {
-  v1::DaemonConfig config;
-  const std::string path = std::string(TRIBO_SOURCE_DIR) + "/config/instruments/dissertation_fit.textproto";
-  if (auto error = daemon::load_daemon_config(path, config)) throw std::runtime_error(*error);
-  return instrument_params_from_config(config.sim()).friction;
-}
-
-// The RK4 stages evaluate the rate-and-state and dwell terms from the
-// sub-step's anchor by short series (issue 14: speed): the same values as
-// the exact law but for rounding, near the anchor (series) and far from it
-// (the functions themselves). A wrong series coefficient (1/3 -> 0.3 in
-// log1p's, checked) moves S by 1e-6 relative and the state rate by 1e-3.
-TEST(ContactAnchor, StagesFromTheAnchorGiveTheExactLawButForRounding) {
-  const FrictionModel m = fitted_contact();
-  ASSERT_EQ(m.rate_state.law, StateLaw::kSlip);
-  const FrictionLevels levels = contact_levels(m, 3e-3, 0, 1);
-  NoiseSource random(5);
-  int near = 0;
-  double worst_s = 0, worst_rate = 0, worst_age = 0;
-  for (int i = 0; i < 20000; ++i) {
-    const double v0 = 1e-5 * random.gaussian();
-    const ContactPoint c0{v0, v0, 1e-6, 50 * random.uniform(), 0.09 * random.uniform() + 1e-4};
-    const double slip0 = v0 * random.uniform();
-    const ContactAnchor a = contact_anchor(m, c0, slip0);
-    // A stage: small steps mostly (series), large ones sometimes (functions).
-    const double step = i % 4 == 3 ? 0.3 : 0.02;
-    const double v = v0 + step * (2.1e-6 + std::fabs(v0)) * random.gaussian();
-    const ContactPoint c{v, v, 1e-6, c0.contact_age_s + 1e-4 * random.uniform(),
-                         c0.rate_state_s * (1 + (i % 4 == 3 ? 0.1 : 5e-4) * random.gaussian())};
-    const double slip = slip0 + step * (2.1e-6 + std::fabs(slip0)) * random.gaussian();
-    const NearStribeck from_anchor = stribeck_n_near(m, levels, c, a);
-    const double exact = stribeck_n(m, levels, c);
-    worst_s = std::max(worst_s, std::fabs(from_anchor.stribeck_n - exact) / exact);
-    const double rate = rate_state_rate(m.rate_state, slip, c.rate_state_s);
-    const double rate_near = rate_state_rate_near(m.rate_state, slip, c.rate_state_s, from_anchor.state_log, a);
-    worst_rate = std::max(worst_rate, std::fabs(rate_near - rate) / std::max(std::fabs(rate), 1e-3));
-    const double age_rate = 1.0 - std::fabs(v) * c.contact_age_s / m.dwell_stiction.memory_length_m;
-    worst_age = std::max(worst_age, std::fabs(dwell_age_rate_near(v, c.contact_age_s, a) - age_rate) /
-                                        std::max(1.0, std::fabs(age_rate)));
-    near += step < 0.1 && std::fabs(std::fabs(v) - std::fabs(v0)) * a.direct_scale <= kAnchorReach;
-  }
-  EXPECT_GT(near, 10000) << "the series path must be the one exercised";
-  EXPECT_LT(worst_s, 1e-13);
-  EXPECT_LT(worst_rate, 1e-12);
-  EXPECT_LT(worst_age, 1e-14);
-  std::printf("  anchor vs exact: S %.1e, state rate %.1e, age rate %.1e (%d near of 20000)\n", worst_s,
-              worst_rate, worst_age, near);
-}
-
-// The tick's first anchor comes from limit_to_static_friction's evaluation
-// of S (stribeck_and_static_n): the same anchor, bit for bit, as
-// contact_anchor computes at that point.
-TEST(ContactAnchor, TheLimitsAnchorIsTheAnchorAtItsPoint) {
-  const FrictionModel m = fitted_contact();
-  const FrictionLevels levels = contact_levels(m, 3e-3, 0, 1);
-  NoiseSource random(9);
-  for (int i = 0; i < 1000; ++i) {
-    const double v = 1e-5 * random.gaussian();
-    const ContactPoint c{v, v, 1e-6, 50 * random.uniform(), 0.09 * random.uniform() + 1e-4};
-    ContactAnchor from_limit;
-    stribeck_and_static_n(m, levels, c, 1.0, &from_limit);
-    ASSERT_TRUE(from_limit.valid);
-    set_anchor_slip(m, 0.3 * v, from_limit);
-    const ContactAnchor direct = contact_anchor(m, c, 0.3 * v);
-    const double a[] = {from_limit.speed, from_limit.shape, from_limit.direct_log, from_limit.direct_scale,
-                        from_limit.state, from_limit.state_log, from_limit.state_scale, from_limit.slip_log,
-                        from_limit.age_scale};
-    const double b[] = {direct.speed, direct.shape, direct.direct_log, direct.direct_scale, direct.state,
-                        direct.state_log, direct.state_scale, direct.slip_log, direct.age_scale};
-    for (int k = 0; k < 9; ++k) ASSERT_EQ(std::bit_cast<std::uint64_t>(a[k]), std::bit_cast<std::uint64_t>(b[k])) << k;
   }
 }
 
