@@ -1,12 +1,13 @@
 // sin x for |x| <= pi/2 without a branch (issue 14: speed of the fitted contact).
 // The elasto-plastic blend (sim/lugre_friction.h) takes a sine whose argument
 // pi (|z|/g - (1 + r)/2) / (1 - r) stays within [-pi/2, pi/2] and, on a
-// sliding contact under the loop's dither, mostly within 0.6 of +pi/2:
-// glibc's sin switches algorithm at 0.855 there and costs several times this
-// polynomial, which also takes no data-dependent branch. The Taylor series of
-// sin to x^21: the first term left out, (pi/2)^23 / 23!, is 1.3e-18, under a
-// hundredth of the last bit of sin x near its peak; the terms are summed in
-// Estrin's scheme (pairs, then pairs of pairs), a short dependency chain.
+// sliding contact under the loop's dither, mostly within 0.6 of +pi/2,
+// where glibc's sin takes its slower range (|x| > 0.855): 13 ns of latency
+// against this polynomial's 8 (measured on the 2-core VM), and no
+// data-dependent branch. The Taylor series of sin to x^21: the first term
+// left out, (pi/2)^23 / 23!, is 1.3e-18, under a hundredth of the last bit of
+// sin x near its peak; x + x^3 Q(x^2) with Q summed in Estrin's scheme (pairs,
+// then pairs of pairs), a short dependency chain.
 // tests/sim/lugre_friction_test.cc holds it within 3 units in the last place
 // of std::sin over the whole interval.
 #pragma once
