@@ -594,6 +594,44 @@ std::string contact_objection(const ModelData& data, const FitResult& fit) {
   return objection;
 }
 
+// The rate-and-state contact in place of LuGre's Stribeck curve, viscous
+// term and bristle damping (Dieterich 1979; Ruina 1983; Marone 1998): the
+// level mu0 + a ln(V/V*) + b ln(V* theta/Dc), LuGre's bristle as the
+// contact's stiffness. A velocity-step record of rock or gouge friction
+// (Giacomel et al. 2021) shows the direct effect as a jump the Stribeck
+// curve and viscous friction would take up with the opposite sign if left
+// free (a fitted a < 0): here they are off (the Stribeck drop moved below
+// any sliding speed, Fv and sigma1 at zero) and the jump is the direct
+// effect's. Tried when rate_state's signature applies (a speed step).
+std::optional<Current> fit_rate_state_contact(const ModelData& data, const DiagnosisOptions& options,
+                                              const std::vector<char>& in_fit, const Current& lugre) {
+  const SignatureInput lugre_input{data, lugre.fit.params, lugre.model, lugre.friction, in_fit};
+  if (!compute_signature(Effect::kRateState, lugre_input).applicable) return std::nullopt;
+  ModelParams flat = lugre.fit.params;
+  const bool mu = flat.index("mu_c") >= 0;
+  flat.set_value(mu ? "mu_s" : "Fs", flat.value(mu ? "mu_c" : "Fc"));
+  flat.set_value("vs", 1e-6 * data.speed_floor);
+  flat.set_value("Fv", 0.0);
+  flat.set_value("sigma1", 1e-6 * flat.value("sigma1"));
+  // Start from a contact stiff at the record's resolution: a presliding
+  // length of 1 % of the slip between samples at the median speed.
+  const auto& t = data.series.time_s;
+  const double interval_s = t.size() > 1 ? (t.back() - t.front()) / static_cast<double>(t.size() - 1) : 1.0;
+  flat.set_value("sigma0", data.force_scale / (0.01 * data.speed_ref * interval_s));
+  for (auto& spec : flat.specs) {
+    if (spec.name == "mu_s" || spec.name == "Fs" || spec.name == "vs" || spec.name == "Fv" || spec.name == "sigma1") {
+      spec.fixed = true;
+    }
+  }
+  // The transient's signature on the flat contact's residual: on LuGre's, the
+  // bristle damping has taken it up already.
+  const Current level = evaluate(data, fit_model(data, flat, in_fit, options.candidate_fit));
+  const SignatureInput input{data, level.fit.params, level.model, level.friction, in_fit};
+  const Signature sig = compute_signature(Effect::kRateState, input);
+  if (!sig.applicable) return std::nullopt;
+  return evaluate(data, fit_extension(data, level.fit.params, Effect::kRateState, sig, in_fit, options));
+}
+
 // The nested contact laws, each fitted on top of the last as its extension
 // from the residual signature's starting values. Among the contacts whose
 // fits are physical (contact_objection), a richer one is kept when it lowers
@@ -606,7 +644,7 @@ BaseContactChoice choose_base_contact(const ModelData& data, const DiagnosisOpti
   const std::vector<double>& force = data.series.force_n;
   std::vector<Current> fitted;
   fitted.push_back(current);
-  choice.options.push_back({"lugre", rms_over(force, current.model, heldout), contact_objection(data, current.fit)});
+  choice.options.push_back({"lugre", rms_over(force, current.model, heldout), contact_objection(data, current.fit), current.fit.estimates});
   std::string name = "lugre";
   for (Effect e : {Effect::kPreslidingHysteresis, Effect::kRateState}) {
     const Current& last = fitted.back();
@@ -614,12 +652,17 @@ BaseContactChoice choose_base_contact(const ModelData& data, const DiagnosisOpti
     const Signature sig = compute_signature(e, input);
     const std::string law = e == Effect::kPreslidingHysteresis ? "elasto_plastic" : "rate_state";
     if (!sig.applicable) {
-      choice.not_tried = "+" + law + " not tried: " + sig.summary;
-      break;
+      choice.not_tried += (choice.not_tried.empty() ? "" : "; ") + ("+" + law + " not tried: " + sig.summary);
+      continue;
     }
     fitted.push_back(evaluate(data, fit_extension(data, last.fit.params, e, sig, in_fit, options)));
     name += "+" + law;
-    choice.options.push_back({name, rms_over(force, fitted.back().model, heldout), contact_objection(data, fitted.back().fit)});
+    choice.options.push_back({name, rms_over(force, fitted.back().model, heldout), contact_objection(data, fitted.back().fit),
+                              fitted.back().fit.estimates});
+  }
+  if (auto rs = fit_rate_state_contact(data, options, in_fit, current)) {
+    choice.options.push_back({"rate_state_contact", rms_over(force, rs->model, heldout), contact_objection(data, rs->fit), rs->fit.estimates});
+    fitted.push_back(std::move(*rs));
   }
   std::vector<std::size_t> pool;
   for (std::size_t k = 0; k < choice.options.size(); ++k) {

@@ -64,9 +64,11 @@ struct DiagnosisOptions {
   // The contact law as a decision on held-out data (issue 15, "base-model
   // choice"): plain LuGre, LuGre with Dupont's elasto-plastic presliding, and
   // that with the rate-and-state dependence (the simulated instrument's
-  // default contact), nested; among those within physical bounds (LuGre
-  // too), a richer contact is kept when it lowers the held-out RMS by
-  // min_heldout_gain. The chosen contact's extensions are
+  // default contact), nested (a law whose signature does not apply is
+  // skipped); where the record has speed steps, also the rate-and-state
+  // contact in place of the Stribeck curve, viscous term and bristle
+  // damping; among those within physical bounds (LuGre too), a richer
+  // contact is kept when it lowers the held-out RMS by min_heldout_gain. The chosen contact's extensions are
   // part of the base, not accepted effects. Off by default (tribo-fit
   // --base-model choose).
   bool choose_base_contact = false;
@@ -75,13 +77,17 @@ struct DiagnosisOptions {
 // The contact laws tried as the base model and the one kept.
 struct BaseContactChoice {
   struct Option {
-    std::string name;         // "lugre", "lugre+elasto_plastic", "lugre+elasto_plastic+rate_state"
+    // "lugre", "lugre+elasto_plastic", "lugre+elasto_plastic+rate_state" (nested;
+    // "lugre+rate_state" when presliding is not resolved), "rate_state_contact"
+    // (rate-and-state in place of the Stribeck curve; velocity-step records)
+    std::string name;
     double heldout_rms = 0;   // force units, over the held-out samples
     std::string note;         // why its fit is not physical (a value past a bound), if so
+    std::vector<ParamEstimate> parameters;  // its fitted values, base and laws
   };
   std::vector<Option> options;
   std::string chosen;
-  std::string not_tried;      // why the next richer law was not tried, if so
+  std::string not_tried;      // why a richer law was not tried, if so ("; "-separated)
   std::string warning;        // when no contact tried was physical
 };
 

@@ -96,7 +96,7 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
   if (d.base_contact) {
     Json options = Json::array();
     for (const auto& o : d.base_contact->options) {
-      Json option = {{"name", o.name}, {"heldout_rms", o.heldout_rms}};
+      Json option = {{"name", o.name}, {"heldout_rms", o.heldout_rms}, {"parameters", parameters_json(o.parameters)}};
       if (!o.note.empty()) option["note"] = o.note;
       options.push_back(std::move(option));
     }
@@ -192,6 +192,11 @@ std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
          d.base_contact->not_tried.empty() ? "" : "; ", d.base_contact->not_tried.c_str());
     for (const auto& o : d.base_contact->options) {
       line("    %-34s held-out RMS %.4g%s%s", o.name.c_str(), o.heldout_rms, o.note.empty() ? "" : "; ", o.note.c_str());
+      std::string laws;
+      for (const auto& p : o.parameters) {
+        if (p.effect) laws += fmt::sprintf("%s %.4g %s, ", p.name, p.value, p.unit);
+      }
+      if (!laws.empty()) line("      %s", laws.substr(0, laws.size() - 2).c_str());
     }
   }
   for (const auto& p : d.base.result.estimates) {
@@ -213,7 +218,8 @@ std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
   };
   err("before:", d.before);
   err("after: ", d.after);
-  line("final model (LuGre%s):", d.accepted.empty() ? ", no effect accepted" : " with the accepted effects");
+  const std::string contact = d.base_contact ? "contact " + d.base_contact->chosen : "LuGre";
+  line("final model (%s%s):", contact.c_str(), d.accepted.empty() ? ", no effect accepted" : " with the accepted effects");
   for (const auto& p : d.final_fit.estimates) {
     line("  %-20s %12.5g +- %-10.3g %s%s%s", p.name.c_str(), p.value, p.std_error, p.unit.c_str(), p.fixed ? "  (held)" : "",
          p.determined || p.fixed ? "" : "  (not determined)");

@@ -690,6 +690,43 @@ TRIBO_INSTANTIATE_SIMULATE(FixedDual<24>)
 TRIBO_INSTANTIATE_SIMULATE(FixedDual<32>)
 #undef TRIBO_INSTANTIATE_SIMULATE
 
+std::optional<AdditiveColumn> additive_column(const ModelData& data, const ModelParams& params, int k, double theta_k) {
+  if (params.structure.state_from_rest) return std::nullopt;
+  const Index index = index_of(params);
+  AdditiveColumn c;
+  if (k == index.offset) {
+    c.regressor = AdditiveColumn::Regressor::kOne;
+  } else if (k == index.mass) {
+    c.regressor = AdditiveColumn::Regressor::kAcceleration;
+  } else if (k == index.tilt) {
+    // simulate_streamed adds the tilt only with a normal channel.
+    c.regressor = data.series.has_normal() ? AdditiveColumn::Regressor::kNormal : AdditiveColumn::Regressor::kNone;
+  } else if (const auto it = std::find(index.drift.begin(), index.drift.end(), k); it != index.drift.end()) {
+    c.regressor = AdditiveColumn::Regressor::kDriftFunction;
+    c.drift_function = static_cast<std::size_t>(it - index.drift.begin());
+  } else {
+    return std::nullopt;
+  }
+  // The derivative the dual numbers seed: transform() on a one-column dual,
+  // the same operations on the same values.
+  FixedDual<2> t(theta_k);
+  t.derivatives()[0] = 1.0;
+  c.value_derivative = transform(params.specs[static_cast<std::size_t>(k)], t).derivatives()[0];
+  return c;
+}
+
+double AdditiveColumn::at(const ModelData& data, std::size_t i, const double* drift_basis) const {
+  // As simulate_streamed's additive(): value x regressor (the offset: the value).
+  switch (regressor) {
+    case Regressor::kNone: return 0.0;
+    case Regressor::kOne: return value_derivative;
+    case Regressor::kAcceleration: return value_derivative * data.series.acceleration_m_per_s2[i];
+    case Regressor::kNormal: return value_derivative * data.series.normal_force_n[i];
+    case Regressor::kDriftFunction: return value_derivative * drift_basis[drift_function];
+  }
+  return 0.0;
+}
+
 std::vector<double> simulate(const ModelData& data, const ModelParams& params, std::vector<double>* friction) {
   std::vector<double> force;
   simulate_generic<double>(data, params, params.theta, force, friction);

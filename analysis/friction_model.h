@@ -145,6 +145,29 @@ class SampleSink {
 template <class T>
 void simulate_streamed(const ModelData& data, const ModelParams& params, const std::vector<T>& theta, SampleSink<T> sink);
 
+// A parameter the force depends on only through an added term, its value
+// times a regressor of the data (the offset, the moving mass, the tilt, the
+// drift coefficients), that no other part of the model reads: d force /
+// d theta is d value / d theta times the regressor, the very product the
+// dual numbers form (every other term adds an exact zero), so a Jacobian
+// fills its column from the data instead of carrying it through the
+// simulation (issue 17: the drift fit carries 6 of its 22 columns, not 22).
+// Not with state_from_rest, whose pass start subtracts the added terms from
+// the measured force.
+struct AdditiveColumn {
+  enum class Regressor { kNone, kOne, kAcceleration, kNormal, kDriftFunction };
+  Regressor regressor = Regressor::kNone;
+  std::size_t drift_function = 0;  // kDriftFunction: which one
+  double value_derivative = 0;     // d value / d theta at theta
+
+  // d force / d theta at sample i; drift_basis: the drift functions at i
+  // (ModelData::drift_basis_at), read for kDriftFunction only.
+  double at(const ModelData& data, std::size_t i, const double* drift_basis) const;
+};
+
+// Parameter k of params (at theta_k) as an additive column, or nullopt.
+std::optional<AdditiveColumn> additive_column(const ModelData& data, const ModelParams& params, int k, double theta_k);
+
 std::vector<double> simulate(const ModelData& data, const ModelParams& params,
                              std::vector<double>* friction = nullptr);
 

@@ -1,6 +1,8 @@
 #include "analysis/model_fit.h"
 
 #include <algorithm>
+#include <array>
+#include <type_traits>
 #include <cmath>
 #include <map>
 #include <limits>
@@ -188,31 +190,72 @@ std::string explain_undetermined(const std::string& name) {
   return name + " is not determined by these data (standard error larger than its scale)";
 }
 
+// The Jacobian's columns: the parameters carried through the simulation as
+// dual numbers (derivative j of the duals is output column dual_out[j]) and
+// the additive ones, filled from the data (AdditiveColumn).
+struct ColumnPlan {
+  std::vector<int> dual;
+  std::vector<Eigen::Index> dual_out;
+  std::vector<std::pair<Eigen::Index, AdditiveColumn>> additive;
+  bool reads_drift_basis = false;
+};
+
+ColumnPlan plan_columns(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
+                        const std::vector<int>& columns) {
+  ColumnPlan plan;
+  for (std::size_t j = 0; j < columns.size(); ++j) {
+    const int k = columns[j];
+    const auto out = static_cast<Eigen::Index>(j);
+    if (auto c = additive_column(data, params, k, theta[static_cast<std::size_t>(k)])) {
+      plan.reads_drift_basis = plan.reads_drift_basis || c->regressor == AdditiveColumn::Regressor::kDriftFunction;
+      plan.additive.emplace_back(out, *c);
+    } else {
+      plan.dual.push_back(k);
+      plan.dual_out.push_back(out);
+    }
+  }
+  return plan;
+}
+
+double derivative_of(const double&, std::size_t) { return 0.0; }  // no dual columns
+template <class Derivatives>
+double derivative_of(const Eigen::AutoDiffScalar<Derivatives>& x, std::size_t j) {
+  return x.derivatives()[static_cast<Eigen::Index>(j)];
+}
+
 // d model / d theta streamed into out's rows (times sign), the model force
 // (optional) into model, the residual at the rows (optional) into residual;
-// the dual numbers live one sample at a time.
-template <int N>
+// the dual numbers (T: FixedDual, or double without dual columns) live one
+// sample at a time.
+template <class T>
 void jacobian_with(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
-                   const std::vector<int>& columns, const RowSelection& rows, double sign,
+                   const ColumnPlan& plan, const RowSelection& rows, double sign,
                    Eigen::Ref<Eigen::MatrixXd> out, std::vector<double>* model, Eigen::VectorXd* residual) {
-  using T = FixedDual<N>;
   std::vector<T> dual(theta.size());
   for (std::size_t i = 0; i < theta.size(); ++i) dual[i] = T(theta[i]);
-  for (std::size_t j = 0; j < columns.size(); ++j) dual[static_cast<std::size_t>(columns[j])].derivatives()[static_cast<Eigen::Index>(j)] = 1.0;
+  if constexpr (!std::is_same_v<T, double>) {
+    for (std::size_t j = 0; j < plan.dual.size(); ++j) dual[static_cast<std::size_t>(plan.dual[j])].derivatives()[static_cast<Eigen::Index>(j)] = 1.0;
+  }
   if (model) model->resize(data.series.size());
+  std::array<double, 16> drift_basis{};
   std::size_t r = 0;
   auto row = [&](std::size_t i, const T& force, const T&) {
-    if (model) (*model)[i] = force.value();
+    if (model) (*model)[i] = value_of(force);
     if (!rows.selects(i, r)) return;
     if (residual) {
       // As ModelFunctor's plain evaluation.
-      const double e = data.series.force_n[i] - force.value();
+      const double e = data.series.force_n[i] - value_of(force);
       (*residual)[static_cast<Eigen::Index>(r)] = std::isfinite(e) ? e : 1e30;
     }
-    const auto& d = force.derivatives();
-    for (std::size_t j = 0; j < columns.size(); ++j) {
-      const double v = d[static_cast<Eigen::Index>(j)];
-      out(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(j)) = sign * (std::isfinite(v) ? v : 0.0);
+    const auto rr = static_cast<Eigen::Index>(r);
+    for (std::size_t j = 0; j < plan.dual.size(); ++j) {
+      const double v = derivative_of(force, j);
+      out(rr, plan.dual_out[j]) = sign * (std::isfinite(v) ? v : 0.0);
+    }
+    if (plan.reads_drift_basis) data.drift_basis_at(i, drift_basis.data());
+    for (const auto& [column, additive] : plan.additive) {
+      const double v = additive.at(data, i, drift_basis.data());
+      out(rr, column) = sign * (std::isfinite(v) ? v : 0.0);
     }
     ++r;
   };
@@ -222,27 +265,28 @@ void jacobian_with(const ModelData& data, const ModelParams& params, const std::
 void jacobian_rows(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
                    const std::vector<int>& columns, const RowSelection& rows, double sign,
                    Eigen::Ref<Eigen::MatrixXd> out, std::vector<double>* model, Eigen::VectorXd* residual) {
+  const ColumnPlan plan = plan_columns(data, params, theta, columns);
   // The derivative vector's length sets the cost of every operation: the
   // next even width (whole SSE2 registers). Each derivative is computed on
   // its own, element by element, so the padding changes no value.
-  const std::size_t k = columns.size();
+  const std::size_t k = plan.dual.size();
   switch ((k + 1) / 2) {
-    case 0:
-    case 1: return jacobian_with<2>(data, params, theta, columns, rows, sign, out, model, residual);
-    case 2: return jacobian_with<4>(data, params, theta, columns, rows, sign, out, model, residual);
-    case 3: return jacobian_with<6>(data, params, theta, columns, rows, sign, out, model, residual);
-    case 4: return jacobian_with<8>(data, params, theta, columns, rows, sign, out, model, residual);
-    case 5: return jacobian_with<10>(data, params, theta, columns, rows, sign, out, model, residual);
-    case 6: return jacobian_with<12>(data, params, theta, columns, rows, sign, out, model, residual);
-    case 7: return jacobian_with<14>(data, params, theta, columns, rows, sign, out, model, residual);
-    case 8: return jacobian_with<16>(data, params, theta, columns, rows, sign, out, model, residual);
-    case 9: return jacobian_with<18>(data, params, theta, columns, rows, sign, out, model, residual);
-    case 10: return jacobian_with<20>(data, params, theta, columns, rows, sign, out, model, residual);
-    case 11: return jacobian_with<22>(data, params, theta, columns, rows, sign, out, model, residual);
-    case 12: return jacobian_with<24>(data, params, theta, columns, rows, sign, out, model, residual);
+    case 0: return jacobian_with<double>(data, params, theta, plan, rows, sign, out, model, residual);
+    case 1: return jacobian_with<FixedDual<2>>(data, params, theta, plan, rows, sign, out, model, residual);
+    case 2: return jacobian_with<FixedDual<4>>(data, params, theta, plan, rows, sign, out, model, residual);
+    case 3: return jacobian_with<FixedDual<6>>(data, params, theta, plan, rows, sign, out, model, residual);
+    case 4: return jacobian_with<FixedDual<8>>(data, params, theta, plan, rows, sign, out, model, residual);
+    case 5: return jacobian_with<FixedDual<10>>(data, params, theta, plan, rows, sign, out, model, residual);
+    case 6: return jacobian_with<FixedDual<12>>(data, params, theta, plan, rows, sign, out, model, residual);
+    case 7: return jacobian_with<FixedDual<14>>(data, params, theta, plan, rows, sign, out, model, residual);
+    case 8: return jacobian_with<FixedDual<16>>(data, params, theta, plan, rows, sign, out, model, residual);
+    case 9: return jacobian_with<FixedDual<18>>(data, params, theta, plan, rows, sign, out, model, residual);
+    case 10: return jacobian_with<FixedDual<20>>(data, params, theta, plan, rows, sign, out, model, residual);
+    case 11: return jacobian_with<FixedDual<22>>(data, params, theta, plan, rows, sign, out, model, residual);
+    case 12: return jacobian_with<FixedDual<24>>(data, params, theta, plan, rows, sign, out, model, residual);
     default: break;
   }
-  if (k <= 32) return jacobian_with<32>(data, params, theta, columns, rows, sign, out, model, residual);
+  if (k <= 32) return jacobian_with<FixedDual<32>>(data, params, theta, plan, rows, sign, out, model, residual);
   throw std::invalid_argument("model_jacobian: more than 32 free parameters");
 }
 

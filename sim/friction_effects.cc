@@ -31,13 +31,13 @@ FrictionLevels contact_levels(const FrictionModel& m, double n, double rotation_
 double rate_state_n(const FrictionModel& m, const FrictionLevels& levels, double v, double phi) {
   if (levels.rate_state_n <= 0) return 0.0;
   const RateStateParams& r = m.rate_state;
-  return levels.rate_state_n * (r.direct_coeff * std::log1p(std::fabs(v) / r.reference_velocity_m_per_s) +
-                                r.state_coeff * std::log(std::max(r.reference_velocity_m_per_s * phi / r.memory_length_m,
+  return levels.rate_state_n * (r.direct_coeff * std::log1p(std::fabs(v) * (1.0 / r.reference_velocity_m_per_s)) +
+                                r.state_coeff * std::log(std::max(phi * (r.reference_velocity_m_per_s / r.memory_length_m),
                                                                   kMinRateStateRatio)));
 }
 
 double rate_state_rate(const RateStateParams& p, double v, double phi) {
-  const double x = (std::fabs(v) + p.reference_velocity_m_per_s) * phi / p.memory_length_m;
+  const double x = (std::fabs(v) + p.reference_velocity_m_per_s) * (phi * (1.0 / p.memory_length_m));
   if (p.law == StateLaw::kAgeing) return 1.0 - x;
   return x > 0 ? -x * std::log(x) : 0.0;
 }
@@ -69,7 +69,7 @@ PointTerms point_terms(const FrictionModel& m, const FrictionLevels& levels, con
   }
   if (levels.rate_state_n > 0) {
     const RateStateParams& r = m.rate_state;
-    t.state_log = std::log(std::max(r.reference_velocity_m_per_s * c.rate_state_s / r.memory_length_m, kMinRateStateRatio));
+    t.state_log = std::log(std::max(c.rate_state_s * (r.reference_velocity_m_per_s / r.memory_length_m), kMinRateStateRatio));
   }
   if (m.position_periodic.enabled) {
     const auto& p = m.position_periodic;
@@ -78,19 +78,40 @@ PointTerms point_terms(const FrictionModel& m, const FrictionLevels& levels, con
   return t;
 }
 
-// S for Stribeck speed vs, the direction asymmetry taken for sgn(direction),
-// from the point's terms: the operations of rate_state_n and of the effects
-// in the order of the header's equation.
-double stribeck_at(const FrictionModel& m, const FrictionLevels& levels, const PointTerms& t, double vs,
-                   double direction) {
-  double s = levels.coulomb_n + (t.fs - levels.coulomb_n) * stribeck_shape(m.lugre, vs);
+// The terms of S that depend on the Stribeck speed vs: the shape and the
+// logarithms of the strengthening and the rate-and-state direct effect.
+struct SpeedTerms {
+  double shape = 1;
+  double strengthening_log = 0;
+  double direct_log = 0;
+};
+
+SpeedTerms speed_terms(const FrictionModel& m, const FrictionLevels& levels, double vs) {
+  SpeedTerms t;
+  t.shape = stribeck_shape(m.lugre, vs);
   if (levels.strengthening_n > 0) {
-    s += levels.strengthening_n * std::log1p(std::fabs(vs) / m.velocity_strengthening.reference_velocity_m_per_s);
+    t.strengthening_log = std::log1p(std::fabs(vs) / m.velocity_strengthening.reference_velocity_m_per_s);
   }
   if (levels.rate_state_n > 0) {
+    t.direct_log = std::log1p(std::fabs(vs) * (1.0 / m.rate_state.reference_velocity_m_per_s));
+  }
+  return t;
+}
+
+// At rest (vs = 0) the shape is exp(-0) = 1 and both logarithms log1p(0) = 0
+// exactly: the default SpeedTerms, without calling exp and log1p.
+constexpr SpeedTerms kAtRest{};
+
+// S from the point's and the speed's terms, the direction asymmetry taken
+// for sgn(direction): the operations of rate_state_n and of the effects in
+// the order of the header's equation.
+double stribeck_at(const FrictionModel& m, const FrictionLevels& levels, const PointTerms& t,
+                   const SpeedTerms& speed, double direction) {
+  double s = levels.coulomb_n + (t.fs - levels.coulomb_n) * speed.shape;
+  if (levels.strengthening_n > 0) s += levels.strengthening_n * speed.strengthening_log;
+  if (levels.rate_state_n > 0) {
     const RateStateParams& r = m.rate_state;
-    const double added = levels.rate_state_n * (r.direct_coeff * std::log1p(std::fabs(vs) / r.reference_velocity_m_per_s) +
-                                                r.state_coeff * t.state_log);
+    const double added = levels.rate_state_n * (r.direct_coeff * speed.direct_log + r.state_coeff * t.state_log);
     s = std::max(s + added, kRateStateFloor * levels.coulomb_n);
   }
   if (m.position_periodic.enabled) s *= t.periodic;
@@ -103,19 +124,21 @@ double stribeck_at(const FrictionModel& m, const FrictionLevels& levels, const P
 }  // namespace
 
 double stribeck_n(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c) {
-  return stribeck_at(m, levels, point_terms(m, levels, c), c.stribeck_velocity_m_per_s, c.velocity_m_per_s);
+  return stribeck_at(m, levels, point_terms(m, levels, c), speed_terms(m, levels, c.stribeck_velocity_m_per_s),
+                     c.velocity_m_per_s);
 }
 
 double static_friction_n(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c,
                          double direction) {
-  return stribeck_at(m, levels, point_terms(m, levels, c), 0.0, direction);
+  return stribeck_at(m, levels, point_terms(m, levels, c), kAtRest, direction);
 }
 
 SlidingAndStatic stribeck_and_static_n(const FrictionModel& m, const FrictionLevels& levels,
                                        const ContactPoint& c, double direction) {
   const PointTerms t = point_terms(m, levels, c);
-  return SlidingAndStatic{stribeck_at(m, levels, t, c.stribeck_velocity_m_per_s, c.velocity_m_per_s),
-                          stribeck_at(m, levels, t, 0.0, direction)};
+  return SlidingAndStatic{
+      stribeck_at(m, levels, t, speed_terms(m, levels, c.stribeck_velocity_m_per_s), c.velocity_m_per_s),
+      stribeck_at(m, levels, t, kAtRest, direction)};
 }
 
 double modulation_floor(const FrictionModel& m) {

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "sim/quarter_sine.h"
+
 namespace tribo::sim {
 
 FrictionLevels friction_levels(const LugreParams& p, double contact_load_n) {
@@ -28,18 +30,35 @@ double steady_state_friction_n(const LugreParams& p, double contact_load_n, doub
   return sign * stribeck_n(p, levels, v) + p.sigma2_n_s_per_m * v;
 }
 
+namespace {
+
+// alpha of the blend at u = z / g (r > 0). The divisions by parameters are
+// taken off the evaluation's dependency chain (multiplications by their
+// reciprocals), and the sine is sine_on_quarter's (issue 14: speed).
+double blend(double r, double v, double u) {
+  if ((u > 0) != (v > 0) || u == 0) return 0.0;
+  const double uabs = std::fabs(u);
+  if (uabs <= r) return 0.0;
+  if (uabs >= 1.0) return 1.0;
+  return 0.5 + 0.5 * sine_on_quarter((uabs - 0.5 * (1 + r)) * (std::numbers::pi / (1 - r)));
+}
+
+}  // namespace
+
 double plasticity(double r, double v, double z, double g) {
   if (r <= 0) return 1.0;
-  if ((z > 0) != (v > 0) || z == 0) return 0.0;
-  const double zabs = std::fabs(z);
-  if (zabs <= r * g) return 0.0;
-  if (zabs >= g) return 1.0;
-  return 0.5 + 0.5 * std::sin(std::numbers::pi * (zabs - 0.5 * (1 + r) * g) / ((1 - r) * g));
+  return blend(r, v, z / g);
 }
 
 LugreOutput lugre_bristle(const LugreParams& p, double g, double v, double z) {
-  const double alpha = plasticity(p.breakaway_ratio, v, z, g);
-  const double dz = v - alpha * std::fabs(v) * z / g;
+  double alpha = 1.0, dz;
+  if (p.breakaway_ratio <= 0) {  // plain LuGre, its operations unchanged (sample pins)
+    dz = v - std::fabs(v) * z / g;
+  } else {
+    const double u = z / g;  // one division, shared by alpha and the slip rate
+    alpha = blend(p.breakaway_ratio, v, u);
+    dz = v - alpha * std::fabs(v) * u;
+  }
   return LugreOutput{dz, p.sigma0_n_per_m * z + p.sigma1_n_s_per_m * dz + p.sigma2_n_s_per_m * v, alpha};
 }
 

@@ -155,6 +155,61 @@ TEST(FrictionModel, TheAutodiffSimulationsForceIsThePlainOneBitForBit) {
   }
 }
 
+// The Jacobian fills the columns of additive parameters (offset, mass, tilt,
+// drift) from the data instead of carrying them through the simulation as
+// dual numbers (analysis/friction_model.h, AdditiveColumn): every entry must
+// still be the one the dual numbers give, for every column, with and
+// without the pass start from rest (where the additive terms enter the
+// bristle state and every column is carried).
+TEST(FrictionModel, TheJacobiansAdditiveColumnsAreTheDualNumbersOwn) {
+  Fixture f;
+  for (bool from_rest : {false, true}) {
+    ModelStructure st;
+    st.load_scaled = true;
+    st.fit_mass = true;
+    st.state_from_rest = from_rest;
+    ModelParams p = base_params(f.data, st);
+    const ModelParams values = f.base();
+    for (std::size_t k = 0; k < values.specs.size(); ++k) p.set_value(values.specs[k].name, values.value(values.specs[k].name));
+    p.set_value("mass", 2e-3);
+    for (const auto& [e, initial] : std::vector<std::pair<Effect, std::vector<double>>>{
+             {Effect::kTiltOffset, {0.01}}, {Effect::kDrift, {}}, {Effect::kDwellStiction, {0.03, 2.0}}}) {
+      p = with_effect(p, e, f.data, initial);
+    }
+    for (std::size_t k = 0; k < p.theta.size(); ++k) {
+      if (p.specs[k].name.rfind("drift_", 0) == 0) p.theta[k] = 0.1 * static_cast<double>(k % 5) - 0.2;
+    }
+    const auto n = static_cast<int>(p.theta.size());
+    ASSERT_LE(n, kMaxFreeParams);
+    std::vector<Dual> theta(p.theta.size());
+    for (int k = 0; k < n; ++k) {
+      theta[static_cast<std::size_t>(k)] = Dual(p.theta[static_cast<std::size_t>(k)], DerivativeVector::Zero(n));
+      theta[static_cast<std::size_t>(k)].derivatives()[k] = 1.0;
+    }
+    std::vector<Dual> reference;
+    simulate_generic<Dual>(f.data, p, theta, reference);
+    std::vector<int> columns;
+    for (int k = 0; k < n; ++k) columns.push_back(k);
+    std::vector<std::size_t> rows;
+    for (std::size_t i = 0; i < f.series.size(); i += 3) rows.push_back(i);
+    const Eigen::MatrixXd jacobian = model_jacobian(f.data, p, p.theta, columns, rows);
+    for (int k = 0; k < n; ++k) {
+      std::size_t differing = 0, nonzero = 0;
+      for (std::size_t r = 0; r < rows.size(); ++r) {
+        const Dual& d = reference[rows[r]];
+        const double expected = d.derivatives().size() > k && std::isfinite(d.derivatives()[k]) ? d.derivatives()[k] : 0.0;
+        const double got = jacobian(static_cast<Eigen::Index>(r), k);
+        differing += !(got == expected);  // an exact zero may carry either sign
+        nonzero += got != 0.0;
+      }
+      EXPECT_EQ(differing, 0u) << p.specs[static_cast<std::size_t>(k)].name << (from_rest ? ", state from rest" : "");
+      if (p.specs[static_cast<std::size_t>(k)].name.rfind("drift_", 0) != 0) {
+        EXPECT_GT(nonzero, rows.size() / 2) << p.specs[static_cast<std::size_t>(k)].name;  // a column that is there
+      }
+    }
+  }
+}
+
 TEST(FrictionModel, ParameterTransformsKeepThetaOfOrderOne) {
   ParamSpec log_spec{"sigma0", "N/m", Transform::kLog, 3000.0, false, {}};
   EXPECT_DOUBLE_EQ(param_value(log_spec, 0.0), 3000.0);

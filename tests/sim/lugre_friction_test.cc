@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "sim/lateral_plant.h"
+#include "sim/quarter_sine.h"
 #include "sim/step_size.h"
 #include "tests/sim/sim_test_support.h"
 
@@ -102,6 +103,27 @@ TEST(ElastoPlastic, UnloadingIsElasticAndSlidingIsUnchanged) {
   EXPECT_GT(mid, 0.0);
   EXPECT_LT(mid, 1.0);
   EXPECT_DOUBLE_EQ(lugre_evaluate(p, levels, 1e-6, g).dz_dt_m_per_s, 0.0);
+}
+
+// The blend's sine (sim/quarter_sine.h, issue 14: speed) is sin to within
+// 3 units in the last place over the whole quarter wave its argument spans,
+// and the blend it gives is Dupont's sine blend to 1e-14 (the argument,
+// scaled by pi / (1 - r) = 38, carries the rounding of z / g): the polynomial
+// changes rounding, not the law. (Without its last term, x^21, the sine
+// misses the first bound, by 4 units; without the last two by 394.)
+TEST(ElastoPlastic, TheBlendsSineIsSinToTheLastBits) {
+  for (int i = -200000; i <= 200000; ++i) {
+    const double x = std::numbers::pi / 2 * i / 200000.0;
+    const double exact = std::sin(x);
+    const double ulp = std::nextafter(std::fabs(exact), 2.0) - std::fabs(exact);
+    ASSERT_LE(std::fabs(sine_on_quarter(x) - exact), 3 * ulp) << "x = " << x;
+  }
+  const double r = 0.917056, g = 3e-8, v = 1e-6;
+  for (int i = 1; i < 1000; ++i) {
+    const double z = g * (r + (1 - r) * i / 1000.0);
+    const double dupont = 0.5 + 0.5 * std::sin(std::numbers::pi * (z - 0.5 * (1 + r) * g) / ((1 - r) * g));
+    EXPECT_NEAR(plasticity(r, v, z, g), dupont, 1e-14) << "z/g = " << z / g;
+  }
 }
 
 // At light loads the bristle relaxes faster than any affordable step; the

@@ -132,7 +132,11 @@ TEST_P(SamplePin, SamplesAreBitIdenticalToThePinnedRun) {
   EXPECT_EQ(run.hash, pin.hash) << pin.config << " / " << pin.protocol_name << ": 0x" << std::hex << run.hash;
 }
 
-// Computed on main at 64008b3, before the speed work of issue 17.
+// Computed on main at 64008b3, before the speed work of issue 17; those of
+// dissertation_fit again after issue 14's speed work (2026-11-26), which
+// changed the rounding of its contact law (the elasto-plastic blend, the
+// rate-and-state terms; docs/physics_and_sources.md, "Numerics") and
+// nothing else: the plain LuGre plant and the frozen default keep theirs.
 INSTANTIATE_TEST_SUITE_P(
     NamedConfigs, SamplePin,
     ::testing::Values(
@@ -140,7 +144,7 @@ INSTANTIATE_TEST_SUITE_P(
         Pin{"tests/data/sample_pin/tribod_64008b3.textproto", "scratch", kScratch, 0x387e758942eeb47aULL, 40000},
         Pin{"config/instruments/lugre_plain.textproto", "stop_start", kStopStart, 0x69f2a703601eecd7ULL, 41000},
         Pin{"config/instruments/lugre_plain.textproto", "scratch", kScratch, 0x30cde30c9f50f546ULL, 40000},
-        Pin{"config/instruments/dissertation_fit.textproto", "stop_start", kStopStart, 0xf8ee9c7aa414a808ULL, 41000},
+        Pin{"config/instruments/dissertation_fit.textproto", "stop_start", kStopStart, 0x1f499585232bfc80ULL, 41000},
         Pin{"config/instruments/dissertation_fit.textproto", "scratch", kScratch, 0x53c22d1ad1fb70b2ULL, 40000},
         Pin{"config/instruments/appendix_c.textproto", "stop_start", kStopStart, 0x4597bb3b417b9102ULL, 41000},
         Pin{"config/instruments/appendix_c.textproto", "scratch", kScratch, 0x7883bfc94f710e03ULL, 40000}));
