@@ -166,8 +166,8 @@ void simulate_streamed(const ModelData& data, const ModelParams& params, const s
 // term adds an exact zero), so a Jacobian fills its column from the data
 // instead of carrying it through the simulation (issue 17: the drift fit
 // carries 5 of its 21 columns, not 21). The offset, mass, tilt and drift
-// not with state_from_rest, whose pass start subtracts them from the
-// measured force; Fv not with direction asymmetry, which scales it.
+// are carried with state_from_rest, whose pass start subtracts them from
+// the measured force; Fv with direction asymmetry, which scales it.
 struct AdditiveColumn {
   enum class Regressor { kNone, kOne, kAcceleration, kNormal, kDriftFunction, kSlidingVelocity };
   Regressor regressor = Regressor::kNone;
