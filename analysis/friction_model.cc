@@ -605,7 +605,7 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
     }
     if (value_of(level) <= tiny) {
       z = T(0.0 * sigma0);
-      sink(i, additive(i), T(0.0 * sigma0));
+      sink(i, additive(i), T(0.0 * sigma0), false);
       continue;
     }
     const T g = level / sigma0;
@@ -651,7 +651,7 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
       const T viscous = asym ? T(fv * (1.0 + asym_viscous * sign_of(vi))) : fv;
       friction = sigma0 * z + sigma1 * dz_dt + viscous * vi;
     }
-    sink(i, friction + additive(i), friction);
+    sink(i, friction + additive(i), friction, !(backlash && in_gap));
   }
 }
 
@@ -691,10 +691,15 @@ TRIBO_INSTANTIATE_SIMULATE(FixedDual<32>)
 #undef TRIBO_INSTANTIATE_SIMULATE
 
 std::optional<AdditiveColumn> additive_column(const ModelData& data, const ModelParams& params, int k, double theta_k) {
-  if (params.structure.state_from_rest) return std::nullopt;
   const Index index = index_of(params);
   AdditiveColumn c;
-  if (k == index.offset) {
+  if (k == index.fv) {
+    // friction = sigma0 z + sigma1 dz/dt + Fv v: z does not depend on Fv.
+    if (index.asym_levels >= 0) return std::nullopt;
+    c.regressor = AdditiveColumn::Regressor::kSlidingVelocity;
+  } else if (params.structure.state_from_rest) {
+    return std::nullopt;
+  } else if (k == index.offset) {
     c.regressor = AdditiveColumn::Regressor::kOne;
   } else if (k == index.mass) {
     c.regressor = AdditiveColumn::Regressor::kAcceleration;
@@ -715,7 +720,7 @@ std::optional<AdditiveColumn> additive_column(const ModelData& data, const Model
   return c;
 }
 
-double AdditiveColumn::at(const ModelData& data, std::size_t i, const double* drift_basis) const {
+double AdditiveColumn::at(const ModelData& data, std::size_t i, const double* drift_basis, bool evaluated) const {
   // As simulate_streamed's additive(): value x regressor (the offset: the value).
   switch (regressor) {
     case Regressor::kNone: return 0.0;
@@ -723,6 +728,7 @@ double AdditiveColumn::at(const ModelData& data, std::size_t i, const double* dr
     case Regressor::kAcceleration: return value_derivative * data.series.acceleration_m_per_s2[i];
     case Regressor::kNormal: return value_derivative * data.series.normal_force_n[i];
     case Regressor::kDriftFunction: return value_derivative * drift_basis[drift_function];
+    case Regressor::kSlidingVelocity: return evaluated ? value_derivative * data.drive_velocity[i] : 0.0;
   }
   return 0.0;
 }

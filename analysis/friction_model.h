@@ -20,6 +20,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <vector>
 
 #include "analysis/effect.h"
@@ -126,18 +127,29 @@ void simulate_generic(const ModelData& data, const ModelParams& params, const st
 // Receives each sample's model force and friction part, in time order, as
 // the simulation produces them: callers that keep only some samples or
 // reduce them (the fit's residual and Jacobian rows) need no per-sample
-// array of T (17 to 33 doubles a sample for the autodiff types).
+// array of T (17 to 33 doubles a sample for the autodiff types). A callable
+// with a fourth, bool argument also learns whether the contact's friction
+// law was evaluated at the sample (false: no contact level, or a backlash
+// gap; the friction part is then zero).
 template <class T>
 class SampleSink {
  public:
   template <class F>
   explicit SampleSink(F& f)
-      : target_(&f), call_([](void* t, std::size_t i, const T& force, const T& friction) { (*static_cast<F*>(t))(i, force, friction); }) {}
-  void operator()(std::size_t i, const T& force, const T& friction) const { call_(target_, i, force, friction); }
+      : target_(&f), call_([](void* t, std::size_t i, const T& force, const T& friction, bool evaluated) {
+          if constexpr (std::is_invocable_v<F&, std::size_t, const T&, const T&, bool>) {
+            (*static_cast<F*>(t))(i, force, friction, evaluated);
+          } else {
+            (*static_cast<F*>(t))(i, force, friction);
+          }
+        }) {}
+  void operator()(std::size_t i, const T& force, const T& friction, bool evaluated) const {
+    call_(target_, i, force, friction, evaluated);
+  }
 
  private:
   void* target_;
-  void (*call_)(void*, std::size_t, const T&, const T&);
+  void (*call_)(void*, std::size_t, const T&, const T&, bool);
 };
 
 // simulate_generic, streamed: sink(i, force, friction) for i = 0 .. n-1.
@@ -147,22 +159,25 @@ void simulate_streamed(const ModelData& data, const ModelParams& params, const s
 
 // A parameter the force depends on only through an added term, its value
 // times a regressor of the data (the offset, the moving mass, the tilt, the
-// drift coefficients), that no other part of the model reads: d force /
-// d theta is d value / d theta times the regressor, the very product the
-// dual numbers form (every other term adds an exact zero), so a Jacobian
-// fills its column from the data instead of carrying it through the
-// simulation (issue 17: the drift fit carries 6 of its 22 columns, not 22).
-// Not with state_from_rest, whose pass start subtracts the added terms from
-// the measured force.
+// drift coefficients, and the viscous coefficient Fv, whose term v Fv is
+// added to the friction wherever the friction law is evaluated), that no
+// other part of the model reads: d force / d theta is d value / d theta
+// times the regressor, the very product the dual numbers form (every other
+// term adds an exact zero), so a Jacobian fills its column from the data
+// instead of carrying it through the simulation (issue 17: the drift fit
+// carries 5 of its 21 columns, not 21). The offset, mass, tilt and drift
+// are carried with state_from_rest, whose pass start subtracts them from
+// the measured force; Fv with direction asymmetry, which scales it.
 struct AdditiveColumn {
-  enum class Regressor { kNone, kOne, kAcceleration, kNormal, kDriftFunction };
+  enum class Regressor { kNone, kOne, kAcceleration, kNormal, kDriftFunction, kSlidingVelocity };
   Regressor regressor = Regressor::kNone;
   std::size_t drift_function = 0;  // kDriftFunction: which one
   double value_derivative = 0;     // d value / d theta at theta
 
   // d force / d theta at sample i; drift_basis: the drift functions at i
-  // (ModelData::drift_basis_at), read for kDriftFunction only.
-  double at(const ModelData& data, std::size_t i, const double* drift_basis) const;
+  // (ModelData::drift_basis_at), read for kDriftFunction only; evaluated:
+  // whether the friction law was (SampleSink), read for kSlidingVelocity.
+  double at(const ModelData& data, std::size_t i, const double* drift_basis, bool evaluated) const;
 };
 
 // Parameter k of params (at theta_k) as an additive column, or nullopt.

@@ -239,7 +239,7 @@ void jacobian_with(const ModelData& data, const ModelParams& params, const std::
   if (model) model->resize(data.series.size());
   std::array<double, 16> drift_basis{};
   std::size_t r = 0;
-  auto row = [&](std::size_t i, const T& force, const T&) {
+  auto row = [&](std::size_t i, const T& force, const T&, bool evaluated) {
     if (model) (*model)[i] = value_of(force);
     if (!rows.selects(i, r)) return;
     if (residual) {
@@ -254,7 +254,7 @@ void jacobian_with(const ModelData& data, const ModelParams& params, const std::
     }
     if (plan.reads_drift_basis) data.drift_basis_at(i, drift_basis.data());
     for (const auto& [column, additive] : plan.additive) {
-      const double v = additive.at(data, i, drift_basis.data());
+      const double v = additive.at(data, i, drift_basis.data(), evaluated);
       out(rr, column) = sign * (std::isfinite(v) ? v : 0.0);
     }
     ++r;

@@ -156,14 +156,16 @@ TEST(FrictionModel, TheAutodiffSimulationsForceIsThePlainOneBitForBit) {
 }
 
 // The Jacobian fills the columns of additive parameters (offset, mass, tilt,
-// drift) from the data instead of carrying them through the simulation as
-// dual numbers (analysis/friction_model.h, AdditiveColumn): every entry must
-// still be the one the dual numbers give, for every column, with and
-// without the pass start from rest (where the additive terms enter the
-// bristle state and every column is carried).
+// drift, Fv) from the data instead of carrying them through the simulation
+// as dual numbers (analysis/friction_model.h, AdditiveColumn): every entry
+// must still be the one the dual numbers give, for every column, with and
+// without the pass start from rest (where the added terms enter the bristle
+// state and only Fv is filled from the data) and with direction asymmetry
+// (which scales Fv: carried), backlash (whose gaps evaluate no friction).
 TEST(FrictionModel, TheJacobiansAdditiveColumnsAreTheDualNumbersOwn) {
   Fixture f;
-  for (bool from_rest : {false, true}) {
+  for (const auto& [from_rest, more] : std::vector<std::pair<bool, Effect>>{
+           {false, Effect::kBacklash}, {true, Effect::kBacklash}, {false, Effect::kDirectionAsymmetry}}) {
     ModelStructure st;
     st.load_scaled = true;
     st.fit_mass = true;
@@ -173,7 +175,8 @@ TEST(FrictionModel, TheJacobiansAdditiveColumnsAreTheDualNumbersOwn) {
     for (std::size_t k = 0; k < values.specs.size(); ++k) p.set_value(values.specs[k].name, values.value(values.specs[k].name));
     p.set_value("mass", 2e-3);
     for (const auto& [e, initial] : std::vector<std::pair<Effect, std::vector<double>>>{
-             {Effect::kTiltOffset, {0.01}}, {Effect::kDrift, {}}, {Effect::kDwellStiction, {0.03, 2.0}}}) {
+             {Effect::kTiltOffset, {0.01}}, {Effect::kDrift, {}}, {Effect::kDwellStiction, {0.03, 2.0}},
+             {more, more == Effect::kBacklash ? std::vector<double>{0.05e-6} : std::vector<double>{0.05, -0.1}}}) {
       p = with_effect(p, e, f.data, initial);
     }
     for (std::size_t k = 0; k < p.theta.size(); ++k) {
