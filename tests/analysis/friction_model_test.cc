@@ -38,6 +38,17 @@ struct Fixture {
   ModelData data;
 };
 
+// Every parameter as a dual number seeded with its own unit derivative.
+std::vector<Dual> seeded_duals(const std::vector<double>& values) {
+  const auto n = static_cast<int>(values.size());
+  std::vector<Dual> out(values.size());
+  for (int k = 0; k < n; ++k) {
+    out[static_cast<std::size_t>(k)] = Dual(values[static_cast<std::size_t>(k)], DerivativeVector::Zero(n));
+    out[static_cast<std::size_t>(k)].derivatives()[k] = 1.0;
+  }
+  return out;
+}
+
 TEST(FrictionModel, SlidingSettlesOnTheLugreSteadyState) {
   Fixture f;
   const ModelParams p = f.base();
@@ -82,11 +93,7 @@ TEST(FrictionModel, AutodiffJacobianMatchesFiniteDifferencesForEveryEffect) {
   }
   const auto n = static_cast<int>(p.theta.size());
   ASSERT_LE(n, kMaxFreeParams);
-  std::vector<Dual> theta(p.theta.size());
-  for (int k = 0; k < n; ++k) {
-    theta[static_cast<std::size_t>(k)] = Dual(p.theta[static_cast<std::size_t>(k)], DerivativeVector::Zero(n));
-    theta[static_cast<std::size_t>(k)].derivatives()[k] = 1.0;
-  }
+  const std::vector<Dual> theta = seeded_duals(p.theta);
   std::vector<Dual> ad;
   simulate_generic<Dual>(f.data, p, theta, ad);
   for (int k = 0; k < n; ++k) {
@@ -184,11 +191,7 @@ TEST(FrictionModel, TheJacobiansAdditiveColumnsAreTheDualNumbersOwn) {
     }
     const auto n = static_cast<int>(p.theta.size());
     ASSERT_LE(n, kMaxFreeParams);
-    std::vector<Dual> theta(p.theta.size());
-    for (int k = 0; k < n; ++k) {
-      theta[static_cast<std::size_t>(k)] = Dual(p.theta[static_cast<std::size_t>(k)], DerivativeVector::Zero(n));
-      theta[static_cast<std::size_t>(k)].derivatives()[k] = 1.0;
-    }
+    const std::vector<Dual> theta = seeded_duals(p.theta);
     std::vector<Dual> reference;
     simulate_generic<Dual>(f.data, p, theta, reference);
     std::vector<int> columns;
