@@ -94,12 +94,13 @@ hal::BackendHealth health_since(const hal::BackendHealth& now, const hal::Backen
 }  // namespace
 
 struct InstrumentService::ActiveRun {
+  explicit ActiveRun(SpscQueue<Sample>& samples) : queue(samples) {}
   v1::RunStart start;
   hal::Transducer* transducer = nullptr;  // the service's backend, on the loop thread
   hal::BackendHealth health_at_start;     // guarded by the service mutex
   LoadFunction load_function;
   RunLoopConfig loop_config;
-  SpscQueue<Sample> queue{kQueueCapacity};
+  SpscQueue<Sample>& queue;  // the service's run_samples_
   RunControl control;
   std::atomic<bool> loop_finished{false};
   std::string abort_reason;  // guarded by the service mutex
@@ -140,7 +141,10 @@ std::int64_t monotonic_now_ns() {
 
 InstrumentService::InstrumentService(v1::DaemonConfig config, std::string software_version,
                                      RunEventSink& sink)
-    : config_(std::move(config)), software_version_(std::move(software_version)), sink_(sink) {
+    : config_(std::move(config)),
+      software_version_(std::move(software_version)),
+      sink_(sink),
+      run_samples_(std::make_unique<SpscQueue<Sample>>(kQueueCapacity)) {
   gains_[v1::LOOP_LATERAL_DISPLACEMENT - 1] = config_.controller().lateral_displacement();
   gains_[v1::LOOP_LATERAL_FORCE - 1] = config_.controller().lateral_force();
   gains_[v1::LOOP_NORMAL_FORCE - 1] = config_.controller().normal_force();
@@ -275,7 +279,7 @@ std::optional<v1::Error> InstrumentService::start_run(std::optional<std::uint64_
   wait_for_activities(lock);
   join_finished_run();
 
-  auto run = std::make_unique<ActiveRun>();
+  auto run = std::make_unique<ActiveRun>(*run_samples_);
   const std::uint64_t run_seed = seed.value_or(config_.sim().seed());
   v1::PidGains gains[4];
   for (int i = 0; i < 4; ++i) gains[i] = gains_[static_cast<std::size_t>(i)];

@@ -30,12 +30,18 @@
 #include "hal/transducer.h"
 #include "tribo/v1/api.pb.h"
 
+namespace tribo {
+struct Sample;
+}
+
 namespace tribo::daemon {
 
 struct RunOutcome;
 struct AutotuneParams;
 struct AutotuneResult;
 class ActivityRecording;
+template <typename T>
+class SpscQueue;
 
 // Receives run documents in order: start, descriptor, sample blocks
 // interleaved with segment events (an event follows the samples before its
@@ -139,6 +145,9 @@ class InstrumentService {
   std::optional<v1::Protocol> protocol_;
   LoadFunction load_function_;
   std::unique_ptr<ActiveRun> run_;
+  // The runs' sample queue, made once: a run starts without allocating (and
+  // touching) megabytes. Empty between runs: a run's drain ends on an empty queue.
+  std::unique_ptr<SpscQueue<Sample>> run_samples_;
   std::string last_run_id_;
   std::uint64_t last_cycle_count_ = 0;
   std::array<v1::PidGains, 4> gains_;  // by ControlLoop - 1: the gains in force

@@ -73,7 +73,7 @@ class CsvRows {
     bool header = start_offset == 0;
     if (!header && std::fseek(file_.get(), static_cast<long>(start_offset), SEEK_SET) != 0) return false;
     std::string buffer;
-    std::vector<char> chunk(1 << 20);
+    std::vector<char> chunk(1 << 16);  // 64 KiB: large reads, no page-faulting a fresh MiB per call
     std::uint64_t index = start_row;
     std::uint64_t buffer_offset = start_offset;  // file offset of buffer[0]
     std::size_t n;
