@@ -73,13 +73,18 @@ const v1::RunListing* RunArchive::kept_listing(const fs::path& dir, MetadataStam
 
 std::optional<v1::RunListing> RunArchive::listing_of(const fs::path& dir) {
   MetadataStamp stamp;
-  if (const v1::RunListing* kept = kept_listing(dir, stamp)) return *kept;
+  if (const v1::RunListing* kept = kept_listing(dir, stamp)) {
+    v1::RunListing listing = *kept;
+    // A run being recorded: its samples file grows under an unchanged metadata.json.
+    if (!listing.finalized()) listing.set_sample_count(wire::count_recorded_samples(dir));
+    return listing;
+  }
   const std::string run_id = dir.filename().string();
   listings_.erase(run_id);
   auto listing = stamp.readable ? wire::read_run_listing(dir) : std::nullopt;
   if (!listing) return std::nullopt;
   cut_strings(*listing);
-  if (listing->finalized()) listings_[run_id] = CachedListing{stamp, *listing};
+  listings_[run_id] = CachedListing{stamp, *listing};
   return listing;
 }
 
@@ -87,7 +92,7 @@ std::optional<v1::RunListing> RunArchive::listing_of(const fs::path& dir) {
 // (its listing would scan the whole samples file on every page fetched).
 bool RunArchive::finalized(const fs::path& dir) {
   MetadataStamp stamp;
-  if (kept_listing(dir, stamp)) return true;  // only finalized runs are kept
+  if (const v1::RunListing* kept = kept_listing(dir, stamp)) return kept->finalized();
   std::string error;
   const auto metadata = wire::read_run_metadata(dir, error);
   return metadata && metadata->has_stop();

@@ -19,7 +19,7 @@ inline constexpr std::uint64_t kMaxFetchSamples = 32768;
 inline constexpr std::uint64_t kMaxExportRows = 16384;
 
 // Keeps a row index per recently read run, so that paging costs a seek, and
-// the listing of every finalized run, so that listing a data directory of many
+// the listing of every run, so that listing a data directory of many
 // runs reads one small file per run only when that file changed (each listing
 // otherwise parses every run's metadata.json).
 // Not thread-safe: the API server uses it from its io thread.
@@ -39,10 +39,10 @@ class RunArchive {
   std::optional<v1::RunListing> listing_of(const std::filesystem::path& dir);
   bool finalized(const std::filesystem::path& dir);
 
-  // A finalized run's listing, valid while its metadata.json keeps this size
-  // and modification time (a run being recorded is always read afresh: its
-  // sample count is the samples file's, which grows under an unchanged
-  // metadata.json).
+  // A run's listing, valid while its metadata.json keeps this size and
+  // modification time (the stop document rewrites it). A run being recorded
+  // has its sample count taken afresh from the samples file, which grows under
+  // an unchanged metadata.json.
   struct MetadataStamp {
     bool readable = false;
     std::uintmax_t bytes = 0;

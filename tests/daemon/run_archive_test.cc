@@ -1,7 +1,7 @@
-// The archive's listing cache: a finalized run's listing is kept while its
+// The archive's listing cache: a run's listing is kept while its
 // metadata.json keeps its size and modification time, and read afresh when
-// either changes; a run being recorded is always read afresh; a run that is
-// gone leaves the listing.
+// either changes; a run being recorded has its samples counted afresh; a run
+// that is gone leaves the listing.
 #include "daemon/run_archive.h"
 
 #include <gtest/gtest.h>
@@ -102,6 +102,41 @@ TEST(RunArchive, ARunBeingRecordedIsCountedAfreshAndARemovedRunLeaves) {
   listing = archive.list_runs(v1::ListRuns{});
   ASSERT_EQ(listing.runs_size(), 2);
   EXPECT_EQ(listing.runs(1).protocol_name(), "again");
+}
+
+// Clients poll the listing while a run records: its metadata.json (start
+// document, protocol, config) is parsed once, its samples counted each time,
+// and its stop document (a rewrite) is seen at once.
+TEST(RunArchive, ARunBeingRecordedKeepsItsListingAndIsSeenWhenItStops) {
+  testing::TempDir data;
+  const fs::path going = data.path() / "20260102-000000-000";
+  write_run(going, metadata("20260102-000000-000", "alpha", false), 3);
+  RunArchive archive(data.path());
+  ASSERT_EQ(archive.list_runs(v1::ListRuns{}).runs(0).protocol_name(), "alpha");
+
+  // Same size and time, other content, two more rows: the kept listing with the new count.
+  const fs::path file = going / wire::kMetadataFile;
+  const auto modified = fs::last_write_time(file);
+  std::string text = read_text(file);
+  const auto at = text.find("alpha");
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, 5, "gamma");
+  std::ofstream(file, std::ios::trunc) << text;
+  std::string rows;
+  append_csv_row(Sample{3e-3}, rows);
+  append_csv_row(Sample{4e-3}, rows);
+  std::ofstream(going / wire::kSamplesFile, std::ios::app) << rows;
+  fs::last_write_time(file, modified);
+  auto listing = archive.list_runs(v1::ListRuns{});
+  EXPECT_EQ(listing.runs(0).protocol_name(), "alpha");
+  EXPECT_FALSE(listing.runs(0).finalized());
+  EXPECT_EQ(listing.runs(0).sample_count(), 5u);
+
+  // The stop document arrives.
+  write_run(going, metadata("20260102-000000-000", "alpha", true), 5);
+  listing = archive.list_runs(v1::ListRuns{});
+  EXPECT_TRUE(listing.runs(0).finalized());
+  EXPECT_EQ(listing.runs(0).exit_status(), v1::SUCCESS);
 }
 
 }  // namespace

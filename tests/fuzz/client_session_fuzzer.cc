@@ -114,16 +114,19 @@ struct Daemon {
     fs::remove_all(data_dir / started.run_id());
   }
 
-  // The input's runs: each must have its stop document; then they go.
+  // The input's runs: each must have its stop document; then they go. Only
+  // their metadata is read (not the seed run's, nor any samples file).
   void check_and_remove_new_runs() {
     const std::string run_id = service->status().run_id();
     if (run_id == last_run_id) return;  // no run started: no directory to look at
     last_run_id = run_id;
-    for (const auto& listing : tribo::wire::list_recorded_runs(data_dir)) {
-      if (listing.run_id() == kSeedRunId) continue;
-      check(listing.finalized());
+    for (const auto& dir : tribo::wire::recorded_run_directories(data_dir)) {
+      if (dir.filename() == kSeedRunId) continue;
+      std::string error;
+      const auto metadata = tribo::wire::read_run_metadata(dir, error);
+      if (metadata) check(metadata->has_stop());
       std::error_code ec;
-      fs::remove_all(data_dir / listing.run_id(), ec);
+      fs::remove_all(dir, ec);
     }
   }
 
