@@ -112,6 +112,7 @@ DetectabilityBasis::DetectabilityBasis(const ModelData& data, const FitResult& c
   qr_fit_.compute(jacobian_fit_);
   sigma_fit_ = rms_at(data.series.force_n, current_model, fit_rows_);
   sigma_heldout_ = rms_at(data.series.force_n, current_model, heldout_rows_);
+  n_effective_ = current.n_effective > 0 ? current.n_effective : static_cast<double>(n_fit_);
 }
 
 std::pair<double, double> DetectabilityBasis::visible_power(const ModelParams& extended, Effect effect, double s) const {
@@ -144,8 +145,10 @@ std::optional<DetectableStrength> DetectabilityBasis::minimum_detectable_strengt
   // The visible power each gate needs (see the header).
   const double g = criteria.min_heldout_gain;
   const double need_heldout = sigma_heldout_ * sigma_heldout_ * (1.0 / ((1.0 - g) * (1.0 - g)) - 1.0);
-  const double need_fit = sigma_fit_ * sigma_fit_ *
-                          std::expm1((2.0 * k_effect - criteria.max_delta_aicc) / static_cast<double>(n_fit_));
+  const double need_aicc = sigma_fit_ * sigma_fit_ *
+                           std::expm1((2.0 * k_effect - criteria.max_delta_aicc) / static_cast<double>(n_fit_));
+  const double need_strength = sigma_fit_ * sigma_fit_ * criteria.min_strength_z * criteria.min_strength_z / n_effective_;
+  const double need_fit = std::max(need_aicc, need_strength);
   const double reference = reference_strength(extended, effect);
   DetectableStrength out;
   out.parameter = axis->parameter;

@@ -13,7 +13,10 @@
 // it would be accepted when
 //   held-out gain   1 - sigma_h / sqrt(sigma_h^2 + mean_h r^2) >= min_heldout_gain
 //   AICc            n ln(1 + mean_f r^2 / sigma_f^2) >= 2 k_effect - max_delta_aicc
-// (h: held-out samples, f: fit samples). The minimum detectable strength is
+//   strength        n_eff mean_f r^2 / sigma_f^2 >= min_strength_z^2
+// (h: held-out samples, f: fit samples; the last is the strength's t statistic
+// with the fit's autocorrelation-inflated errors, for a strength alone: the
+// effect's other parameters can only widen its error). The minimum detectable strength is
 // the s where both just hold, found by secant steps on s (r grows as s for a
 // linear effect; nonlinear ones take a few more steps). The block-agreement
 // gate and the signature screening are not modelled: the figure is a lower
@@ -44,6 +47,7 @@ struct DetectableStrength {
 struct DetectabilityCriteria {
   double min_heldout_gain = 0.02;
   double max_delta_aicc = -10.0;
+  double min_strength_z = 3.0;
 };
 
 // What every effect's question shares: the final model's Jacobian on a
@@ -70,6 +74,7 @@ class DetectabilityBasis {
   Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr_fit_;
   double sigma_fit_ = 0, sigma_heldout_ = 0;
   std::size_t n_fit_ = 0;
+  double n_effective_ = 0;  // the final fit's effective sample count
 };
 
 }  // namespace tribo::analysis

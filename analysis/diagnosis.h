@@ -18,7 +18,9 @@
 //     sample; with autocorrelated residuals that overstates the evidence, so
 //     the AICc change with the effective sample count (from the residual's
 //     lag-1 autocorrelation) is reported beside it. The decision rests on the
-//     held-out error.
+//     held-out error,
+//   - within its physical bounds, with a strength min_strength_z standard
+//     errors clear of no effect.
 // The best passing candidate (largest held-out gain) is accepted, the model
 // polished to convergence, and the loop repeats; it stops when nothing passes. Structure left in the residual that
 // no candidate explains is described (the regressor it follows), never
@@ -51,6 +53,10 @@ struct DiagnosisOptions {
   double min_heldout_gain = 0.02;
   double min_block_agreement = 0.75;
   double max_delta_aicc = -10.0;
+  // An accepted effect's strength must stand this many standard errors from
+  // no effect: a 5 % chance of a false acceptance over the eleven candidates
+  // of a round (Bonferroni) needs |z| >= 2.84 each, rounded up to 3.
+  double min_strength_z = 3.0;
   int max_candidates_per_round = 10;
   int max_rounds = 6;
   unsigned threads = 0;  // candidates fitted at once (0: one per core); the result does not depend on it

@@ -13,6 +13,12 @@ unexplained. Measured before the pass-start choice (main e78e226): held-out
 NRMSE 0.22 and presliding_hysteresis accepted on both files; with the
 choice but holds from the estimated speed: 0.070.
 
+The clean seed-2 file accepts nothing either: before the strength gate
+(an effect's strength 3 standard errors clear of no effect) it accepted
+dwell_stiction with dwell_dFs 0.0056 +- 0.0026 (held-out -2.6 %). The gate
+does not cost a real effect: dwell_stiction on the seed-1 file is accepted
+(dwell_dFs 23 standard errors from zero).
+
 usage: check_tribo_fit.py TRIBO_FIT WORK_DIR
 """
 import json
@@ -24,8 +30,8 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import transducer_sim  # noqa: E402
 
 
-def diagnose(tribo_fit, work, effect):
-    csv = transducer_sim.write(work, effect, 3)
+def diagnose(tribo_fit, work, effect, seed=3):
+    csv = transducer_sim.write(work, effect, seed)
     cmd = [tribo_fit, "diagnose", csv, "--time", "t_s", "--position", "x_m", "--force", "force_N",
            "--normal", "normal_N", "--reference", "x_ref_m", "--json"]
     r = subprocess.run(cmd, capture_output=True, text=True)
@@ -62,6 +68,15 @@ def main():
     if accepted or not report.get("unexplained"):
         failures.append(f"wear_in: accepted {accepted}, unexplained {report.get('unexplained')!r}")
     print(f"wear_in: accepted {accepted}; unexplained: {(report.get('unexplained') or '')[:100]}")
+
+    accepted = [a["name"] for a in diagnose(tribo_fit, work, "none", 2)["accepted_effects"]]
+    if accepted:
+        failures.append(f"the clean seed-2 file accepted {accepted}")
+    print(f"clean, seed 2: accepted {accepted}")
+    accepted = [a["name"] for a in diagnose(tribo_fit, work, "dwell_stiction", 1)["accepted_effects"]]
+    if accepted[:1] != ["dwell_stiction"]:
+        failures.append(f"dwell_stiction seed 1: accepted {accepted}, dwell_stiction not first")
+    print(f"dwell_stiction, seed 1: accepted {accepted}")
     if failures:
         sys.exit("; ".join(failures))
 
