@@ -349,18 +349,47 @@ std::string undetermined_strength(const FitResult& fit, Effect effect, double mi
     }
     return std::nullopt;
   };
+  // The strength parameters: where fit.params lists them, their distance from
+  // the value with the effect off, and their errors.
+  std::vector<int> rows;
+  std::vector<double> offsets;
   double best_z = -1;
   std::string best;
   for (const ParamEstimate& e : parameters_of(fit, effect)) {
     const auto off = neutral(e.name);
     if (!off || e.fixed || !(e.std_error > 0) || !std::isfinite(e.std_error)) continue;
+    const int k = fit.params.index(e.name);
+    if (k >= 0 && static_cast<std::size_t>(k) < fit.covariance_row.size()) rows.push_back(fit.covariance_row[static_cast<std::size_t>(k)]);
+    offsets.push_back(e.value - *off);
     const double z = std::fabs(e.value - *off) / e.std_error;
     if (z > best_z) {
       best_z = z;
       best = e.name + fmt(" %.3g +- %.2g", e.value, e.std_error);
     }
   }
-  if (best_z < 0 || best_z >= min_z) return {};  // no standard error to judge by, or clear of no effect
+  if (best_z < 0) return {};  // no standard error to judge by
+  // Several strength parameters (drift nodes, a sine and a cosine, two
+  // asymmetry factors) can each be within their errors and together far from
+  // zero: a Wald test, chi-square with as many degrees, as the equivalent
+  // normal deviate (Wilson and Hilferty 1931).
+  const auto m = static_cast<Eigen::Index>(offsets.size());
+  if (m > 1 && rows.size() == offsets.size() && fit.covariance.rows() > 0 &&
+      std::all_of(rows.begin(), rows.end(), [&](int r) { return r >= 0 && r < fit.covariance.rows(); })) {
+    Eigen::MatrixXd c(m, m);
+    Eigen::VectorXd d(m);
+    for (Eigen::Index i = 0; i < m; ++i) {
+      d[i] = offsets[static_cast<std::size_t>(i)];
+      for (Eigen::Index j = 0; j < m; ++j) c(i, j) = fit.covariance(rows[static_cast<std::size_t>(i)], rows[static_cast<std::size_t>(j)]);
+    }
+    const double wald = d.dot(c.completeOrthogonalDecomposition().solve(d));
+    const double k = static_cast<double>(m), v = 2.0 / (9.0 * k);
+    const double z = (std::cbrt(std::max(wald, 0.0) / k) - (1.0 - v)) / std::sqrt(v);
+    if (std::isfinite(z) && z >= min_z) return {};
+    return fmt("fitted strength (%.0f parameters, largest ", k) + best +
+           fmt(") stands %.1f standard errors from no effect jointly (Wald chi-square %.3g; below %.0f): the strength is not determined",
+               z, wald, min_z);
+  }
+  if (best_z >= min_z) return {};
   return "fitted " + best +
          fmt(" stands %.1f standard errors from no effect (below %.0f): the strength is not determined", best_z, min_z);
 }

@@ -479,11 +479,14 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
   }
 
   std::size_t j = 0;
+  Eigen::VectorXd value_per_theta = Eigen::VectorXd::Zero(cov.rows());
+  result.covariance_row.assign(initial.specs.size(), -1);
   for (std::size_t k = 0; k < initial.specs.size(); ++k) {
     const ParamSpec& spec = initial.specs[k];
     ParamEstimate e{spec.name, spec.unit, param_value(spec, result.params.theta[k]), 0.0, spec.fixed, true, spec.effect};
     if (!spec.fixed) {
       const auto jj = static_cast<Eigen::Index>(j++);
+      result.covariance_row[k] = static_cast<int>(jj);
       const double se_theta = std::sqrt(std::max(cov(jj, jj), 0.0));
       const bool singular = ev.minCoeff() <= 1e-13 * ev_max && cov(jj, jj) == 0.0;
       double derivative = 0;  // d value / d theta
@@ -493,6 +496,7 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
         case Transform::kLogit: derivative = e.value * (1 - e.value); break;
       }
       e.std_error = singular ? std::numeric_limits<double>::quiet_NaN() : std::fabs(derivative) * se_theta;
+      value_per_theta[jj] = derivative;
       // Normalised-scale rule; logit fractions near 0 or 1 use the value's own scale.
       double normalised = se_theta;
       if (spec.transform == Transform::kLinear) normalised = spec.scale > 0 ? e.std_error / spec.scale : se_theta;
@@ -502,6 +506,7 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
     }
     result.estimates.push_back(e);
   }
+  result.covariance = value_per_theta.asDiagonal() * cov * value_per_theta.asDiagonal();
   return result;
 }
 

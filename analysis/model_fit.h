@@ -48,6 +48,10 @@ struct FitResult {
   int iterations = 0;
   bool converged = false;
   std::vector<std::string> warnings;
+  // Covariance of the free parameters' values (the errors of estimates), for
+  // joint tests; covariance_row[k] is spec k's row, -1 when fixed.
+  Eigen::MatrixXd covariance;
+  std::vector<int> covariance_row;
 };
 
 // in_fit[i] != 0 marks the samples of the objective.

@@ -45,6 +45,19 @@ std::string read_text(const fs::path& path) {
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
+// Renames the run's protocol "alpha" to "gamma" in metadata.json, keeping the
+// file's size and modification time: a reader trusting the stamp sees no change.
+void rename_alpha_keeping_the_stamp(const fs::path& run) {
+  const fs::path file = run / wire::kMetadataFile;
+  const auto modified = fs::last_write_time(file);
+  std::string text = read_text(file);
+  const auto at = text.find("alpha");
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, 5, "gamma");
+  std::ofstream(file, std::ios::trunc) << text;
+  fs::last_write_time(file, modified);
+}
+
 TEST(RunArchive, KeepsAFinalizedListingUntilItsMetadataFileChanges) {
   testing::TempDir data;
   const fs::path run = data.path() / "20260101-000000-000";
@@ -56,12 +69,7 @@ TEST(RunArchive, KeepsAFinalizedListingUntilItsMetadataFileChanges) {
   // stands (the file is not read again).
   const fs::path file = run / wire::kMetadataFile;
   const auto modified = fs::last_write_time(file);
-  std::string text = read_text(file);
-  const auto at = text.find("alpha");
-  ASSERT_NE(at, std::string::npos);
-  text.replace(at, 5, "gamma");
-  std::ofstream(file, std::ios::trunc) << text;
-  fs::last_write_time(file, modified);
+  rename_alpha_keeping_the_stamp(run);
   EXPECT_EQ(archive.list_runs(v1::ListRuns{}).runs(0).protocol_name(), "alpha");
 
   // A rewrite that changes the time (or the size) is read.
@@ -115,18 +123,11 @@ TEST(RunArchive, ARunBeingRecordedKeepsItsListingAndIsSeenWhenItStops) {
   ASSERT_EQ(archive.list_runs(v1::ListRuns{}).runs(0).protocol_name(), "alpha");
 
   // Same size and time, other content, two more rows: the kept listing with the new count.
-  const fs::path file = going / wire::kMetadataFile;
-  const auto modified = fs::last_write_time(file);
-  std::string text = read_text(file);
-  const auto at = text.find("alpha");
-  ASSERT_NE(at, std::string::npos);
-  text.replace(at, 5, "gamma");
-  std::ofstream(file, std::ios::trunc) << text;
+  rename_alpha_keeping_the_stamp(going);
   std::string rows;
   append_csv_row(Sample{3e-3}, rows);
   append_csv_row(Sample{4e-3}, rows);
   std::ofstream(going / wire::kSamplesFile, std::ios::app) << rows;
-  fs::last_write_time(file, modified);
   auto listing = archive.list_runs(v1::ListRuns{});
   EXPECT_EQ(listing.runs(0).protocol_name(), "alpha");
   EXPECT_FALSE(listing.runs(0).finalized());
