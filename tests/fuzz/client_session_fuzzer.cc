@@ -12,7 +12,10 @@
 // Each execution ends as a new connection would find the instrument: a run
 // still going is aborted (so a long protocol costs no more than a short
 // one), the runs the input started are checked and removed, the gains are
-// restored and a fault is re-armed. Nothing else touches the filesystem.
+// restored, a fault is re-armed and the seed run's protocol is loaded again
+// (as after start-up), so that an input does what it does whatever ran
+// before it and a finding reproduces from its artifact alone. Nothing else
+// touches the filesystem.
 //
 // Checked: nothing crashes or leaks under ASan/UBSan; the instrument is not
 // RUNNING once the service is idle; every run the input started was
@@ -60,6 +63,7 @@ struct Daemon {
   std::unique_ptr<tribo::daemon::ApiServer> server;
   std::unique_ptr<tribo::daemon::InstrumentService> service;
   std::string last_run_id;
+  tribo::v1::Protocol seed_protocol;  // loaded when each execution begins
 
   Daemon() {
     google::protobuf::SetLogHandler(nullptr);
@@ -92,6 +96,7 @@ struct Daemon {
     for (int i = 0; i < protocol.segments_size() && i < 5; ++i) protocol.mutable_segments(i)->set_duration_s(durations_s[i]);
     protocol.mutable_segments(2)->mutable_lateral()->set_end_um(2.5);
     protocol.mutable_segments(3)->mutable_lateral()->set_end_um(2.5);
+    seed_protocol = protocol;
     tribo::v1::LoadProtocolReply loaded;
     tribo::v1::StartRunReply started;
     auto error = service->load_protocol(protocol, loaded);
@@ -174,5 +179,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     tribo::v1::RearmReply r;
     (void)d.service->rearm(r);
   }
+  tribo::v1::LoadProtocolReply loaded;
+  (void)d.service->load_protocol(d.seed_protocol, loaded);
   return 0;
 }
