@@ -63,7 +63,7 @@ struct Daemon {
   std::unique_ptr<tribo::daemon::ApiServer> server;
   std::unique_ptr<tribo::daemon::InstrumentService> service;
   std::string last_run_id;
-  tribo::v1::Protocol seed_protocol;  // loaded when each execution begins
+  tribo::v1::Protocol seed_protocol;  // loaded at start-up and again after each execution
 
   Daemon() {
     google::protobuf::SetLogHandler(nullptr);
