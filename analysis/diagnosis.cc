@@ -10,6 +10,7 @@
 #include <tuple>
 
 #include "analysis/autodiff.h"
+#include "analysis/motion_estimate.h"
 #include "analysis/parallel_for.h"
 #include "analysis/regression.h"
 
@@ -354,9 +355,10 @@ std::string undetermined_strength(const FitResult& fit, Effect effect, double mi
   std::vector<int> rows;
   std::vector<double> offsets;
   double best_z = -1;
-  std::string best;
+  std::string best, without_error;
   for (const ParamEstimate& e : parameters_of(fit, effect)) {
     const auto off = neutral(e.name);
+    if (off && !e.fixed && std::isnan(e.std_error) && without_error.empty()) without_error = e.name + fmt(" %.3g", e.value);
     if (!off || e.fixed || !(e.std_error > 0) || !std::isfinite(e.std_error)) continue;
     const int k = fit.params.index(e.name);
     if (k >= 0 && static_cast<std::size_t>(k) < fit.covariance_row.size()) rows.push_back(fit.covariance_row[static_cast<std::size_t>(k)]);
@@ -367,7 +369,10 @@ std::string undetermined_strength(const FitResult& fit, Effect effect, double mi
       best = e.name + fmt(" %.3g +- %.2g", e.value, e.std_error);
     }
   }
-  if (best_z < 0) return {};  // no standard error to judge by
+  if (best_z < 0) {
+    if (without_error.empty()) return {};  // no strength parameter to judge by
+    return "fitted " + without_error + " has no standard error (collinear with other parameters in these data): the strength is not determined";
+  }
   // Several strength parameters (drift nodes, a sine and a cosine, two
   // asymmetry factors) can each be within their errors and together far from
   // zero: a Wald test, chi-square with as many degrees, as the equivalent
@@ -642,7 +647,19 @@ std::tuple<ModelStructure, LugreFit, PassStartChoice> choose_pass_start_state(co
     fits[k] = fit_lugre(data, structures[k], k == 1 ? without_holds(data, in_fit) : in_fit, options.lugre);
     rms[k] = rms_over(data.series.force_n, simulate(data, fits[k].result.params), compared);
   });
-  PassStartChoice choice{rms[0], rms[1], rms[1] < rms[0]};
+  PassStartChoice choice{rms[0], rms[1], rms[1] < rms[0], {}};
+  // A fit past the base model's physical bounds (mu_s 2.6e16, a negative
+  // viscous term) can still score on held-out passes: it is not a choice.
+  std::array<std::string, 2> objections;
+  for (std::size_t j = 0; j < 2; ++j) {
+    for (const std::string& w : base_bound_warnings(data, fits[j].result)) {
+      if (w.rfind("base model out of bounds", 0) == 0) objections[j] += (objections[j].empty() ? "" : "; ") + w;
+    }
+  }
+  if (objections[0].empty() != objections[1].empty()) {
+    choice.state_from_rest = !objections[0].empty();
+    choice.objection = objections[choice.state_from_rest ? 0 : 1];
+  }
   const std::size_t k = choice.state_from_rest ? 1 : 0;
   return {structures[k], std::move(fits[k]), choice};
 }
@@ -927,7 +944,11 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
 
   std::vector<double> residual(series.size());
   for (std::size_t i = 0; i < series.size(); ++i) residual[i] = series.force_n[i] - current.model[i];
-  out.noise_floor = white_noise_rms(residual);
+  // A force quantised in steps larger than its noise leaves most second
+  // differences at exactly 0, and the robust estimate near 0 with them (8e-9 N
+  // on a record in 3 uN steps): the quantisation is itself white noise of
+  // step / sqrt(12), which the floor cannot be below.
+  out.noise_floor = std::max(white_noise_rms(residual), resolution_of(series.force_n) / std::sqrt(12.0));
   std::vector<char> compared(series.size());
   for (std::size_t i = 0; i < series.size(); ++i) compared[i] = in_fit[i] || heldout[i];
   out.unexplained = describe_unexplained(data, residual, compared, out.noise_floor, out.rejected);

@@ -102,6 +102,7 @@ struct PassStartChoice {
   double heldout_rms_modelled_holds = 0;  // N, over held-out pass samples
   double heldout_rms_state_from_rest = 0;
   bool state_from_rest = false;           // the choice
+  std::string objection;                  // why the other option's base fit was not physical, when that decided
 };
 
 struct ErrorStats {

@@ -76,6 +76,8 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
                 {"velocity_noise_m_per_s", s.velocity_noise_m_per_s},
                 {"loop_taps", s.loop_taps},
                 {"loop_variance_explained", s.loop_variance_explained},
+                {"loop_force_taps", s.loop_force_taps},
+                {"loop_force_response_m_per_n", s.loop_force_response_m_per_n},
                 {"command", info.command_line}};
   j["segmentation"] = {{"passes", d.motion.passes.size()},
                        {"holds", d.motion.holds.size()},
@@ -108,6 +110,7 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
         {"chosen", d.pass_start->state_from_rest ? "from the force at rest" : "modelled through the holds"},
         {"heldout_pass_rms_modelled_holds", d.pass_start->heldout_rms_modelled_holds},
         {"heldout_pass_rms_state_from_rest", d.pass_start->heldout_rms_state_from_rest}};
+    if (!d.pass_start->objection.empty()) j["base_model"]["pass_start_state"]["other_not_physical"] = d.pass_start->objection;
   }
 
   Json& accepted = j["accepted_effects"] = Json::array();
@@ -180,12 +183,17 @@ std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
   if (s.loop_taps > 0) {
     line("  reference through the fitted loop response (%d taps; explains %.6f of the position's variance)", s.loop_taps,
          s.loop_variance_explained);
+    if (s.loop_force_taps > 0) {
+      line("  and the friction force through %d taps: %.3g m of position per N of force", s.loop_force_taps,
+           s.loop_force_response_m_per_n);
+    }
   }
   line("base model (LuGre):");
   if (d.pass_start) {
     line("  each pass starts %s (held-out pass RMS %.4g with the holds modelled, %.4g from the force at rest)",
          d.pass_start->state_from_rest ? "from the force at rest" : "from the state modelled through the holds",
          d.pass_start->heldout_rms_modelled_holds, d.pass_start->heldout_rms_state_from_rest);
+    if (!d.pass_start->objection.empty()) line("    the other start's base fit is not physical: %s", d.pass_start->objection.c_str());
   }
   if (d.base_contact) {
     line("  contact law chosen on held-out data: %s%s%s", d.base_contact->chosen.c_str(),

@@ -57,7 +57,7 @@ DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r)
     return out;
   }
   if (r.smooth_s > 0 || r.central_differences) derive_motion(series, r.smooth_s);
-  else derive_motion_smoothed(series);
+  else derive_motion_smoothed(series, r.loop_force);
 
   DiagnosisOptions options;
   options.base.fit_mass = r.fit_mass;

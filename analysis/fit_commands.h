@@ -26,6 +26,7 @@ struct DiagnoseRequest {
   double stribeck_exponent = 1;
   double smooth_s = 0;            // > 0: central differences after this smoothing window
   bool central_differences = false;  // instead of the smoother with the record's noise floor
+  bool loop_force = false;           // the reference loop's model also driven by the measured force
   // A tribo run directory: holds, directions and passes from the setpoint;
   // each pass starts from the force measured at rest (the loop's dither
   // relaxes the contact in holds in a way the record cannot show).

@@ -58,15 +58,17 @@ void derive_motion(MeasuredSeries& s, double smoothing_s) {
   }
 }
 
-void derive_motion_smoothed(MeasuredSeries& s) {
+void derive_motion_smoothed(MeasuredSeries& s, bool loop_force) {
   if (!s.velocity_m_per_s.empty() && !s.acceleration_m_per_s2.empty()) {
     derive_motion(s, 0);
     return;
   }
   const MotionEstimate m =
-      s.reference_m.empty() ? estimate_motion(s.time_s, s.position_m) : estimate_motion_with_reference(s.time_s, s.position_m, s.reference_m);
+      s.reference_m.empty() ? estimate_motion(s.time_s, s.position_m) : estimate_motion_with_reference(s.time_s, s.position_m, s.reference_m, loop_force ? s.force_n : std::vector<double>{});
   s.loop_taps = m.loop_taps;
   s.loop_variance_explained = m.loop_variance_explained;
+  s.loop_force_taps = m.loop_force_taps;
+  s.loop_force_response_m_per_n = m.loop_force_response_m_per_n;
   s.position_noise_m = m.position_noise_m;
   s.position_resolution_m = m.position_resolution_m;
   s.velocity_noise_m_per_s = m.velocity_std_m_per_s;
@@ -104,6 +106,8 @@ MeasuredSeries slice(const MeasuredSeries& s, std::size_t first, std::size_t las
   out.velocity_noise_m_per_s = s.velocity_noise_m_per_s;
   out.loop_taps = s.loop_taps;
   out.loop_variance_explained = s.loop_variance_explained;
+  out.loop_force_taps = s.loop_force_taps;
+  out.loop_force_response_m_per_n = s.loop_force_response_m_per_n;
   return out;
 }
 

@@ -35,6 +35,8 @@ struct MeasuredSeries {
   double velocity_noise_m_per_s = 0;  // the estimator's velocity standard deviation (median)
   int loop_taps = 0;                  // motion from the reference: taps of the fitted loop response (0: not used)
   double loop_variance_explained = 0;
+  int loop_force_taps = 0;                 // ... and of the force's (0: not used)
+  double loop_force_response_m_per_n = 0;  // the force taps' sum
 
   std::size_t size() const { return time_s.size(); }
   bool has_normal() const { return !normal_force_n.empty(); }
@@ -53,7 +55,7 @@ void derive_motion(MeasuredSeries& series, double smoothing_s);
 // too (the record's own stays in measured_position_m): the model's bristle
 // is driven by position increments, and raw increments carry the full
 // position noise (10 nm at 500 Hz is 5 um/s).
-void derive_motion_smoothed(MeasuredSeries& series);
+void derive_motion_smoothed(MeasuredSeries& series, bool loop_force = false);
 
 // The samples [first, last) as a new series (for slicing long recordings).
 MeasuredSeries slice(const MeasuredSeries& series, std::size_t first, std::size_t last);

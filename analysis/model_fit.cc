@@ -468,12 +468,21 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
       }
     }
   }
-  // Near-collinear parameter pairs (a null direction of J^T J).
+  // Near-collinear parameter pairs (a null direction of J^T J). The
+  // pseudo-inverse above leaves the null directions out, so a parameter
+  // along one would get a standard error of the directions that remain
+  // (1e-24 for a bristle damping driven to 1e-10): it has none.
+  std::vector<char> along_null(static_cast<std::size_t>(ev.size()), 0);
   if (ev.size() > 0 && ev.minCoeff() <= 1e-13 * ev_max) {
-    const Eigen::VectorXd null = eig.eigenvectors().col(0).cwiseAbs();
     std::string names;
-    for (Eigen::Index j = 0; j < null.size(); ++j) {
-      if (null[j] > 0.3) names += (names.empty() ? "" : ", ") + initial.specs[static_cast<std::size_t>(free[static_cast<std::size_t>(j)])].name;
+    for (Eigen::Index c = 0; c < ev.size(); ++c) {
+      if (ev[c] > 1e-13 * ev_max) continue;
+      for (Eigen::Index j = 0; j < ev.size(); ++j) {
+        if (std::fabs(eig.eigenvectors()(j, c)) > 0.3) along_null[static_cast<std::size_t>(j)] = 1;
+      }
+    }
+    for (Eigen::Index j = 0; j < ev.size(); ++j) {
+      if (along_null[static_cast<std::size_t>(j)]) names += (names.empty() ? "" : ", ") + initial.specs[static_cast<std::size_t>(free[static_cast<std::size_t>(j)])].name;
     }
     result.warnings.push_back("parameters not separately determined (collinear in these data): " + names);
   }
@@ -488,7 +497,7 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
       const auto jj = static_cast<Eigen::Index>(j++);
       result.covariance_row[k] = static_cast<int>(jj);
       const double se_theta = std::sqrt(std::max(cov(jj, jj), 0.0));
-      const bool singular = ev.minCoeff() <= 1e-13 * ev_max && cov(jj, jj) == 0.0;
+      const bool singular = along_null[static_cast<std::size_t>(jj)] || (ev.minCoeff() <= 1e-13 * ev_max && cov(jj, jj) == 0.0);
       double derivative = 0;  // d value / d theta
       switch (spec.transform) {
         case Transform::kLog: derivative = e.value; break;

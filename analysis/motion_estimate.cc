@@ -12,6 +12,10 @@ namespace tribo::analysis {
 
 namespace {
 
+// Samples of the friction force in the loop model: this one and the two
+// before it (a channel skew of a sample, a step of the servo's response).
+constexpr int kForceTaps = 3;
+
 using Mat3 = Eigen::Matrix3d;
 using Vec3 = Eigen::Vector3d;
 
@@ -178,7 +182,7 @@ MotionEstimate estimate_motion(const std::vector<double>& t, const std::vector<d
 }
 
 MotionEstimate estimate_motion_with_reference(const std::vector<double>& t, const std::vector<double>& x,
-                                              const std::vector<double>& r) {
+                                              const std::vector<double>& r, const std::vector<double>& force) {
   const std::size_t n = x.size();
   if (r.size() != n || n < 400) return estimate_motion(t, x);
   std::vector<double> dts;
@@ -194,15 +198,35 @@ MotionEstimate estimate_motion_with_reference(const std::vector<double>& t, cons
   const int lead = 4;
   const int lag = std::clamp(static_cast<int>(std::lround(0.2 / dt)), 8, 200);
   const int taps = lead + lag + 1;
-  const Eigen::Index cols = taps + 1;
+  // Given the force (--motion-estimator rts_loop_force), the friction force
+  // is the loop's other input: a finite servo stiffness lets the tip yield to
+  // it (by F / k_servo). Left out, that yield goes to the smoother, which
+  // rounds off its jumps at reversals, and the presliding displacement comes
+  // out larger than it was (contact stiffness 2-9 % low on the independent
+  // generator). Within a few samples only: a 0.2 s force window also fits
+  // slow friction changes into the motion (the stiffness then 1-4 % off,
+  // Stribeck velocity 5-25 % low, measured).
+  const int force_taps = force.size() == n ? kForceTaps : 0;
+  double force_scale = 0, reference_scale = 0;
+  for (std::size_t i = 0; i < n && force_taps > 0; ++i) {
+    force_scale = std::max(force_scale, std::fabs(force[i]));
+    reference_scale = std::max(reference_scale, std::fabs(r[i] - r[0]));
+  }
+  // Columns of one magnitude for the normal equations (metres and newtons).
+  const double force_unit = force_scale > 0 && reference_scale > 0 ? reference_scale / force_scale : 1.0;
+  const Eigen::Index cols = taps + force_taps + 1;
   Eigen::MatrixXd xtx = Eigen::MatrixXd::Zero(cols, cols);
   Eigen::VectorXd xty = Eigen::VectorXd::Zero(cols);
   Eigen::VectorXd row(cols);
   const double r0 = r[0];
+  auto force_at = [&](long j) {
+    return force_unit * (j < 0 ? force[0] : (j >= static_cast<long>(n) ? force[n - 1] : force[static_cast<std::size_t>(j)]));
+  };
   auto ref_at = [&](long j) { return (j < 0 ? r[0] : (j >= static_cast<long>(n) ? r[n - 1] : r[static_cast<std::size_t>(j)])) - r0; };
   for (std::size_t i = 0; i < n; ++i) {
     for (int k = -lead; k <= lag; ++k) row[k + lead] = ref_at(static_cast<long>(i) - k);
-    row[taps] = 1.0;
+    for (int k = 0; k < force_taps; ++k) row[taps + k] = force_at(static_cast<long>(i) - k);
+    row[taps + force_taps] = 1.0;
     xtx.selfadjointView<Eigen::Lower>().rankUpdate(row);
     xty += row * (x[i] - r0);
   }
@@ -213,8 +237,9 @@ MotionEstimate estimate_motion_with_reference(const std::vector<double>& t, cons
   for (double v : x) mean_x += v;
   mean_x /= static_cast<double>(n);
   for (std::size_t i = 0; i < n; ++i) {
-    double value = coef[taps];
+    double value = coef[taps + force_taps];
     for (int k = -lead; k <= lag; ++k) value += coef[k + lead] * ref_at(static_cast<long>(i) - k);
+    for (int k = 0; k < force_taps; ++k) value += coef[taps + k] * force_at(static_cast<long>(i) - k);
     xm[i] = value + r0;
     tss += (x[i] - mean_x) * (x[i] - mean_x);
     sse += (x[i] - xm[i]) * (x[i] - xm[i]);
@@ -235,8 +260,11 @@ MotionEstimate estimate_motion_with_reference(const std::vector<double>& t, cons
     out.velocity_m_per_s[i] += vm[i];
     out.acceleration_m_per_s2[i] += am[i];
   }
-  out.estimator = "rts_constant_acceleration_on_reference_loop_residual";
+  out.estimator = force_taps > 0 ? "rts_constant_acceleration_on_reference_and_force_loop_residual"
+                                  : "rts_constant_acceleration_on_reference_loop_residual";
   out.loop_taps = taps;
+  out.loop_force_taps = force_taps;
+  for (int k = 0; k < force_taps; ++k) out.loop_force_response_m_per_n += coef[taps + k] * force_unit;
   out.loop_variance_explained = 1.0 - sse / tss;
   return out;
 }

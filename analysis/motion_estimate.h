@@ -23,6 +23,8 @@ struct MotionEstimate {
   double jerk_intensity = 0;         // q of the motion model (m^2/s^5), maximum likelihood
   double velocity_std_m_per_s = 0;   // median smoothed velocity standard deviation
   int loop_taps = 0;                 // with a reference: taps of the fitted loop response (0: none)
+  int loop_force_taps = 0;           // with a reference and a force: taps of the force's response
+  double loop_force_response_m_per_n = 0;  // the force taps' sum: position per newton of measured force
   double loop_variance_explained = 0;
   std::vector<double> position_m, velocity_m_per_s, acceleration_m_per_s2;
 };
@@ -38,12 +40,15 @@ MotionEstimate estimate_motion(const std::vector<double>& time_s, const std::vec
 
 // With the commanded position: the closed loop's response to the reference
 // (a linear impulse response over 0.2 s, fitted to the record by least
-// squares, any loop order) carries the fast motion (onsets, stops), and the
-// smoother above estimates only what the loop model leaves (tracking errors
-// from friction, model mismatch), whose jerk is small. Falls back to
+// squares, any loop order) and, if the measured friction force is given, the
+// tip's yield to that force within three samples (a servo of finite
+// stiffness) carry the fast motion (onsets, stops, the yield at a reversal),
+// and the smoother above estimates only what the loop model leaves (tracking
+// errors from friction, model mismatch), whose jerk is small. Falls back to
 // estimate_motion() when the loop model explains less than 90 % of the
 // position's variance, or the sampling is not uniform.
 MotionEstimate estimate_motion_with_reference(const std::vector<double>& time_s, const std::vector<double>& position_m,
-                                              const std::vector<double>& reference_m);
+                                              const std::vector<double>& reference_m,
+                                              const std::vector<double>& force_n = {});
 
 }  // namespace tribo::analysis

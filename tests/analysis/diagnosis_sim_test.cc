@@ -187,9 +187,12 @@ TEST_P(SimulatedEffect, IsNamedFirstAndLowersTheHeldOutError) {
   EXPECT_EQ(d.accepted.front().effect, c.effect) << "accepted: " << accepted_names(d);
   for (Effect m : c.mimics) EXPECT_FALSE(accepted(d, m)) << "mimic accepted: " << accepted_names(d);
   EXPECT_LT(d.after.heldout.rms, 0.95 * d.before.heldout.rms);
+  // Its parameters come with uncertainties, or say they have none: a factor
+  // on a term these data do not carry (asym_viscous on a contact whose
+  // viscous friction is 0.001 N s/m) lies along a null direction of the fit.
   for (const auto& p : d.accepted.front().parameters) {
     if (!p.fixed) {
-      EXPECT_TRUE(std::isfinite(p.std_error)) << p.name;
+      EXPECT_TRUE(std::isfinite(p.std_error) || (std::isnan(p.std_error) && !p.determined)) << p.name;
     }
   }
   if (c.check_parameters && d.accepted.front().effect == c.effect) c.check_parameters(d.accepted.front());

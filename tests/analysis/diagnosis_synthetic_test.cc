@@ -99,6 +99,29 @@ TEST(DiagnosisSynthetic, StrongViscousFrictionIsNotMistakenForLogVelocity) {
   EXPECT_NEAR(d.final_fit.params.value("Fv"), 2.5, 0.25);
 }
 
+TEST(DiagnosisSynthetic, TheNoiseFloorOfAQuantisedForceIsNotBelowItsSteps) {
+  // Table 3.2's 3 uN force resolution over 0.5 uN of noise, 500 Hz: most
+  // second differences of the residual are exactly 0, and their robust
+  // spread gives 5.8e-9 N. The floor cannot be below the quantisation's own
+  // step / sqrt(12) = 0.87 uN.
+  testing::SyntheticOptions o;
+  o.force_noise_n = 0.5e-6;
+  o.rate_hz = 500;
+  MeasuredSeries s = testing::synthetic_run({}, 2, o);
+  for (double& f : s.force_n) f = std::round(f / 3e-6) * 3e-6;
+  derive_motion(s, 0);
+  DiagnosisOptions options;
+  options.base.load_scaled = true;
+  options.candidates = {Effect::kTiltOffset};
+  const Diagnosis d = diagnose(s, options);
+  EXPECT_GT(d.noise_floor, 0.99 * 3e-6 / std::sqrt(12.0)) << "white_noise_rms " << white_noise_rms([&] {
+    std::vector<double> r(s.size());
+    for (std::size_t i = 0; i < r.size(); ++i) r[i] = s.force_n[i] - d.model_after[i];
+    return r;
+  }());
+  EXPECT_LT(d.noise_floor, 2e-6);
+}
+
 TEST(DiagnosisSynthetic, IsDeterministic) {
   testing::SyntheticEffects e;
   e.tilt_tan = 0.026;

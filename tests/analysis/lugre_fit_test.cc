@@ -68,6 +68,19 @@ TEST(LugreFit, WarnsThatSlidingDataAloneDoNotDetermineTheBristleDamping) {
   for (const auto& w : fit.result.warnings) explained |= w.find("sliding data alone do not constrain it") != std::string::npos;
   EXPECT_TRUE(explained);
   EXPECT_NEAR(fit.result.params.value("Fv"), 200, 20);
+  // Driven towards 0 along a null direction of J^T J, the damping has no
+  // standard error (the pseudo-inverse would give one of the directions left,
+  // 1e-24 for a value of 1e-10): NaN, not a number to build an interval on.
+  std::string collinear;
+  for (const auto& w : fit.result.warnings) {
+    if (w.rfind("parameters not separately determined", 0) == 0) collinear = w;
+  }
+  ASSERT_NE(collinear.find("sigma1"), std::string::npos) << collinear;
+  for (const auto& e : fit.result.estimates) {
+    if (e.name == "sigma1") {
+      EXPECT_TRUE(std::isnan(e.std_error)) << e.value << " +- " << e.std_error;
+    }
+  }
 }
 
 }  // namespace

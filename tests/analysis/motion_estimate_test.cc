@@ -101,5 +101,67 @@ TEST(MotionEstimate, SeriesRecordsTheEstimatorAndKeepsAUserVelocity) {
   EXPECT_GT(derived.velocity_noise_m_per_s, 0.0);
 }
 
+// A servo of finite stiffness: the tip follows the reference through a
+// 30 Hz first-order loop and yields to the friction force by F / 20 000 N/m.
+// The friction is a LuGre bristle (2000 N/m, 100 uN when sliding) that keeps
+// its force in the holds and reverses over 100 nm at the next pass: 10 nm
+// yields, as large as the position noise. Passes of 4 um at 0.5, 2 and 8 um/s
+// both ways, 0.5 s holds, 500 Hz.
+struct YieldingRecord {
+  std::vector<double> t, reference, x_true, x, force;
+};
+
+YieldingRecord yielding_record(unsigned seed) {
+  YieldingRecord r;
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  const double dt = 1.0 / 500, k_servo = 20000, sigma0 = 2000, g = 100e-6 / sigma0;
+  const double pole = 1 - std::exp(-2 * M_PI * 30 * dt);
+  double reference = 0, loop = 0, x = 0, z = 0, t = 0;
+  auto sample = [&](double velocity) {
+    reference += velocity * dt;
+    loop += (reference - loop) * pole;
+    const double x_next = loop - sigma0 * z / k_servo;
+    const double v = (x_next - x) / dt;
+    z += (v - std::fabs(v) * z / g) * dt;
+    x = x_next;
+    r.t.push_back(t);
+    t += dt;
+    r.reference.push_back(reference);
+    r.x_true.push_back(x);
+    r.x.push_back(std::round((x + 10e-9 * noise(rng)) / 4e-9) * 4e-9);
+    r.force.push_back(std::round((sigma0 * z + 1e-6 * noise(rng)) / 3e-6) * 3e-6);
+  };
+  for (double speed : {0.5e-6, 2e-6, 8e-6, 2e-6, 0.5e-6, 8e-6}) {
+    for (int direction : {1, -1}) {
+      for (double s = 0; s < 0.5; s += dt) sample(0);
+      for (double s = 0; s < 4e-6 / speed; s += dt) sample(direction * speed);
+    }
+  }
+  return r;
+}
+
+double position_rms_error(const YieldingRecord& r, const std::vector<double>& x) {
+  double sse = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) sse += (x[i] - r.x_true[i]) * (x[i] - r.x_true[i]);
+  return std::sqrt(sse / static_cast<double>(x.size()));
+}
+
+TEST(MotionEstimate, TheLoopModelTakesTheServosYieldToTheForceWhenGiven) {
+  for (unsigned seed : {3u, 17u}) {
+    const YieldingRecord r = yielding_record(seed);
+    const MotionEstimate without = estimate_motion_with_reference(r.t, r.x, r.reference);
+    const MotionEstimate with = estimate_motion_with_reference(r.t, r.x, r.reference, r.force);
+    EXPECT_EQ(without.loop_force_taps, 0);
+    EXPECT_EQ(with.loop_force_taps, 3);
+    EXPECT_EQ(with.estimator, "rts_constant_acceleration_on_reference_and_force_loop_residual");
+    // -1 / 20 000 N/m.
+    EXPECT_NEAR(with.loop_force_response_m_per_n, -5e-5, 0.5e-5) << "seed " << seed;
+    const double error_without = position_rms_error(r, without.position_m);
+    const double error_with = position_rms_error(r, with.position_m);
+    EXPECT_LT(error_with, 0.6 * error_without) << "seed " << seed << ": " << error_with << " m against " << error_without;
+  }
+}
+
 }  // namespace
 }  // namespace tribo::analysis
