@@ -78,6 +78,12 @@ struct DiagnosisOptions {
   // part of the base, not accepted effects. Off by default (tribo-fit
   // --base-model choose).
   bool choose_base_contact = false;
+  // The same record with its motion estimated by another defensible motion
+  // model (same samples): the final model is refitted on it, and each
+  // parameter's shift is its motion-model systematic error
+  // (ParamEstimate::motion_systematic), added to its standard error in
+  // quadrature. Decisions are taken before, on the errors without it.
+  const MeasuredSeries* alternative_motion = nullptr;
 };
 
 // The contact laws tried as the base model and the one kept.

@@ -20,6 +20,7 @@ Json parameters_json(const std::vector<ParamEstimate>& params) {
   for (const auto& p : params) {
     out.push_back({{"name", p.name}, {"value", p.value}, {"std_error", p.std_error}, {"unit", p.unit},
                    {"determined", p.determined}, {"fixed", p.fixed}});
+    if (!std::isnan(p.motion_systematic)) out.back()["motion_systematic"] = p.motion_systematic;
   }
   return out;
 }
@@ -229,8 +230,9 @@ std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
   const std::string contact = d.base_contact ? "contact " + d.base_contact->chosen : "LuGre";
   line("final model (%s%s):", contact.c_str(), d.accepted.empty() ? ", no effect accepted" : " with the accepted effects");
   for (const auto& p : d.final_fit.estimates) {
-    line("  %-20s %12.5g +- %-10.3g %s%s%s", p.name.c_str(), p.value, p.std_error, p.unit.c_str(), p.fixed ? "  (held)" : "",
-         p.determined || p.fixed ? "" : "  (not determined)");
+    const std::string motion = std::isnan(p.motion_systematic) ? "" : fmt::sprintf("  (of which motion model %.3g)", p.motion_systematic);
+    line("  %-20s %12.5g +- %-10.3g %s%s%s%s", p.name.c_str(), p.value, p.std_error, p.unit.c_str(), p.fixed ? "  (held)" : "",
+         p.determined || p.fixed ? "" : "  (not determined)", motion.c_str());
   }
   line("unexplained: %s", d.unexplained ? d.unexplained->c_str() : "none (residual at the white-noise floor)");
   // Every warning, as in the JSON (base fit, final fit, diagnosis), once.

@@ -56,7 +56,17 @@ DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r)
     out.error = series.source + ": " + problem;
     return out;
   }
-  if (r.smooth_s > 0 || r.central_differences) derive_motion(series, r.smooth_s);
+  // With a reference and the force, the loop model with and without the
+  // servo's yield to the force are both defensible motion models: the other
+  // one serves the parameters' motion-model systematic error.
+  std::optional<MeasuredSeries> alternative;
+  const bool smoothed = !(r.smooth_s > 0 || r.central_differences);
+  if (smoothed && !series.reference_m.empty() && series.velocity_m_per_s.empty()) {
+    alternative = series;
+    derive_motion_smoothed(*alternative, !r.loop_force);
+    if (alternative->loop_taps == 0) alternative.reset();
+  }
+  if (!smoothed) derive_motion(series, r.smooth_s);
   else derive_motion_smoothed(series, r.loop_force);
 
   DiagnosisOptions options;
@@ -71,6 +81,7 @@ DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r)
   options.choose_state_from_rest = !r.tribo_run;
   options.candidates = r.candidates;
   options.choose_base_contact = r.choose_base_contact;
+  if (alternative && series.loop_taps > 0) options.alternative_motion = &*alternative;
   const auto t0 = std::chrono::steady_clock::now();
   try {
     out.diagnosis = diagnose(series, options);

@@ -12,6 +12,7 @@
 // parameters, its own scale for signed ones) is reported as not determined.
 #pragma once
 
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -35,6 +36,9 @@ struct ParamEstimate {
   bool fixed = false;
   bool determined = true;
   std::optional<Effect> effect;
+  // The part of std_error from the motion model (DiagnosisOptions::
+  // alternative_motion): NaN when not assessed.
+  double motion_systematic = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct FitResult {
