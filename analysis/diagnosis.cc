@@ -805,6 +805,8 @@ void add_motion_systematic(const ModelData& primary, const MeasuredSeries& alter
     if (e.fixed) continue;
     e.motion_systematic = std::fabs(refit.estimates[k].value - e.value);
     if (std::isfinite(e.std_error)) e.std_error = std::hypot(e.std_error, e.motion_systematic);
+    const int row = k < fit.covariance_row.size() ? fit.covariance_row[k] : -1;
+    if (row >= 0 && row < fit.covariance.rows()) fit.covariance(row, row) += e.motion_systematic * e.motion_systematic;
   }
 }
 
@@ -959,7 +961,18 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
   }
 
   out.final_fit = current.fit;
-  if (options.alternative_motion) add_motion_systematic(data, *options.alternative_motion, out.motion, in_fit, options, out.final_fit);
+  if (options.alternative_motion) {
+    add_motion_systematic(data, *options.alternative_motion, out.motion, in_fit, options, out.final_fit);
+    // An accepted effect whose strength does not stand clear of none once the
+    // motion model's part is in its error may be the motion estimate's own.
+    for (const AcceptedEffect& a : out.accepted) {
+      const std::string objection = undetermined_strength(out.final_fit, a.effect, options.min_strength_z);
+      if (!objection.empty()) {
+        out.final_fit.warnings.push_back(std::string(effect_name(a.effect)) + " is accepted on the statistical error, but with the motion model's systematic error its " +
+                                         objection.substr(objection.rfind("fitted ", 0) == 0 ? 7 : 0) + " (the effect may be the motion estimate's)");
+      }
+    }
+  }
   for (auto& a : out.accepted) a.parameters = parameters_of(out.final_fit, a.effect);
   out.model_after = current.model;
   out.after = {error_stats(series.force_n, current.model, in_fit), error_stats(series.force_n, current.model, heldout),
