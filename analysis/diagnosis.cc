@@ -964,13 +964,28 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
   if (options.alternative_motion) {
     add_motion_systematic(data, *options.alternative_motion, out.motion, in_fit, options, out.final_fit);
     // An accepted effect whose strength does not stand clear of none once the
-    // motion model's part is in its error may be the motion estimate's own.
+    // motion model's part is in its error may be the motion estimate's own:
+    // it is no candidate, and the record is diagnosed again without it (the
+    // rounds after its acceptance were taken in its presence).
+    std::vector<RejectedEffect> not_clear;
     for (const AcceptedEffect& a : out.accepted) {
       const std::string objection = undetermined_strength(out.final_fit, a.effect, options.min_strength_z);
-      if (!objection.empty()) {
-        out.final_fit.warnings.push_back(std::string(effect_name(a.effect)) + " is accepted on the statistical error, but with the motion model's systematic error its " +
-                                         objection.substr(objection.rfind("fitted ", 0) == 0 ? 7 : 0) + " (the effect may be the motion estimate's)");
-      }
+      if (objection.empty()) continue;
+      RejectedEffect r;
+      r.effect = a.effect;
+      r.last_trial = a.trial;
+      r.signature_strength = a.trial.signature.applicable ? std::max(a.trial.signature.strength, a.trial.signature.score_t / options.score_t_threshold) : 0.0;
+      r.reason = "accepted on the statistical error, but with the motion model's systematic error its " +
+                 objection.substr(objection.rfind("fitted ", 0) == 0 ? 7 : 0) +
+                 ": the effect may be the motion estimate's, and the record was diagnosed again without it";
+      not_clear.push_back(std::move(r));
+    }
+    if (!not_clear.empty()) {
+      DiagnosisOptions again = options;
+      for (const RejectedEffect& r : not_clear) std::erase(again.candidates, r.effect);
+      Diagnosis redo = diagnose(series, again);
+      for (RejectedEffect& r : not_clear) redo.rejected.push_back(std::move(r));
+      return redo;
     }
   }
   for (auto& a : out.accepted) a.parameters = parameters_of(out.final_fit, a.effect);
