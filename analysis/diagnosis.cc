@@ -810,6 +810,28 @@ void add_motion_systematic(const ModelData& primary, const MeasuredSeries& alter
   }
 }
 
+// The accepted effects whose strength does not stand clear of none once the
+// motion model's systematic part is in its error: they may be the motion
+// estimate's own.
+std::vector<RejectedEffect> motion_model_refusals(const std::vector<AcceptedEffect>& accepted, const FitResult& final_fit,
+                                                  const DiagnosisOptions& options) {
+  std::vector<RejectedEffect> out;
+  for (const AcceptedEffect& a : accepted) {
+    const std::string objection = undetermined_strength(final_fit, a.effect, options.min_strength_z);
+    if (objection.empty()) continue;
+    RejectedEffect r;
+    r.effect = a.effect;
+    r.last_trial = a.trial;
+    const Signature& sig = a.trial.signature;
+    r.signature_strength = sig.applicable ? std::max(sig.strength, sig.score_t / options.score_t_threshold) : 0.0;
+    r.reason = "accepted on the statistical error, but with the motion model's systematic error its " +
+               objection.substr(objection.rfind("fitted ", 0) == 0 ? 7 : 0) +
+               ": the effect may be the motion estimate's, and the record was diagnosed again without it";
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
 Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options) {
   Diagnosis out;
   out.motion = segment_motion(series, options.segmentation);
@@ -963,23 +985,9 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
   out.final_fit = current.fit;
   if (options.alternative_motion) {
     add_motion_systematic(data, *options.alternative_motion, out.motion, in_fit, options, out.final_fit);
-    // An accepted effect whose strength does not stand clear of none once the
-    // motion model's part is in its error may be the motion estimate's own:
-    // it is no candidate, and the record is diagnosed again without it (the
-    // rounds after its acceptance were taken in its presence).
-    std::vector<RejectedEffect> not_clear;
-    for (const AcceptedEffect& a : out.accepted) {
-      const std::string objection = undetermined_strength(out.final_fit, a.effect, options.min_strength_z);
-      if (objection.empty()) continue;
-      RejectedEffect r;
-      r.effect = a.effect;
-      r.last_trial = a.trial;
-      r.signature_strength = a.trial.signature.applicable ? std::max(a.trial.signature.strength, a.trial.signature.score_t / options.score_t_threshold) : 0.0;
-      r.reason = "accepted on the statistical error, but with the motion model's systematic error its " +
-                 objection.substr(objection.rfind("fitted ", 0) == 0 ? 7 : 0) +
-                 ": the effect may be the motion estimate's, and the record was diagnosed again without it";
-      not_clear.push_back(std::move(r));
-    }
+    // The rounds after a refused effect's acceptance were taken in its
+    // presence: the record is diagnosed again without it as a candidate.
+    std::vector<RejectedEffect> not_clear = motion_model_refusals(out.accepted, out.final_fit, options);
     if (!not_clear.empty()) {
       DiagnosisOptions again = options;
       for (const RejectedEffect& r : not_clear) std::erase(again.candidates, r.effect);
