@@ -732,8 +732,14 @@ Signature position_periodic(const Context& c) {
   // would otherwise alias to a short period in position.
   std::sort(steps.begin(), steps.end());
   const double lambda_min = std::max({4 * steps[steps.size() * 9 / 10], 20 * c.m.position_noise_m, 1e-300});
-  const double lambda_max = (xmax - xmin) / 3;
-  if (lambda_max < 2 * lambda_min) return not_applicable(e, "the sliding range holds fewer than 3 resolvable periods");
+  // Peaks are sought up to three periods in the sliding range; the grid goes
+  // on to two, so that a peak there still has a neighbourhood to stand out
+  // from. (The peak search had stopped at 4.5 periods, a third below the
+  // grid's end: a 1.5 um period on 5 um passes was never looked at, and its
+  // leakage peaked at 1.0 um instead.)
+  const double lambda_peak_max = (xmax - xmin) / 3;
+  const double lambda_max = (xmax - xmin) / 2;
+  if (lambda_peak_max < 2 * lambda_min) return not_applicable(e, "the sliding range holds fewer than 3 resolvable periods");
 
   // Residual binned in position, per direction (bins of lambda_min / 4).
   const int nbins = std::clamp(static_cast<int>((xmax - xmin) / (lambda_min / 4)), 64, 8192);
@@ -775,7 +781,7 @@ Signature position_periodic(const Context& c) {
   // Peak, compared with the local median power (within a factor 3 in wavelength).
   int best = 0;
   for (int g = 0; g < kGrid; ++g) {
-    if (lambdas[static_cast<std::size_t>(g)] > lambda_max / 1.5) break;
+    if (lambdas[static_cast<std::size_t>(g)] > lambda_peak_max) break;
     if (power[static_cast<std::size_t>(g)] > power[static_cast<std::size_t>(best)]) best = g;
   }
   const double peak_lambda = lambdas[static_cast<std::size_t>(best)];

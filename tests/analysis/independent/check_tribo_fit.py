@@ -95,6 +95,15 @@ def main():
     if accepted or "may be the motion estimate's" not in lag["reason"]:
         failures.append(f"the clean seed-1 file accepted {accepted}; frictional_lag: {lag['reason'][:120]}")
     print(f"clean, seed 1: accepted {accepted}; frictional_lag {lag['reason'][:80]}")
+    # A 1.46 um period on 5 um passes (3.4 periods): the signature's peak
+    # search stopped at 1.1 um, and the file accepted nothing.
+    report = diagnose(tribo_fit, work, "position_periodic", 7)
+    period = json.load(open(os.path.join(work, "position_periodic_seed7.json")))["period_m"]
+    first = report["accepted_effects"][:1]
+    length = next((p["value"] for p in first[0]["parameters"] if p["name"] == "periodic_length"), None) if first else None
+    if not first or first[0]["name"] != "position_periodic" or not length or abs(length / period - 1) > 0.05:
+        failures.append(f"position_periodic seed 7 (period {period:.3g} m): accepted {[a['name'] for a in report['accepted_effects']]}, length {length}")
+    print(f"position_periodic, seed 7: period {period:.3g} m, found {length}")
     accepted = [a["name"] for a in diagnose(tribo_fit, work, "dwell_stiction", 1)["accepted_effects"]]
     if accepted[:1] != ["dwell_stiction"]:
         failures.append(f"dwell_stiction seed 1: accepted {accepted}, dwell_stiction not first")
