@@ -404,20 +404,12 @@ std::string undetermined_strength(const FitResult& fit, Effect effect, double mi
 // Physical bounds of the base model: warnings (the base fit cannot be
 // rejected, but an impossible value must be said, in text as in JSON).
 std::vector<std::string> base_bound_warnings(const ModelData& data, const FitResult& fit) {
-  std::vector<std::string> out;
+  std::vector<std::string> out = base_out_of_bounds(data, fit);
   const ModelParams& p = fit.params;
   const MeasuredSeries& s = data.series;
   const bool mu = p.structure.load_scaled && s.has_normal();
-  const double fc = p.value(mu ? "mu_c" : "Fc"), fs = p.value(mu ? "mu_s" : "Fs");
-  if (mu && (fc > 2 || fs > 2)) out.push_back(fmt("base model out of bounds: mu_c %.3g, mu_s %.3g (friction coefficients above 2 are not physical)", fc, fs));
-  if (fs > 5 * fc) out.push_back(fmt("base model out of bounds: static level %.3g is more than 5 times the Coulomb level %.3g", fs, fc));
-  if (fs < 0.2 * fc) out.push_back(fmt("base model out of bounds: static level %.3g is below a fifth of the Coulomb level %.3g", fs, fc));
-  const double fv = p.value("Fv");
+  const double fc = p.value(mu ? "mu_c" : "Fc");
   const double level = mu ? fc * data.normal_ref : fc;
-  if (fv < 0 && std::fabs(fv) * data.speed_ref > 0.05 * level) {
-    out.push_back(fmt("base model out of bounds: negative viscous friction Fv = %.3g (%.3g at the median speed, against a Coulomb level %.3g)", fv,
-                      fv * data.speed_ref, level));
-  }
   const double presliding = level / p.value("sigma0");
   if (presliding < resolved_length_m(s)) {
     out.push_back(fmt("the presliding deflection Fc/sigma0 = %.3g m is below the resolved length %.3g m: sigma0 is a lower bound only", presliding,

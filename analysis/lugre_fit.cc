@@ -1,5 +1,7 @@
 #include "analysis/lugre_fit.h"
 
+#include <fmt/printf.h>
+
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -216,19 +218,23 @@ LugreFit fit_lugre(const ModelData& d, const ModelStructure& st, const std::vect
   out.starts_evaluated = static_cast<int>(starts.size());
   std::sort(starts.begin(), starts.end(), [](const Start& a, const Start& b) { return a.rss < b.rss; });
 
-  bool have = false;
+  bool have = false, have_physical = false;
   const std::size_t refined = static_cast<std::size_t>(std::clamp<int>(options.refined_starts, 0, static_cast<int>(starts.size())));
   std::vector<FitResult> fits(refined);
   parallel_for(refined, options.threads, [&](std::size_t s) { fits[s] = fit_model(d, starts[s].params, in_fit, options.fit); });
+  // A lower residual past the physical bounds (a Stribeck spike of mu_s 3.5e12
+  // at 15 nm/s taking up dwell peaks) is another model, not a better fit.
   for (FitResult& r : fits) {
     if (!both_directions) {
       r.warnings.push_back("the data slide in one direction only: the offset cannot be told from the Coulomb level "
                            "and is held at zero (the force channel is taken as zeroed)");
     }
     ++out.starts_refined;
-    if (!have || r.rss < out.result.rss) {
+    const bool physical = base_out_of_bounds(d, r).empty();
+    if (!have || (physical && !have_physical) || (physical == have_physical && r.rss < out.result.rss)) {
       out.result = std::move(r);
       have = true;
+      have_physical = physical;
     }
   }
   // A dynamic model that does worse in sliding than the static Coulomb +
@@ -244,6 +250,25 @@ LugreFit fit_lugre(const ModelData& d, const ModelStructure& st, const std::vect
       out.result.warnings.push_back("the LuGre fit is worse in sliding than a static Coulomb + viscous line: check the "
                                     "column mapping, the units and the sign of the force");
     }
+  }
+  return out;
+}
+
+std::vector<std::string> base_out_of_bounds(const ModelData& data, const FitResult& fit) {
+  std::vector<std::string> out;
+  const ModelParams& p = fit.params;
+  const bool mu = p.structure.load_scaled && data.series.has_normal();
+  const double fc = p.value(mu ? "mu_c" : "Fc"), fs = p.value(mu ? "mu_s" : "Fs");
+  if (mu && (fc > 2 || fs > 2)) {
+    out.push_back(fmt::sprintf("base model out of bounds: mu_c %.3g, mu_s %.3g (friction coefficients above 2 are not physical)", fc, fs));
+  }
+  if (fs > 5 * fc) out.push_back(fmt::sprintf("base model out of bounds: static level %.3g is more than 5 times the Coulomb level %.3g", fs, fc));
+  if (fs < 0.2 * fc) out.push_back(fmt::sprintf("base model out of bounds: static level %.3g is below a fifth of the Coulomb level %.3g", fs, fc));
+  const double fv = p.value("Fv");
+  const double level = mu ? fc * data.normal_ref : fc;
+  if (fv < 0 && std::fabs(fv) * data.speed_ref > 0.05 * level) {
+    out.push_back(fmt::sprintf("base model out of bounds: negative viscous friction Fv = %.3g (%.3g at the median speed, against a Coulomb level %.3g)",
+                               fv, fv * data.speed_ref, level));
   }
   return out;
 }

@@ -6,9 +6,12 @@
 //   3. a grid of presliding lengths Fc/sigma0 (1e-4 to 1 times the median
 //      pass length, half a decade apart) and damping levels sigma1
 //      (multi-start), each simulated once; the best few are refined by the
-//      simulation-error fit (analysis/model_fit.h) and the best one is kept.
+//      simulation-error fit (analysis/model_fit.h) and the best one within
+//      the base model's physical bounds is kept (the best of all when none
+//      is).
 #pragma once
 
+#include <string>
 #include <vector>
 
 #include "analysis/friction_model.h"
@@ -36,6 +39,12 @@ struct LugreFit {
 
 LugreFit fit_lugre(const ModelData& data, const ModelStructure& structure, const std::vector<char>& in_fit,
                    const LugreFitOptions& options = {});
+
+// The base model's values past physical bounds, one line each, every one
+// beginning "base model out of bounds": friction coefficients above 2, a
+// static level above 5 or below 0.2 times the Coulomb level, negative viscous
+// friction worth 5 % of the level at the median speed.
+std::vector<std::string> base_out_of_bounds(const ModelData& data, const FitResult& fit);
 
 // Steady sliding samples (past the first fifth of each pass) binned by signed
 // velocity: mean of (F - mass a - offset) [/ N when load-scaled], weight
