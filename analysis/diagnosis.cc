@@ -420,6 +420,14 @@ std::vector<std::string> base_bound_warnings(const ModelData& data, const FitRes
 
 namespace {
 
+// The base model's values past their physical bounds, in one line (empty
+// when there are none).
+std::string base_objection(const ModelData& data, const FitResult& fit) {
+  std::string out;
+  for (const std::string& w : base_out_of_bounds(data, fit)) out += (out.empty() ? "" : "; ") + w;
+  return out;
+}
+
 // Per held-out block: did the candidate lower the block's squared error?
 double block_agreement(const MotionSegmentation& m, const std::vector<char>& heldout, const std::vector<double>& measured,
                        const std::vector<double>& before, const std::vector<double>& after) {
@@ -642,12 +650,7 @@ std::tuple<ModelStructure, LugreFit, PassStartChoice> choose_pass_start_state(co
   PassStartChoice choice{rms[0], rms[1], rms[1] < rms[0], {}};
   // A fit past the base model's physical bounds (mu_s 2.6e16, a negative
   // viscous term) can still score on held-out passes: it is not a choice.
-  std::array<std::string, 2> objections;
-  for (std::size_t j = 0; j < 2; ++j) {
-    for (const std::string& w : base_bound_warnings(data, fits[j].result)) {
-      if (w.rfind("base model out of bounds", 0) == 0) objections[j] += (objections[j].empty() ? "" : "; ") + w;
-    }
-  }
+  const std::array<std::string, 2> objections{base_objection(data, fits[0].result), base_objection(data, fits[1].result)};
   if (objections[0].empty() != objections[1].empty()) {
     choice.state_from_rest = !objections[0].empty();
     choice.objection = objections[choice.state_from_rest ? 0 : 1];
@@ -667,9 +670,7 @@ std::string contact_objection(const ModelData& data, const FitResult& fit) {
   const auto add = [&](const std::string& o) {
     if (!o.empty()) objection += (objection.empty() ? "" : "; ") + o;
   };
-  for (const std::string& w : base_bound_warnings(data, fit)) {
-    if (w.rfind("base model out of bounds", 0) == 0) add(w);
-  }
+  add(base_objection(data, fit));
   for (Effect law : fit.params.structure.effects) add(out_of_bounds(data, fit, law));
   return objection;
 }
@@ -781,14 +782,7 @@ void add_motion_systematic(const ModelData& primary, const MeasuredSeries& alter
   if (!std::isfinite(refit.rss) || refit.estimates.size() != fit.estimates.size()) return;
   // A refit that leaves the base model's physical bounds where the fit kept
   // them has found another valley, not the same model on other motion.
-  const auto out_of_bounds = [](const ModelData& d, const FitResult& f) {
-    std::string o;
-    for (const std::string& w : base_bound_warnings(d, f)) {
-      if (w.rfind("base model out of bounds", 0) == 0) o += (o.empty() ? "" : "; ") + w;
-    }
-    return o;
-  };
-  if (const std::string o = out_of_bounds(data, refit); !o.empty() && out_of_bounds(primary, fit).empty()) {
+  if (const std::string o = base_objection(data, refit); !o.empty() && base_objection(primary, fit).empty()) {
     fit.warnings.push_back("the motion model's systematic error is not assessed: refitted on the other motion estimate, " + o);
     return;
   }
