@@ -183,8 +183,8 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
 // its physical bound, or below what the data resolve), or empty.
 std::string out_of_bounds(const ModelData& data, const FitResult& fit, Effect effect);
 
-// The base model's values past physical bounds (negative viscous friction,
-// friction coefficients above 2, an unresolved presliding deflection), as warnings.
+// The base model's values past physical bounds (base_out_of_bounds,
+// analysis/lugre_fit.h) and an unresolved presliding deflection, as warnings.
 std::vector<std::string> base_bound_warnings(const ModelData& data, const FitResult& fit);
 
 ErrorStats error_stats(const std::vector<double>& measured, const std::vector<double>& model,
