@@ -145,8 +145,34 @@ int cubic_bspline_basis_into(double u, int intervals, double* b) {
 // The drift functions at sample i into out (as ModelData::drift_basis_at);
 // returns the first of the four that are not zero.
 int drift_basis_span(const ModelData& d, std::size_t i, double* out) {
-  const double t0 = d.series.time_s.front(), span = std::max(d.series.time_s.back() - t0, 1e-30);
-  return cubic_bspline_basis_into((d.series.time_s[i] - t0) / span, d.drift_functions - 3, out);
+  return cubic_bspline_basis_into(d.drift_spline_coordinate(d.series.time_s[i]), d.drift_functions - 3, out);
+}
+
+// The drift spline's knots: at quantiles of the fitted samples' times (the
+// sliding samples that are not held out), so that each knot interval holds
+// the same share of the data the fit sees, as regression splines place
+// their knots. Uniform knots in time left an interval with a quarter of a
+// second of fitted sliding (the fast passes between long holds and
+// held-out slow passes), whose coefficients then swung by a millinewton
+// across the holds (an independent generator's drift files). Uniform knots
+// are kept when the fit set has fewer than 4 samples per interval.
+std::vector<double> drift_knots(const MeasuredSeries& s, const MotionSegmentation& m,
+                                const std::vector<char>& at_rest, int intervals) {
+  std::vector<double> fitted;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (!at_rest[i] && !m.heldout[i] && m.direction[i] != 0) fitted.push_back(s.time_s[i]);
+  }
+  const double t0 = s.time_s.front(), t1 = std::max(s.time_s.back(), t0 + 1e-30);
+  const bool quantiles = fitted.size() >= 4 * static_cast<std::size_t>(intervals);
+  std::vector<double> knots(static_cast<std::size_t>(intervals) + 1);
+  for (int k = 0; k <= intervals; ++k) {
+    knots[static_cast<std::size_t>(k)] =
+        quantiles ? fitted[fitted.size() * static_cast<std::size_t>(k) / static_cast<std::size_t>(intervals)]
+                  : t0 + (t1 - t0) * k / intervals;
+  }
+  knots.front() = t0;
+  knots.back() = t1;
+  return knots;
 }
 
 // Drift functions: at most 12 knot intervals (ModelData).
@@ -161,8 +187,15 @@ std::vector<double> cubic_bspline_basis(double u, int intervals) {
 }
 
 void ModelData::drift_basis_at(std::size_t i, double* out) const {
-  const double t0 = series.time_s.front(), span = std::max(series.time_s.back() - t0, 1e-30);
-  cubic_bspline_basis_into((series.time_s[i] - t0) / span, drift_functions - 3, out);
+  cubic_bspline_basis_into(drift_spline_coordinate(series.time_s[i]), drift_functions - 3, out);
+}
+
+double ModelData::drift_spline_coordinate(double time_s) const {
+  const auto& k = drift_knot_time_s;
+  const auto it = std::upper_bound(k.begin() + 1, k.end() - 1, time_s);
+  const auto j = static_cast<std::size_t>(it - k.begin()) - 1;
+  const double u = (time_s - k[j]) / std::max(k[j + 1] - k[j], 1e-300);
+  return (static_cast<double>(j) + std::clamp(u, 0.0, 1.0)) / static_cast<double>(k.size() - 1);
 }
 
 double param_theta(const ParamSpec& spec, double value) {
@@ -265,6 +298,7 @@ ModelData::ModelData(const MeasuredSeries& s, const MotionSegmentation& m) : ser
   }
   const double t0 = s.time_s.front(), span = std::max(s.time_s.back() - t0, 1e-30);
   drift_functions = std::clamp(static_cast<int>(m.passes.size()) / 2, 3, 12) + 3;
+  drift_knot_time_s = drift_knots(s, m, at_rest, drift_functions - 3);
   normalised_time.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
     const double u = (s.time_s[i] - t0) / span;

@@ -92,10 +92,14 @@ struct ModelData {
   double normal_ref = 1;       // median normal load in contact
   double mass_scale = 1;       // force_scale / typical |a|
   // Drift: a cubic B-spline in time over the record, one knot interval per
-  // two passes (3 to 12 intervals); the basis functions sum to one, so the
-  // offset is held fixed while drift is in the model. Also the normalised
-  // time u in [-1, 1].
+  // two passes (3 to 12 intervals), the knots at quantiles of the fitted
+  // samples' times (friction_model.cc); the basis functions sum to one, so
+  // the offset is held fixed while drift is in the model. Also the
+  // normalised time u in [-1, 1].
   int drift_functions = 6;
+  std::vector<double> drift_knot_time_s;
+  // Time mapped to [0, 1], piecewise linearly, knot k to k / intervals.
+  double drift_spline_coordinate(double time_s) const;
   std::vector<double> normalised_time;
   // The drift functions' values at sample i into out[0, drift_functions),
   // computed when needed: a stored table would cost drift_functions doubles
