@@ -115,16 +115,17 @@ DetectabilityBasis::DetectabilityBasis(const ModelData& data, const FitResult& c
   n_effective_ = current.n_effective > 0 ? current.n_effective : static_cast<double>(n_fit_);
 }
 
-std::pair<double, double> DetectabilityBasis::visible_power(const ModelParams& extended, Effect effect, double s) const {
+DetectabilityBasis::Visible DetectabilityBasis::visible(const ModelParams& extended, Effect effect, double s) const {
   const std::vector<double> model = simulate(data_, at_strength(extended, effect, s));
   const auto change = [&](const std::vector<std::size_t>& rows) {
     Eigen::VectorXd d(static_cast<Eigen::Index>(rows.size()));
     for (std::size_t r = 0; r < rows.size(); ++r) d[static_cast<Eigen::Index>(r)] = model[rows[r]] - current_model_[rows[r]];
     return d;
   };
-  Eigen::VectorXd rf = change(fit_rows_);
+  const Eigen::VectorXd df = change(fit_rows_);
+  Eigen::VectorXd rf = df;
   Eigen::VectorXd rh = change(heldout_rows_);
-  if (!rf.allFinite() || !rh.allFinite()) return {0.0, 0.0};
+  if (!rf.allFinite() || !rh.allFinite()) return {};
   // What a refit of the model's own parameters takes up (fitted on the fit
   // rows, carried to the held-out rows as the refitted model would be).
   if (jacobian_fit_.cols() > 0) {
@@ -132,7 +133,17 @@ std::pair<double, double> DetectabilityBasis::visible_power(const ModelParams& e
     rf -= jacobian_fit_ * beta;
     rh -= jacobian_heldout_ * beta;
   }
-  return {rf.squaredNorm() / static_cast<double>(rf.size()), rh.squaredNorm() / static_cast<double>(rh.size())};
+  Visible v;
+  v.power_fit = rf.squaredNorm() / static_cast<double>(rf.size());
+  v.power_heldout = rh.squaredNorm() / static_cast<double>(rh.size());
+  const double norm = df.norm();
+  if (norm > 0) {
+    const double m = static_cast<double>(rf.size());
+    // Over m subsampled rows of n_fit_: sum d r / (sigma |d|) is the t of m
+    // independent rows; the fit's n_eff of its n_fit_ sets the real count.
+    v.score_t = std::fabs(df.dot(rf)) / (sigma_fit_ * norm) * std::sqrt(std::min(n_effective_, static_cast<double>(n_fit_)) / m);
+  }
+  return v;
 }
 
 std::optional<DetectableStrength> DetectabilityBasis::minimum_detectable_strength(
@@ -161,9 +172,11 @@ std::optional<DetectableStrength> DetectabilityBasis::minimum_detectable_strengt
   // step lands on the threshold; nonlinear ones take a few.
   double s = reference;
   for (int step = 0; step < 12; ++step) {
-    const auto [power_fit, power_heldout] = visible_power(extended, effect, s);
-    const double ratio = std::max(power_heldout > 0 ? need_heldout / power_heldout : HUGE_VAL,
-                                  power_fit > 0 ? need_fit / power_fit : HUGE_VAL);
+    const Visible v = visible(extended, effect, s);
+    // The score t grows as s, the powers as s^2: its ratio squared.
+    const double score_ratio = v.score_t > 0 ? (criteria.min_score_t / v.score_t) * (criteria.min_score_t / v.score_t) : HUGE_VAL;
+    const double ratio = std::max({v.power_heldout > 0 ? need_heldout / v.power_heldout : HUGE_VAL,
+                                   v.power_fit > 0 ? need_fit / v.power_fit : HUGE_VAL, score_ratio});
     if (!std::isfinite(ratio)) break;  // nothing of it survives the refit: not identifiable
     if (std::fabs(ratio - 1.0) < 0.02) {
       out.value = s;

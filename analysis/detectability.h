@@ -16,11 +16,19 @@
 //   strength        n_eff mean_f r^2 / sigma_f^2 >= min_strength_z^2
 // (h: held-out samples, f: fit samples; the last is the strength's t statistic
 // with the fit's autocorrelation-inflated errors, for a strength alone: the
-// effect's other parameters can only widen its error). The minimum detectable strength is
-// the s where both just hold, found by secant steps on s (r grows as s for a
+// effect's other parameters can only widen its error), and when the
+// candidate passes the screening before it is fitted, by its score test:
+//   score t         sum_f d r / (sigma_f |d|) sqrt(n_eff / n) >= min_score_t
+// with d the change before the projection (the score test regresses the
+// present residual, which holds r only, on the extension's own sensitivity):
+// an effect the base model can largely mimic leaves a small r along d, and
+// is screened out at strengths where the fit gates alone would pass it (the
+// independent generator's velocity strengthening: score t 1.4-2.0 at a
+// strength the fit gates put above the minimum). The minimum detectable strength is
+// the s where all just hold, found by secant steps on s (r grows as s for a
 // linear effect; nonlinear ones take a few more steps). The block-agreement
-// gate and the signature screening are not modelled: the figure is a lower
-// bound on what the diagnosis needs.
+// gate and the signature's own test (the screening's other way in) are not
+// modelled.
 #pragma once
 
 #include <optional>
@@ -48,6 +56,7 @@ struct DetectabilityCriteria {
   double min_heldout_gain = 0.02;
   double max_delta_aicc = -10.0;
   double min_strength_z = 3.0;
+  double min_score_t = 2.0;  // the screening's score test (DiagnosisOptions: score_t_threshold x min_signature_strength)
 };
 
 // What every effect's question shares: the final model's Jacobian on a
@@ -63,8 +72,12 @@ class DetectabilityBasis {
   std::optional<DetectableStrength> minimum_detectable_strength(Effect effect, const DetectabilityCriteria& criteria) const;
 
  private:
-  // mean r^2 over the fit and held-out subsamples for the effect at strength s.
-  std::pair<double, double> visible_power(const ModelParams& extended, Effect effect, double s) const;
+  // For the effect at strength s: mean r^2 over the fit and held-out
+  // subsamples, and the score test's t on the fit subsample.
+  struct Visible {
+    double power_fit = 0, power_heldout = 0, score_t = 0;
+  };
+  Visible visible(const ModelParams& extended, Effect effect, double s) const;
 
   const ModelData& data_;
   const FitResult& current_;

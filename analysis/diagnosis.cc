@@ -1075,7 +1075,8 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
   for (auto& [e, st] : status) out.rejected.push_back(st);
   if (options.minimum_detectable && !out.rejected.empty()) {
     const DetectabilityBasis basis(data, current.fit, current.model, in_fit, heldout);
-    const DetectabilityCriteria criteria{options.min_heldout_gain, options.max_delta_aicc, options.min_strength_z};
+    const DetectabilityCriteria criteria{options.min_heldout_gain, options.max_delta_aicc, options.min_strength_z,
+                                         options.score_t_threshold * options.min_signature_strength};
     parallel_for(out.rejected.size(), options.threads, [&](std::size_t j) {
       out.rejected[j].minimum_detectable = basis.minimum_detectable_strength(out.rejected[j].effect, criteria);
     });
