@@ -260,10 +260,10 @@ double longest_pass_m(const MeasuredSeries& s, const MotionSegmentation& m) {
 // +0.072 with 42 nm against a deflection of 126 nm).
 // A tilt turns part of the normal load into a lateral reading at rest as in
 // sliding (analysis/tip_tilt.h), so the load changes of the holds test it
-// where the fit, which sees the passes only, does not look: within each hold
-// whose load changes by a fifth or more, the candidate model's residual is
-// regressed on the load (an intercept per hold, from the demeaned samples
-// where the model rests). A real tilt leaves no slope there; a level that
+// where the fit, which sees the passes only, does not look: within each
+// stretch between passes whose load changes by a fifth or more
+// (rest_stretches: the holds and the load ramps), the candidate model's
+// residual is regressed on the load (an intercept per stretch). A real tilt leaves no slope there; a level that
 // drifts in time, taken for a tilt because the loads rise with time, leaves
 // -tan(theta). Contradicted: a slope of half the fitted tan(theta) or more,
 // at least 3 standard errors from zero. On an independent generator's drift
@@ -276,33 +276,22 @@ std::string tilt_rest_objection(const ModelData& data, const std::vector<double>
   const double tan_fit = fit.params.value("tilt_tan");
   Design rest;
   int holds = 0;
-  // The stretches between passes (holds and the load ramps between them),
-  // without their first and last 0.2 s (the stop's and the start's transients).
-  for (std::size_t first = 0; first < s.size();) {
-    if (data.motion.pass_of[first] >= 0) {
-      ++first;
-      continue;
-    }
-    std::size_t end = first;
-    while (end < s.size() && data.motion.pass_of[end] < 0) ++end;
-    std::vector<std::size_t> rows;
+  for (const Hold& h : rest_stretches(s, data.motion, 0.2, 20)) {
     double nmin = HUGE_VAL, nmax = -HUGE_VAL;
-    for (std::size_t i = first; i < end; ++i) {
-      if (s.time_s[i] - s.time_s[first] < 0.2 || s.time_s[end - 1] - s.time_s[i] < 0.2) continue;
-      rows.push_back(i);
+    for (std::size_t i = h.first; i <= h.last; ++i) {
       nmin = std::min(nmin, s.normal_force_n[i]);
       nmax = std::max(nmax, s.normal_force_n[i]);
     }
-    first = end;
-    if (rows.size() < 20 || nmax - nmin < 0.2 * std::max(std::fabs(nmax), 1e-300)) continue;
+    if (nmax - nmin < 0.2 * std::max(std::fabs(nmax), 1e-300)) continue;
     double mean_n = 0, mean_r = 0;
-    for (std::size_t i : rows) {
+    for (std::size_t i = h.first; i <= h.last; ++i) {
       mean_n += s.normal_force_n[i];
       mean_r += s.force_n[i] - model[i];
     }
-    mean_n /= static_cast<double>(rows.size());
-    mean_r /= static_cast<double>(rows.size());
-    for (std::size_t i : rows) rest.add_row({s.normal_force_n[i] - mean_n}, s.force_n[i] - model[i] - mean_r);
+    const auto count = static_cast<double>(h.last - h.first + 1);
+    mean_n /= count;
+    mean_r /= count;
+    for (std::size_t i = h.first; i <= h.last; ++i) rest.add_row({s.normal_force_n[i] - mean_n}, s.force_n[i] - model[i] - mean_r);
     ++holds;
   }
   if (holds == 0) return {};

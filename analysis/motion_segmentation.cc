@@ -302,4 +302,23 @@ MotionSegmentation segment_motion(const MeasuredSeries& s, const SegmentationOpt
   return m;
 }
 
+std::vector<Hold> rest_stretches(const MeasuredSeries& s, const MotionSegmentation& m, double margin_s,
+                                 std::size_t min_samples) {
+  std::vector<Hold> out;
+  for (std::size_t first = 0; first < s.size();) {
+    if (m.pass_of[first] >= 0) {
+      ++first;
+      continue;
+    }
+    std::size_t end = first;
+    while (end < s.size() && m.pass_of[end] < 0) ++end;
+    std::size_t a = first, b = end - 1;
+    while (a <= b && s.time_s[a] - s.time_s[first] < margin_s) ++a;
+    while (b > a && s.time_s[end - 1] - s.time_s[b] < margin_s) --b;
+    if (a <= b && b - a + 1 >= min_samples) out.push_back({a, b});
+    first = end;
+  }
+  return out;
+}
+
 }  // namespace tribo::analysis

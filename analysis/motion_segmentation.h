@@ -73,6 +73,13 @@ struct MotionSegmentation {
 
 MotionSegmentation segment_motion(const MeasuredSeries& series, const SegmentationOptions& options = {});
 
+// The stretches between passes: the holds and what the segmentation leaves
+// outside both (the load ramps of a protocol that changes the load at rest),
+// as [first, last], each without margin_s at either end (the stop's and the
+// start's transients); the ones left with fewer than min_samples dropped.
+std::vector<Hold> rest_stretches(const MeasuredSeries& series, const MotionSegmentation& m, double margin_s,
+                                 std::size_t min_samples);
+
 // Robust noise level of a sampled signal from its second differences
 // (median absolute deviation), i.e. of the part that is white at the sample rate.
 double white_noise_rms(const std::vector<double>& y);

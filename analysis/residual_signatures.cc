@@ -585,14 +585,17 @@ Signature load_dependence(const Context& c) {
 Signature tilt_offset(const Context& c) {
   const Effect e = Effect::kTiltOffset;
   if (!c.s.has_normal()) return not_applicable(e, "no normal-load channel (a constant offset is part of the base model)");
-  // (a) at rest: the residual follows the load during holds with a load change.
+  // (a) at rest: the residual follows the load where it changes between
+  // passes (the holds and the load ramps, rest_stretches; the fit mask leaves
+  // the holds out when each pass starts from the force at rest, and the
+  // segmentation the ramps, so the fit set never holds them).
   std::vector<double> slopes, slope_t;
   std::vector<double> px, py;
-  for (const Hold& h : c.m.holds) {
+  for (const Hold& h : rest_stretches(c.s, c.m, 0.2, 10)) {
     double nmin = HUGE_VAL, nmax = -HUGE_VAL;
     Design d;
     for (std::size_t i = h.first; i <= h.last; ++i) {
-      if (!c.in.in_fit[i]) continue;
+      if (c.m.heldout[i]) continue;
       nmin = std::min(nmin, c.s.normal_force_n[i]);
       nmax = std::max(nmax, c.s.normal_force_n[i]);
       d.add_row({1.0, c.s.normal_force_n[i]}, c.r[i]);
