@@ -506,24 +506,30 @@ std::string base_objection(const ModelData& data, const FitResult& fit) {
   return out;
 }
 
-// Per held-out block: did the candidate lower the block's squared error?
+// Per held-out block: did the candidate lower the block's squared error? Each
+// block votes with the candidate's squared change of the model force there:
+// where the candidate changes nothing its error moves at random, and an
+// effect that acts at few places (a lag at the onsets, the dwell peaks) was
+// outvoted by the passes it does not touch (counted by samples, the 10 s
+// slow passes held most of them; on the independent generator's lag files of
+// seeds 2 and 10, 74 % against the 75 % bar).
 double block_agreement(const MotionSegmentation& m, const std::vector<char>& heldout, const std::vector<double>& measured,
                        const std::vector<double>& before, const std::vector<double>& after) {
   std::map<int, std::pair<double, double>> sse;
-  std::map<int, std::size_t> count;
+  std::map<int, double> weight;
   for (std::size_t i = 0; i < measured.size(); ++i) {
     if (!heldout[i]) continue;
     const double eb = measured[i] - before[i], ea = measured[i] - after[i];
     auto& s = sse[m.block_of[i]];
     s.first += eb * eb;
     s.second += ea * ea;
-    ++count[m.block_of[i]];
+    weight[m.block_of[i]] += (after[i] - before[i]) * (after[i] - before[i]);
   }
   double improved = 0, total = 0;
   for (const auto& [block, s] : sse) {
-    const double n = static_cast<double>(count[block]);
-    total += n;
-    if (s.second < s.first) improved += n;
+    const double w = weight[block];
+    total += w;
+    if (s.second < s.first) improved += w;
   }
   return total > 0 ? improved / total : 0.0;
 }
@@ -1025,7 +1031,7 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
       if (objection.empty()) objection = rest_objections[j];
       trial.passed = trial.heldout_gain >= options.min_heldout_gain && trial.block_agreement >= options.min_block_agreement &&
                      trial.delta_aicc <= options.max_delta_aicc && objection.empty();
-      trial.verdict = fmt("held-out RMS %+.2f %%, %.0f %% of held-out samples in improved passes, dAICc = %.1f (%.1f with n_eff)",
+      trial.verdict = fmt("held-out RMS %+.2f %%, %.0f %% of its held-out change in improved passes, dAICc = %.1f (%.1f with n_eff)",
                           -100 * trial.heldout_gain, 100 * trial.block_agreement, trial.delta_aicc, trial.delta_aicc_effective);
       if (!objection.empty()) trial.verdict += "; " + objection;
       if (e == Effect::kRateState) trial.verdict += fit.params.structure.rate_state_slip_law ? "; slip law (Ruina)" : "; ageing law (Dieterich)";

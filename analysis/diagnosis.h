@@ -12,8 +12,9 @@
 // scales, then everything together). A candidate is accepted only if it
 // clearly helps on the held-out passes:
 //   - held-out RMS error at least min_heldout_gain lower,
-//   - on at least min_block_agreement of the held-out samples' blocks
-//     (passes), sample-weighted,
+//   - on the held-out blocks (passes) holding at least min_block_agreement
+//     of its change, each block weighted by the candidate's squared change
+//     of the model force there,
 //   - and AICc lower by at least -max_delta_aicc. AICc counts every fit
 //     sample; with autocorrelated residuals that overstates the evidence, so
 //     the AICc change with the effective sample count (from the residual's
@@ -138,7 +139,7 @@ struct CandidateTrial {
   double delta_aicc_effective = 0;   // with the effective sample count
   double heldout_rms_before = 0, heldout_rms_after = 0;
   double heldout_gain = 0;       // 1 - after / before
-  double block_agreement = 0;    // share of held-out samples in blocks that improved
+  double block_agreement = 0;    // share of the held-out change (sum of squares) in blocks that improved
   bool passed = false;
   std::string verdict;
   std::vector<ParamEstimate> parameters;  // the effect's, from the trial fit
