@@ -49,6 +49,14 @@ def diagnose(tribo_fit, work, effect, seed=3, extra=()):
     return json.loads(r.stdout)
 
 
+def check_first(tribo_fit, work, effect, seed, failures):
+    """The injected effect is accepted first on the file of this seed."""
+    accepted = [a["name"] for a in diagnose(tribo_fit, work, effect, seed)["accepted_effects"]]
+    if accepted[:1] != [effect]:
+        failures.append(f"{effect} seed {seed}: accepted {accepted}, {effect} not first")
+    print(f"{effect}, seed {seed}: accepted {accepted}")
+
+
 def main():
     tribo_fit, work = sys.argv[1:3]
     failures = []
@@ -109,10 +117,7 @@ def main():
     if not first or first[0]["name"] != "position_periodic" or not length or abs(length / period - 1) > 0.05:
         failures.append(f"position_periodic seed 7 (period {period:.3g} m): accepted {[a['name'] for a in report['accepted_effects']]}, length {length}")
     print(f"position_periodic, seed 7: period {period:.3g} m, found {length}")
-    accepted = [a["name"] for a in diagnose(tribo_fit, work, "dwell_stiction", 1)["accepted_effects"]]
-    if accepted[:1] != ["dwell_stiction"]:
-        failures.append(f"dwell_stiction seed 1: accepted {accepted}, dwell_stiction not first")
-    print(f"dwell_stiction, seed 1: accepted {accepted}")
+    check_first(tribo_fit, work, "dwell_stiction", 1, failures)
     # Seed 3: the lowest-residual base start was a Stribeck spike (mu_s 3.5e12
     # at 15 nm/s) that took the dwell peaks up; the base keeps a physical one.
     report = diagnose(tribo_fit, work, "dwell_stiction", 3)
@@ -151,23 +156,13 @@ def main():
     if "tilt_offset" in accepted or "load changes at rest" not in tilt.get("reason", ""):
         failures.append(f"drift seed 5: accepted {accepted}; tilt_offset: {tilt.get('reason', '')[:160]}")
     print(f"drift, seed 5: accepted {accepted}; tilt_offset {tilt.get('reason', '')[:100]}")
-    accepted = [a["name"] for a in diagnose(tribo_fit, work, "drift", 2)["accepted_effects"]]
-    if accepted[:1] != ["drift"]:
-        failures.append(f"drift seed 2: accepted {accepted}, drift not first")
-    print(f"drift, seed 2: accepted {accepted}")
-    accepted = [a["name"] for a in diagnose(tribo_fit, work, "tilt_offset", 2)["accepted_effects"]]
-    if accepted[:1] != ["tilt_offset"]:
-        failures.append(f"tilt_offset seed 2: accepted {accepted}, tilt_offset not first")
-    print(f"tilt_offset, seed 2: accepted {accepted}")
+    check_first(tribo_fit, work, "drift", 2, failures)
+    check_first(tribo_fit, work, "tilt_offset", 2, failures)
 
     # A lag acts at the few onsets; counted by samples, the held-out passes it
     # does not touch outvoted it (74 % against the 75 % bar on seed 2). Each
     # pass now votes with the candidate's change there.
-    report = diagnose(tribo_fit, work, "frictional_lag", 2)
-    accepted = [a["name"] for a in report["accepted_effects"]]
-    if accepted[:1] != ["frictional_lag"]:
-        failures.append(f"frictional_lag seed 2: accepted {accepted}, frictional_lag not first")
-    print(f"frictional_lag, seed 2: accepted {accepted}")
+    check_first(tribo_fit, work, "frictional_lag", 2, failures)
     if failures:
         sys.exit("; ".join(failures))
 
