@@ -164,14 +164,12 @@ std::vector<double> drift_knots(const MeasuredSeries& s, const MotionSegmentatio
   }
   const double t0 = s.time_s.front(), t1 = std::max(s.time_s.back(), t0 + 1e-30);
   const bool quantiles = fitted.size() >= 4 * static_cast<std::size_t>(intervals);
-  std::vector<double> knots(static_cast<std::size_t>(intervals) + 1);
-  for (int k = 0; k <= intervals; ++k) {
-    knots[static_cast<std::size_t>(k)] =
-        quantiles ? fitted[fitted.size() * static_cast<std::size_t>(k) / static_cast<std::size_t>(intervals)]
-                  : t0 + (t1 - t0) * k / intervals;
+  std::vector<double> knots{t0};
+  for (int k = 1; k < intervals; ++k) {
+    knots.push_back(quantiles ? fitted[fitted.size() * static_cast<std::size_t>(k) / static_cast<std::size_t>(intervals)]
+                              : t0 + (t1 - t0) * k / intervals);
   }
-  knots.front() = t0;
-  knots.back() = t1;
+  knots.push_back(t1);
   return knots;
 }
 
