@@ -272,11 +272,10 @@ double longest_pass_m(const MeasuredSeries& s, const MotionSegmentation& m) {
 // 0.014-0.02; the loading ramps at rest showed none of it).
 std::string tilt_rest_objection(const ModelData& data, const std::vector<double>& model, const FitResult& fit) {
   const MeasuredSeries& s = data.series;
-  const int k = fit.params.index("tilt_tan");
-  if (k < 0 || !s.has_normal()) return {};
+  if (fit.params.index("tilt_tan") < 0 || !s.has_normal()) return {};
   const double tan_fit = fit.params.value("tilt_tan");
   Design rest;
-  int holds = 0;
+  int stretches = 0;
   for (const Hold& h : rest_stretches(s, data.motion, 0.2, 20)) {
     double nmin = HUGE_VAL, nmax = -HUGE_VAL;
     for (std::size_t i = h.first; i <= h.last; ++i) {
@@ -293,9 +292,9 @@ std::string tilt_rest_objection(const ModelData& data, const std::vector<double>
     mean_n /= count;
     mean_r /= count;
     for (std::size_t i = h.first; i <= h.last; ++i) rest.add_row({s.normal_force_n[i] - mean_n}, s.force_n[i] - model[i] - mean_r);
-    ++holds;
+    ++stretches;
   }
-  if (holds == 0) return {};
+  if (stretches == 0) return {};
   const Regression reg = rest.fit();
   if (!reg.ok) return {};
   // The reading at rest follows the load by tan_fit + slope; only a shortfall
@@ -308,7 +307,7 @@ std::string tilt_rest_objection(const ModelData& data, const std::vector<double>
   return fmt("the load changes at rest contradict it: the reading follows the load there by dF/dN = %.3g "
              "(residual slope t = %.1f, over %.0f stretches between passes), under half the fitted tilt_tan %.3g; "
              "a tilt acts at rest as in sliding",
-             at_rest, t, holds, tan_fit);
+             at_rest, t, stretches, tan_fit);
 }
 
 std::string out_of_bounds(const ModelData& data, const FitResult& fit, Effect effect) {
