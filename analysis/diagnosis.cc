@@ -860,7 +860,8 @@ BaseContactChoice choose_base_contact(const ModelData& data, const DiagnosisOpti
 // models with and without the servo's yield, against errors of 1-2 %).
 void add_motion_systematic(const ModelData& primary, const MeasuredSeries& alternative, const MotionSegmentation& motion,
                            const std::vector<char>& in_fit, const DiagnosisOptions& options, FitResult& fit) {
-  const ModelData data(alternative, motion);
+  ModelData data(alternative, motion);
+  data.set_drift_intervals(primary.drift_intervals());
   const FitResult refit = fit_model(data, fit.params, in_fit, options.lugre.fit);
   if (!std::isfinite(refit.rss) || refit.estimates.size() != fit.estimates.size()) return;
   // A refit that leaves the base model's physical bounds where the fit kept
@@ -904,7 +905,7 @@ std::vector<RejectedEffect> motion_model_refusals(const std::vector<AcceptedEffe
 Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options) {
   Diagnosis out;
   out.motion = segment_motion(series, options.segmentation);
-  const ModelData data(series, out.motion);
+  ModelData data(series, out.motion);
   std::vector<char> in_fit = invert(out.motion.heldout);
   std::vector<char> heldout(out.motion.heldout.begin(), out.motion.heldout.end());
   const std::vector<char> everything(series.size(), 1);
@@ -928,6 +929,11 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
                 error_stats(series.force_n, current.model, everything)};
 
   if (options.choose_base_contact) out.base_contact = choose_base_contact(data, options, in_fit, heldout, current);
+  if (std::find(options.candidates.begin(), options.candidates.end(), Effect::kDrift) != options.candidates.end()) {
+    std::vector<double> residual(series.size());
+    for (std::size_t i = 0; i < series.size(); ++i) residual[i] = series.force_n[i] - current.model[i];
+    out.drift_knots = choose_drift_intervals(data, residual, in_fit);
+  }
 
   std::map<Effect, RejectedEffect> status;
   for (Effect e : options.candidates) {

@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "analysis/detectability.h"
+#include "analysis/drift_knot_choice.h"
 #include "analysis/effect.h"
 #include "analysis/friction_model.h"
 #include "analysis/lugre_fit.h"
@@ -165,6 +166,7 @@ struct Diagnosis {
   LugreFit base;
   std::optional<PassStartChoice> pass_start;
   std::optional<BaseContactChoice> base_contact;
+  std::optional<DriftKnotChoice> drift_knots;  // when drift is a candidate
   FitResult final_fit;
   std::vector<AcceptedEffect> accepted;
   std::vector<RejectedEffect> rejected;

@@ -113,6 +113,14 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
         {"heldout_pass_rms_state_from_rest", d.pass_start->heldout_rms_state_from_rest}};
     if (!d.pass_start->objection.empty()) j["base_model"]["pass_start_state"]["other_not_physical"] = d.pass_start->objection;
   }
+  if (d.drift_knots) {
+    Json tried = Json::array();
+    for (const auto& [k, rms] : d.drift_knots->cv_rms) tried.push_back({{"intervals", k}, {"cv_rms", rms}});
+    j["drift_knots"] = {{"intervals", d.drift_knots->intervals},
+                        {"default_intervals", d.drift_knots->default_intervals},
+                        {"chosen_by", "leave-one-fitted-pass-out cross-validation of the base residual"},
+                        {"tried", std::move(tried)}};
+  }
 
   Json& accepted = j["accepted_effects"] = Json::array();
   for (const auto& a : d.accepted) {
@@ -210,6 +218,10 @@ std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
   }
   for (const auto& p : d.base.result.estimates) {
     line("  %-20s %12.5g +- %-10.3g %s%s", p.name.c_str(), p.value, p.std_error, p.unit.c_str(), p.determined ? "" : "  (not determined)");
+  }
+  if (d.drift_knots) {
+    line("drift candidate's spline: %d knot intervals, chosen by cross-validation over the fitted passes (default %d)",
+         d.drift_knots->intervals, d.drift_knots->default_intervals);
   }
   for (const auto& a : d.accepted) {
     line("accepted %s: %s", std::string(effect_name(a.effect)).c_str(), a.trial.verdict.c_str());

@@ -196,6 +196,12 @@ double ModelData::drift_spline_coordinate(double time_s) const {
   return (static_cast<double>(j) + std::clamp(u, 0.0, 1.0)) / static_cast<double>(k.size() - 1);
 }
 
+void ModelData::set_drift_intervals(int intervals) {
+  const int n = std::clamp(intervals, 3, kMaxDriftFunctions - 3);
+  drift_functions = n + 3;
+  drift_knot_time_s = drift_knots(series, motion, at_rest, n);
+}
+
 double param_theta(const ParamSpec& spec, double value) {
   switch (spec.transform) {
     case Transform::kLog: return std::log(value / spec.scale);
@@ -295,8 +301,7 @@ ModelData::ModelData(const MeasuredSeries& s, const MotionSegmentation& m) : ser
                                            : (s.position_m[i] - s.position_m[i - 1]) / (s.time_s[i] - s.time_s[i - 1]);
   }
   const double t0 = s.time_s.front(), span = std::max(s.time_s.back() - t0, 1e-30);
-  drift_functions = std::clamp(static_cast<int>(m.passes.size()) / 2, 3, 12) + 3;
-  drift_knot_time_s = drift_knots(s, m, at_rest, drift_functions - 3);
+  set_drift_intervals(std::clamp(static_cast<int>(m.passes.size()) / 2, 3, 12));
   normalised_time.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
     const double u = (s.time_s[i] - t0) / span;

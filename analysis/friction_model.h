@@ -91,13 +91,17 @@ struct ModelData {
   double speed_floor = 1e-3;   // log-velocity regularisation (1 % of speed_ref)
   double normal_ref = 1;       // median normal load in contact
   double mass_scale = 1;       // force_scale / typical |a|
-  // Drift: a cubic B-spline in time over the record, one knot interval per
-  // two passes (3 to 12 intervals), the knots at quantiles of the fitted
+  // Drift: a cubic B-spline in time over the record, by default one knot
+  // interval per two passes (3 to 12 intervals), the knots at quantiles of the fitted
   // samples' times (friction_model.cc); the basis functions sum to one, so
   // the offset is held fixed while drift is in the model. Also the
   // normalised time u in [-1, 1].
   int drift_functions = 6;
   std::vector<double> drift_knot_time_s;
+  // Sets the drift spline to this many knot intervals (3 to 12), the knots
+  // placed by the rule above (analysis/drift_knot_choice.h chooses the count).
+  void set_drift_intervals(int intervals);
+  int drift_intervals() const { return drift_functions - 3; }
   // Time mapped to [0, 1], piecewise linearly, knot k to k / intervals.
   double drift_spline_coordinate(double time_s) const;
   std::vector<double> normalised_time;
