@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 
 namespace tribo::analysis {
 
@@ -98,6 +99,16 @@ double reference_strength(const ModelParams& extended, Effect e) {
 
 }  // namespace
 
+double normal_quantile(double p) {
+  double lo = -40, hi = 40;  // P(N < z) = erfc(-z / sqrt 2) / 2 grows with z: bisection to the last bit
+  for (int i = 0; i < 200 && lo < hi; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    if (mid == lo || mid == hi) break;
+    (0.5 * std::erfc(-mid / std::numbers::sqrt2) < p ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
 DetectabilityBasis::DetectabilityBasis(const ModelData& data, const FitResult& current,
                                        const std::vector<double>& current_model, const std::vector<char>& in_fit,
                                        const std::vector<char>& heldout)
@@ -153,12 +164,15 @@ std::optional<DetectableStrength> DetectabilityBasis::minimum_detectable_strengt
   const ModelParams extended = with_effect(current_.params, effect, data_);
   int k_effect = 0;
   for (const auto& spec : extended.specs) k_effect += spec.effect == effect && !spec.fixed;
-  // The visible power each gate needs (see the header).
+  // The visible power each gate needs (see the header); the t statistics'
+  // expected values must clear their thresholds by the margin.
+  const double margin = normal_quantile(criteria.detection_probability);
+  const double strength_z = criteria.min_strength_z + margin, score_t = criteria.min_score_t + margin;
   const double g = criteria.min_heldout_gain;
   const double need_heldout = sigma_heldout_ * sigma_heldout_ * (1.0 / ((1.0 - g) * (1.0 - g)) - 1.0);
   const double need_aicc = sigma_fit_ * sigma_fit_ *
                            std::expm1((2.0 * k_effect - criteria.max_delta_aicc) / static_cast<double>(n_fit_));
-  const double need_strength = sigma_fit_ * sigma_fit_ * criteria.min_strength_z * criteria.min_strength_z / n_effective_;
+  const double need_strength = sigma_fit_ * sigma_fit_ * strength_z * strength_z / n_effective_;
   const double need_fit = std::max(need_aicc, need_strength);
   const double reference = reference_strength(extended, effect);
   DetectableStrength out;
@@ -166,6 +180,7 @@ std::optional<DetectableStrength> DetectabilityBasis::minimum_detectable_strengt
   const std::string unit_of = effect == Effect::kDrift ? "drift_1" : axis->parameter;
   out.unit = extended.specs[static_cast<std::size_t>(extended.index(unit_of))].unit;
   out.axis = axis->words;
+  out.detection_probability = criteria.detection_probability;
   out.searched_up_to = 1e4 * reference;
   out.value = std::numeric_limits<double>::infinity();
   // Secant steps on s: for a linear effect the power grows as s^2, so one
@@ -174,7 +189,7 @@ std::optional<DetectableStrength> DetectabilityBasis::minimum_detectable_strengt
   for (int step = 0; step < 12; ++step) {
     const Visible v = visible(extended, effect, s);
     // The score t grows as s, the powers as s^2: its ratio squared.
-    const double score_ratio = v.score_t > 0 ? (criteria.min_score_t / v.score_t) * (criteria.min_score_t / v.score_t) : HUGE_VAL;
+    const double score_ratio = v.score_t > 0 ? (score_t / v.score_t) * (score_t / v.score_t) : HUGE_VAL;
     const double ratio = std::max({v.power_heldout > 0 ? need_heldout / v.power_heldout : HUGE_VAL,
                                    v.power_fit > 0 ? need_fit / v.power_fit : HUGE_VAL, score_ratio});
     if (!std::isfinite(ratio)) break;  // nothing of it survives the refit: not identifiable

@@ -25,8 +25,15 @@
 // is screened out at strengths where the fit gates alone would pass it (the
 // independent generator's velocity strengthening: score t 1.4-2.0 at a
 // strength the fit gates put above the minimum). The minimum detectable strength is
-// the s where all just hold, found by secant steps on s (r grows as s for a
-// linear effect; nonlinear ones take a few more steps). The block-agreement
+// the s where all hold with the detection probability asked for, found by
+// secant steps on s (r grows as s for a linear effect; nonlinear ones take a
+// few more steps). The two t statistics (score t, strength) scatter about
+// their expected values with unit standard deviation, so where the expected
+// t only equals its threshold the effect is found one time in two; their
+// expected values must exceed the thresholds by the normal quantile of the
+// detection probability (1.28 for 90 %: the usual minimum detectable effect
+// of a power analysis). The held-out gain and the AICc of a large record
+// scatter little and are taken at their expected values. The block-agreement
 // gate and the signature's own test (the screening's other way in) are not
 // modelled.
 #pragma once
@@ -50,6 +57,7 @@ struct DetectableStrength {
   double value = 0;         // minimum detectable strength; +inf: none up to searched_up_to
   double searched_up_to = 0;
   std::string axis;         // how the strength is set, in words
+  double detection_probability = 0;  // with which the gates pass at value
 };
 
 struct DetectabilityCriteria {
@@ -57,7 +65,11 @@ struct DetectabilityCriteria {
   double max_delta_aicc = -10.0;
   double min_strength_z = 3.0;
   double min_score_t = 2.0;  // the screening's score test (DiagnosisOptions: score_t_threshold x min_signature_strength)
+  double detection_probability = 0.9;
 };
+
+// z with P(N(0, 1) < z) = p, for p in (0, 1).
+double normal_quantile(double p);
 
 // What every effect's question shares: the final model's Jacobian on a
 // subsample of the fit and held-out rows, factorised once.

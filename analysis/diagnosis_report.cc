@@ -142,7 +142,8 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
                                       {"unit", m->unit},
                                       {"value", std::isfinite(m->value) ? Json(m->value) : Json(nullptr)},
                                       {"searched_up_to", m->searched_up_to},
-                                      {"axis", m->axis}};
+                                      {"axis", m->axis},
+                                      {"detection_probability", m->detection_probability}};
     }
     rejected.push_back(std::move(effect));
   }
@@ -174,8 +175,9 @@ std::string minimum_detectable_text(const DetectableStrength& m) {
   if (!std::isfinite(m.value)) {
     return fmt::sprintf("not identifiable from this record at any %s up to %.3g %s", m.parameter, m.searched_up_to, m.unit);
   }
-  return fmt::sprintf("not identifiable from this record below %s = %.3g %s (minimum detectable strength; %s)", m.parameter,
-                      m.value, m.unit, m.axis);
+  return fmt::sprintf("not reliably identifiable from this record below %s = %.3g %s (minimum detectable strength: found "
+                      "with %.0f %% probability there; %s)",
+                      m.parameter, m.value, m.unit, 100 * m.detection_probability, m.axis);
 }
 
 std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
