@@ -929,7 +929,10 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
                 error_stats(series.force_n, current.model, everything)};
 
   if (options.choose_base_contact) out.base_contact = choose_base_contact(data, options, in_fit, heldout, current);
-  if (std::find(options.candidates.begin(), options.candidates.end(), Effect::kDrift) != options.candidates.end()) {
+  // The knots are the drift candidate's: chosen before it is fitted, never
+  // under a base model that carries a drift already.
+  if (std::find(options.candidates.begin(), options.candidates.end(), Effect::kDrift) != options.candidates.end() &&
+      !current.fit.params.structure.has(Effect::kDrift)) {
     std::vector<double> residual(series.size());
     for (std::size_t i = 0; i < series.size(); ++i) residual[i] = series.force_n[i] - current.model[i];
     out.drift_knots = choose_drift_intervals(data, residual, in_fit);
