@@ -109,6 +109,27 @@ double normal_quantile(double p) {
   return 0.5 * (lo + hi);
 }
 
+void raise_to_fitted_error(DetectableStrength& figure, Effect effect, const std::vector<ParamEstimate>& trial_parameters,
+                           const DetectabilityCriteria& criteria) {
+  switch (effect) {
+    case Effect::kDwellStiction:
+    case Effect::kVelocityStrengthening:
+    case Effect::kLoadDependence:
+    case Effect::kDirectionAsymmetry:
+    case Effect::kTiltOffset: break;
+    default: return;
+  }
+  if (!std::isfinite(figure.value)) return;
+  for (const ParamEstimate& e : trial_parameters) {
+    if (e.name != figure.parameter || e.fixed || !(std::isfinite(e.std_error) && e.std_error > 0)) continue;
+    const double needed = (criteria.min_strength_z + normal_quantile(criteria.detection_probability)) * e.std_error;
+    if (needed > figure.value) {
+      figure.value = needed;
+      figure.from_fitted_error = true;
+    }
+  }
+}
+
 DetectabilityBasis::DetectabilityBasis(const ModelData& data, const FitResult& current,
                                        const std::vector<double>& current_model, const std::vector<char>& in_fit,
                                        const std::vector<char>& heldout)

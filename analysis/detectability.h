@@ -58,6 +58,9 @@ struct DetectableStrength {
   double searched_up_to = 0;
   std::string axis;         // how the strength is set, in words
   double detection_probability = 0;  // with which the gates pass at value
+  // value was raised to what the candidate's own fitted standard error needs
+  // (raise_to_fitted_error).
+  bool from_fitted_error = false;
 };
 
 struct DetectabilityCriteria {
@@ -70,6 +73,21 @@ struct DetectabilityCriteria {
 
 // z with P(N(0, 1) < z) = p, for p in (0, 1).
 double normal_quantile(double p);
+
+// Where the candidate was fitted in the last round (against the final model:
+// an earlier round's model lacked an effect accepted since, and its larger
+// residual would inflate the error), its fit measured the
+// strength's standard error on this record, with whatever the nonlinear base
+// refit absorbs (which the linearised figure underestimates: the
+// independent generator's velocity strengthening at three times its default,
+// figures of 0.0006-0.001 against fitted errors of 0.0011-0.0016). The
+// strength gate then needs at least (min_strength_z + margin) times that
+// error: figure raised to it when lower. Only for effects whose force is
+// linear in their strength (dwell_dFs, log_velocity_coeff, load_exponent,
+// asym_levels, tilt_tan), whose error does not depend on the strength fitted;
+// trial_parameters: the effect's parameters from its last trial fit.
+void raise_to_fitted_error(DetectableStrength& figure, Effect effect, const std::vector<ParamEstimate>& trial_parameters,
+                           const DetectabilityCriteria& criteria);
 
 // What every effect's question shares: the final model's Jacobian on a
 // subsample of the fit and held-out rows, factorised once.

@@ -1088,7 +1088,12 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
     const DetectabilityCriteria criteria{options.min_heldout_gain, options.max_delta_aicc, options.min_strength_z,
                                          options.score_t_threshold * options.min_signature_strength};
     parallel_for(out.rejected.size(), options.threads, [&](std::size_t j) {
-      out.rejected[j].minimum_detectable = basis.minimum_detectable_strength(out.rejected[j].effect, criteria);
+      RejectedEffect& r = out.rejected[j];
+      r.minimum_detectable = basis.minimum_detectable_strength(r.effect, criteria);
+      // A trial of an earlier round was fitted against a model that lacked an
+      // effect accepted since: its error is not this model's.
+      const bool on_final = r.last_trial && r.last_trial->round == static_cast<int>(out.accepted.size());
+      if (r.minimum_detectable && on_final) raise_to_fitted_error(*r.minimum_detectable, r.effect, r.last_trial->parameters, criteria);
     });
   }
 

@@ -143,7 +143,9 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
                                       {"value", std::isfinite(m->value) ? Json(m->value) : Json(nullptr)},
                                       {"searched_up_to", m->searched_up_to},
                                       {"axis", m->axis},
-                                      {"detection_probability", m->detection_probability}};
+                                      {"detection_probability", m->detection_probability},
+                                      {"bound_by", m->from_fitted_error ? "the candidate's fitted standard error"
+                                                                        : "the linearised gates"}};
     }
     rejected.push_back(std::move(effect));
   }
@@ -176,8 +178,9 @@ std::string minimum_detectable_text(const DetectableStrength& m) {
     return fmt::sprintf("not identifiable from this record at any %s up to %.3g %s", m.parameter, m.searched_up_to, m.unit);
   }
   return fmt::sprintf("not reliably identifiable from this record below %s = %.3g %s (minimum detectable strength: found "
-                      "with %.0f %% probability there; %s)",
-                      m.parameter, m.value, m.unit, 100 * m.detection_probability, m.axis);
+                      "with %.0f %% probability there; %s%s)",
+                      m.parameter, m.value, m.unit, 100 * m.detection_probability, m.axis,
+                      m.from_fitted_error ? "; from the candidate's fitted standard error" : "");
 }
 
 std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
