@@ -1,7 +1,6 @@
 #include "analysis/drift_knot_choice.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <map>
 #include <vector>
@@ -66,7 +65,7 @@ DriftKnotChoice choose_drift_intervals(ModelData& data, const std::vector<double
     const int functions = data.drift_functions;
     Moments total(functions);
     std::map<int, Moments> folds;
-    std::array<double, 16> x{};
+    std::vector<double> x(static_cast<std::size_t>(functions));
     for (std::size_t i = 0; i < residual.size(); ++i) {
       if (!in_fit[i] || !std::isfinite(residual[i])) continue;
       data.drift_basis_at(i, x.data());

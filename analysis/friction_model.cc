@@ -301,7 +301,7 @@ ModelData::ModelData(const MeasuredSeries& s, const MotionSegmentation& m) : ser
                                            : (s.position_m[i] - s.position_m[i - 1]) / (s.time_s[i] - s.time_s[i - 1]);
   }
   const double t0 = s.time_s.front(), span = std::max(s.time_s.back() - t0, 1e-30);
-  set_drift_intervals(std::clamp(static_cast<int>(m.passes.size()) / 2, 3, 12));
+  set_drift_intervals(static_cast<int>(m.passes.size()) / 2);
   normalised_time.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
     const double u = (s.time_s[i] - t0) / span;

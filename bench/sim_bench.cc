@@ -65,11 +65,12 @@ void BM_InstrumentAccurate(benchmark::State& state) {
 void BM_InstrumentCoarse(benchmark::State& state) {
   run_scratch(state, 1.2, tribo::v1::INTEGRATION_MIDPOINT, default_config(kPlainLugre));
 }
+const char* const kDissertationFit = TRIBO_SOURCE_DIR "/config/instruments/dissertation_fit.textproto";
 // The contact fitted to the dissertation (issue 14): rate-and-state, elasto-plastic
 // presliding and dwell on top of LuGre, Table 5.1's loop gains.
 void BM_InstrumentDissertationFit(benchmark::State& state) {
   run_scratch(state, 1.0, tribo::v1::INTEGRATION_RK4,
-              default_config(TRIBO_SOURCE_DIR "/config/instruments/dissertation_fit.textproto"));
+              default_config(kDissertationFit));
 }
 
 // The new law's own cost (issue 14 limits it to 20 %): the fitted contact
@@ -88,7 +89,6 @@ tribo::v1::DaemonConfig with_new_law(tribo::v1::DaemonConfig config, const tribo
   friction.set_breakaway_ratio(fit.sim().friction().breakaway_ratio());
   return config;
 }
-const char* const kDissertationFit = TRIBO_SOURCE_DIR "/config/instruments/dissertation_fit.textproto";
 void BM_InstrumentDissertationFitWithoutNewLaw(benchmark::State& state) {
   run_scratch(state, 1.0, tribo::v1::INTEGRATION_RK4, without_new_law(default_config(kDissertationFit)));
 }
