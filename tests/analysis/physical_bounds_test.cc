@@ -48,6 +48,28 @@ TEST(PhysicalBounds, RejectsUnresolvedOrImpossibleValuesWithTheReason) {
             std::string::npos);
 }
 
+// The strength bounds compare with the friction level, not with the static
+// level alone: a fit that leaves its Stribeck region unsampled can put mu_s
+// far below mu_c (the independent generator, velocity strengthening at three
+// times its default, seed 10: mu_s 1e-4 beside mu_c 0.12), and half of mu_s
+// then refused a strengthening that cut the held-out error by 34 %.
+TEST(PhysicalBounds, StrengthBoundsFollowTheFrictionLevelWhenTheStaticLevelCollapses) {
+  const Fixture f;
+  const ModelData data(f.series, f.motion);
+  auto collapsed = [&](Effect effect, std::vector<double> values) {
+    FitResult fit = with(data, effect, std::move(values));
+    fit.params.set_value("mu_c", 0.12);
+    fit.params.set_value("mu_s", 1e-4);
+    return fit;
+  };
+  const Effect vs = Effect::kVelocityStrengthening;
+  EXPECT_EQ(out_of_bounds(data, collapsed(vs, {0.003}), vs), "");
+  EXPECT_NE(out_of_bounds(data, collapsed(vs, {0.07}), vs).find("more than half the friction level 0.12"), std::string::npos);
+  const Effect rs = Effect::kRateState;
+  EXPECT_EQ(out_of_bounds(data, collapsed(rs, {0.01, 0.008, 1e-5}), rs), "");
+  EXPECT_NE(out_of_bounds(data, collapsed(rs, {0.01, 0.07, 1e-5}), rs).find("half the friction level"), std::string::npos);
+}
+
 TEST(PhysicalBounds, BaseModelValuesPastTheirBoundsAreWarned) {
   const Fixture f;
   const ModelData data(f.series, f.motion);
