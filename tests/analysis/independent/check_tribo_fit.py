@@ -29,7 +29,9 @@ with the knot count chosen by the record; the tilt of the tilt seed-2 file is
 kept. The lag of the seed-2 file is named first (each held-out
 pass votes in the block agreement with the candidate's change there).
 Velocity strengthening at three times the default, fitted and not accepted on
-seed 7, has a minimum detectable strength above the injected one.
+seed 7, has a minimum detectable strength above the injected one; on seed 10,
+whose fit leaves the static level at 1e-4, it is named first (its strength
+bound is taken against the friction level).
 
 usage: check_tribo_fit.py TRIBO_FIT WORK_DIR
 """
@@ -52,9 +54,9 @@ def diagnose(tribo_fit, work, effect, seed=3, extra=(), strength=None):
     return json.loads(r.stdout)
 
 
-def check_first(tribo_fit, work, effect, seed, failures):
+def check_first(tribo_fit, work, effect, seed, failures, strength=None):
     """The injected effect is accepted first on the file of this seed."""
-    accepted = [a["name"] for a in diagnose(tribo_fit, work, effect, seed)["accepted_effects"]]
+    accepted = [a["name"] for a in diagnose(tribo_fit, work, effect, seed, strength=strength)["accepted_effects"]]
     if accepted[:1] != [effect]:
         failures.append(f"{effect} seed {seed}: accepted {accepted}, {effect} not first")
     print(f"{effect}, seed {seed}: accepted {accepted}")
@@ -185,6 +187,11 @@ def main():
         failures.append(f"velocity_strengthening x3 seed 7: figure {figure} below the injected {injected:.4g}"
                         f" while not accepted ({(vs or {}).get('reason', 'accepted')[:120]})")
     print(f"velocity_strengthening x3, seed 7: figure {figure}, injected {injected:.4g}")
+
+    # On seed 10 the fit leaves mu_s at 1e-4 beside mu_c 0.137; the bound on
+    # the strength, taken against the static level alone, refused a 34 %
+    # held-out gain. It is taken against the friction level now.
+    check_first(tribo_fit, work, "velocity_strengthening", 10, failures, strength=0.09)
     if failures:
         sys.exit("; ".join(failures))
 
