@@ -109,17 +109,24 @@ double normal_quantile(double p) {
   return 0.5 * (lo + hi);
 }
 
-void raise_to_fitted_error(DetectableStrength& figure, Effect effect, const std::vector<ParamEstimate>& trial_parameters,
-                           const DetectabilityCriteria& criteria) {
+bool strength_is_linear(Effect effect) {
   switch (effect) {
     case Effect::kDwellStiction:
     case Effect::kVelocityStrengthening:
     case Effect::kLoadDependence:
     case Effect::kDirectionAsymmetry:
-    case Effect::kTiltOffset: break;
-    default: return;
+    case Effect::kTiltOffset: return true;
+    default: return false;
   }
-  if (!std::isfinite(figure.value)) return;
+}
+
+ModelParams with_strength(const ModelParams& current, Effect effect, const ModelData& data, double s) {
+  return at_strength(with_effect(current, effect, data), effect, s);
+}
+
+void raise_to_fitted_error(DetectableStrength& figure, Effect effect, const std::vector<ParamEstimate>& trial_parameters,
+                           const DetectabilityCriteria& criteria) {
+  if (!strength_is_linear(effect) || !std::isfinite(figure.value)) return;
   for (const ParamEstimate& e : trial_parameters) {
     if (e.name != figure.parameter || e.fixed || !(std::isfinite(e.std_error) && e.std_error > 0)) continue;
     const double needed = (criteria.min_strength_z + normal_quantile(criteria.detection_probability)) * e.std_error;

@@ -38,6 +38,8 @@
 // modelled.
 #pragma once
 
+#include <limits>
+
 #include <optional>
 #include <string>
 #include <vector>
@@ -61,6 +63,13 @@ struct DetectableStrength {
   // value was raised to what the candidate's own fitted standard error needs
   // (raise_to_fitted_error).
   bool from_fitted_error = false;
+  // Injection and recovery (diagnosis.cc): the strength injected into the
+  // record (the figure before the check) and the share of it a refit found;
+  // NaN when not checked. Below 1 the figure was divided by the share
+  // (from_injection), or set to +inf below a tenth.
+  double injected_strength = std::numeric_limits<double>::quiet_NaN();
+  double recovered_share = std::numeric_limits<double>::quiet_NaN();
+  bool from_injection = false;
 };
 
 struct DetectabilityCriteria {
@@ -88,6 +97,15 @@ double normal_quantile(double p);
 // trial_parameters: the effect's parameters from its last trial fit.
 void raise_to_fitted_error(DetectableStrength& figure, Effect effect, const std::vector<ParamEstimate>& trial_parameters,
                            const DetectabilityCriteria& criteria);
+
+// The effects whose force is linear in their strength (dwell_dFs,
+// log_velocity_coeff, load_exponent, asym_levels, tilt_tan): their fitted
+// error does not depend on the strength fitted.
+bool strength_is_linear(Effect effect);
+
+// The model with the effect added at strength s along its axis (the
+// minimum detectable strength's axis; DetectableStrength::axis in words).
+ModelParams with_strength(const ModelParams& current, Effect effect, const ModelData& data, double s);
 
 // What every effect's question shares: the final model's Jacobian on a
 // subsample of the fit and held-out rows, factorised once.

@@ -144,8 +144,11 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
                                       {"searched_up_to", m->searched_up_to},
                                       {"axis", m->axis},
                                       {"detection_probability", m->detection_probability},
-                                      {"bound_by", m->from_fitted_error ? "the candidate's fitted standard error"
-                                                                        : "the linearised gates"}};
+                                      {"bound_by", m->from_injection      ? "injection and recovery"
+                                                   : m->from_fitted_error ? "the candidate's fitted standard error"
+                                                                          : "the linearised gates"},
+                                      {"injected_strength", std::isfinite(m->injected_strength) ? Json(m->injected_strength) : Json(nullptr)},
+                                      {"recovered_share", std::isfinite(m->recovered_share) ? Json(m->recovered_share) : Json(nullptr)}};
     }
     rejected.push_back(std::move(effect));
   }
@@ -174,13 +177,20 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
 }
 
 std::string minimum_detectable_text(const DetectableStrength& m) {
+  const std::string recovered = m.from_injection ? fmt::sprintf("; injected into the record at %.3g, a refit found %.0f %% of it",
+                                                                m.injected_strength, 100 * m.recovered_share)
+                                                  : "";
+  if (!std::isfinite(m.value) && m.from_injection) {
+    return fmt::sprintf("not identifiable from this record: %s injected at %.3g %s, a refit found %.0f %% of it", m.parameter,
+                        m.injected_strength, m.unit, 100 * m.recovered_share);
+  }
   if (!std::isfinite(m.value)) {
     return fmt::sprintf("not identifiable from this record at any %s up to %.3g %s", m.parameter, m.searched_up_to, m.unit);
   }
   return fmt::sprintf("not reliably identifiable from this record below %s = %.3g %s (minimum detectable strength: found "
-                      "with %.0f %% probability there; %s%s)",
+                      "with %.0f %% probability there; %s%s%s)",
                       m.parameter, m.value, m.unit, 100 * m.detection_probability, m.axis,
-                      m.from_fitted_error ? "; from the candidate's fitted standard error" : "");
+                      m.from_fitted_error && !m.from_injection ? "; from the candidate's fitted standard error" : "", recovered);
 }
 
 std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {

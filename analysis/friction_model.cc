@@ -241,7 +241,7 @@ std::size_t ModelParams::free_count() const {
   return static_cast<std::size_t>(std::count_if(specs.begin(), specs.end(), [](const ParamSpec& s) { return !s.fixed; }));
 }
 
-ModelData::ModelData(const MeasuredSeries& s, const MotionSegmentation& m) : series(s), motion(m) {
+ModelData::ModelData(const MeasuredSeries& s, const MotionSegmentation& m) : series(s), motion(m), fitted_force(&s.force_n) {
   const std::size_t n = s.size();
   std::vector<double> force, speed, accel, normal;
   for (std::size_t i = 0; i < n; ++i) {
@@ -460,6 +460,7 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
   using std::pow;
   using std::sin;
   const MeasuredSeries& s = d.series;
+  const std::vector<double>& measured_force = *d.fitted_force;
   const std::size_t n = s.size();
   const ModelStructure& st = p.structure;
   const Index k = index_of(p);
@@ -607,7 +608,7 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
     T sum = T(0.0 * sigma0);
     int count = 0;
     for (std::size_t j = i; j-- > 0 && d.at_rest[j] && (count == 0 || s.time_s[i - 1] - s.time_s[j] <= 0.025);) {
-      sum = sum + (s.force_n[j] - additive(j));
+      sum = sum + (measured_force[j] - additive(j));
       ++count;
     }
     const T z_rest = sum / (static_cast<double>(count) * sigma0);

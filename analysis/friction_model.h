@@ -109,6 +109,11 @@ struct ModelData {
   // computed when needed: a stored table would cost drift_functions doubles
   // per sample.
   void drift_basis_at(std::size_t i, double* out) const;
+  // The force the model is fitted to and a pass starts from: the record's,
+  // or a copy with an effect injected into it (injection and recovery of a
+  // minimum detectable strength, analysis/diagnosis.cc); never null after
+  // construction. Copy the data to point it elsewhere.
+  const std::vector<double>* fitted_force = nullptr;
   std::vector<double> drive_velocity;  // the measured velocity, zero inside holds
   std::vector<char> at_rest;           // inside a hold (motion segmentation)
   std::vector<double> step_velocity;   // mean velocity over (t[i-1], t[i]); [0] unused

@@ -131,9 +131,10 @@ struct ModelFunctor : Eigen::DenseFunctor<double> {
       return 0;
     }
     std::size_t r = 0;
+    const std::vector<double>& measured = *data.fitted_force;
     auto residual = [&](std::size_t i, const double& force, const double&) {
       if (!rows.selects(i, r)) return;
-      const double e = data.series.force_n[i] - force;
+      const double e = measured[i] - force;
       fvec[static_cast<Eigen::Index>(r++)] = std::isfinite(e) ? e : 1e30;
     };
     simulate_streamed<double>(data, params, full_theta(x), SampleSink<double>(residual));
@@ -239,12 +240,13 @@ void jacobian_with(const ModelData& data, const ModelParams& params, const std::
   if (model) model->resize(data.series.size());
   std::array<double, 16> drift_basis{};
   std::size_t r = 0;
+  const std::vector<double>& measured = *data.fitted_force;
   auto row = [&](std::size_t i, const T& force, const T&, bool evaluated) {
     if (model) (*model)[i] = value_of(force);
     if (!rows.selects(i, r)) return;
     if (residual) {
       // As ModelFunctor's plain evaluation.
-      const double e = data.series.force_n[i] - value_of(force);
+      const double e = measured[i] - value_of(force);
       (*residual)[static_cast<Eigen::Index>(r)] = std::isfinite(e) ? e : 1e30;
     }
     const auto rr = static_cast<Eigen::Index>(r);
@@ -331,9 +333,10 @@ double aicc(double rss, std::size_t n, double n_eff, std::size_t k) {
 
 double residual_sum_of_squares(const ModelData& data, const ModelParams& params, const std::vector<char>& in_fit) {
   double rss = 0;
+  const std::vector<double>& measured = *data.fitted_force;
   auto add = [&](std::size_t i, const double& force, const double&) {
     if (!in_fit[i]) return;
-    const double e = data.series.force_n[i] - force;
+    const double e = measured[i] - force;
     rss += std::isfinite(e) ? e * e : 1e60;
   };
   simulate_streamed<double>(data, params, params.theta, SampleSink<double>(add));

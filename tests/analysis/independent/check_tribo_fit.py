@@ -29,7 +29,8 @@ with the knot count chosen by the record; the tilt of the tilt seed-2 file is
 kept. The lag of the seed-2 file is named first (each held-out
 pass votes in the block agreement with the candidate's change there).
 Velocity strengthening at three times the default, fitted and not accepted on
-seed 7, has a minimum detectable strength above the injected one; on seed 10,
+seed 7, has a minimum detectable strength above the injected one, and on
+seed 8 by injection and recovery (the linearised figure was below it); on seed 10,
 whose fit leaves the static level at 1e-4, it is named first (its strength
 bound is taken against the friction level).
 
@@ -187,6 +188,19 @@ def main():
         failures.append(f"velocity_strengthening x3 seed 7: figure {figure} below the injected {injected:.4g}"
                         f" while not accepted ({(vs or {}).get('reason', 'accepted')[:120]})")
     print(f"velocity_strengthening x3, seed 7: figure {figure}, injected {injected:.4g}")
+
+    # On seed 8 the linearised figure and the fitted error (0.0069) lay below
+    # the injected 0.0084; injected into the record at that figure, a refit
+    # finds half of it, and the figure is divided by the share found.
+    report = diagnose(tribo_fit, work, "velocity_strengthening", 8, strength=0.09)
+    truth = json.load(open(os.path.join(work, "velocity_strengthening_seed8.json")))
+    injected = 0.09 * truth["contact"]["mu_c"]
+    vs = next((r for r in report["rejected_effects"] if r["name"] == "velocity_strengthening"), None)
+    m = (vs or {}).get("minimum_detectable") or {}
+    if vs is None or m.get("value") is None or m["value"] < injected or m.get("bound_by") != "injection and recovery":
+        failures.append(f"velocity_strengthening x3 seed 8: figure {m.get('value')} ({m.get('bound_by')}), injected {injected:.4g}"
+                        f" ({(vs or {}).get('reason', 'accepted')[:120]})")
+    print(f"velocity_strengthening x3, seed 8: figure {m.get('value')}, share found {m.get('recovered_share')}, injected {injected:.4g}")
 
     # On seed 10 the fit leaves mu_s at 1e-4 beside mu_c 0.137; the bound on
     # the strength, taken against the static level alone, refused a 34 %
