@@ -70,6 +70,8 @@ struct DetectableStrength {
   double injected_strength = std::numeric_limits<double>::quiet_NaN();
   double recovered_share = std::numeric_limits<double>::quiet_NaN();
   bool from_injection = false;
+  // Not empty: no figure is given (value +inf), and why (diagnosis.cc).
+  std::string withheld;
 };
 
 struct DetectabilityCriteria {

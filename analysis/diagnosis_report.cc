@@ -148,7 +148,8 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
                                                    : m->from_fitted_error ? "the candidate's fitted standard error"
                                                                           : "the linearised gates"},
                                       {"injected_strength", std::isfinite(m->injected_strength) ? Json(m->injected_strength) : Json(nullptr)},
-                                      {"recovered_share", std::isfinite(m->recovered_share) ? Json(m->recovered_share) : Json(nullptr)}};
+                                      {"recovered_share", std::isfinite(m->recovered_share) ? Json(m->recovered_share) : Json(nullptr)},
+                                      {"withheld", m->withheld.empty() ? Json(nullptr) : Json(m->withheld)}};
     }
     rejected.push_back(std::move(effect));
   }
@@ -180,6 +181,7 @@ std::string minimum_detectable_text(const DetectableStrength& m) {
   const std::string recovered = m.from_injection ? fmt::sprintf("; injected into the record at %.3g, a refit found %.0f %% of it",
                                                                 m.injected_strength, 100 * m.recovered_share)
                                                   : "";
+  if (!m.withheld.empty()) return "minimum detectable strength not given: " + m.withheld;
   if (!std::isfinite(m.value) && m.from_injection) {
     return fmt::sprintf("not identifiable from this record: %s injected at %.3g %s, a refit found %.0f %% of it", m.parameter,
                         m.injected_strength, m.unit, 100 * m.recovered_share);
