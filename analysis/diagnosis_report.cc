@@ -178,10 +178,10 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
 }
 
 std::string minimum_detectable_text(const DetectableStrength& m) {
+  if (!m.withheld.empty()) return "minimum detectable strength not given: " + m.withheld;
   const std::string recovered = m.from_injection ? fmt::sprintf("; injected into the record at %.3g, a refit found %.0f %% of it",
                                                                 m.injected_strength, 100 * m.recovered_share)
                                                   : "";
-  if (!m.withheld.empty()) return "minimum detectable strength not given: " + m.withheld;
   if (!std::isfinite(m.value) && m.from_injection) {
     return fmt::sprintf("not identifiable from this record: %s injected at %.3g %s, a refit found %.0f %% of it", m.parameter,
                         m.injected_strength, m.unit, 100 * m.recovered_share);
