@@ -128,6 +128,14 @@ std::vector<std::string> coupled_base_parameters(Effect effect) {
   }
 }
 
+// Whether an extension's fit re-partitions with the Stribeck curve's velocity
+// scale (coupled_base_parameters holds vs): a velocity dependence the base
+// curve took up can move into the extension, or out of it.
+bool repartitions_with_stribeck(Effect effect) {
+  const std::vector<std::string> coupled = coupled_base_parameters(effect);
+  return std::find(coupled.begin(), coupled.end(), "vs") != coupled.end();
+}
+
 // Fits the extension: its own parameters first (base fixed; a few starts for
 // time/length scales), then everything together from the best start.
 FitResult fit_extension_once(const ModelData& data, const ModelParams& current, Effect effect, const Signature& sig,
@@ -927,7 +935,7 @@ constexpr double kMinRecoveredShare = 0.1;
 // injected along the trial's sign, divides the figure when below 1. Only after a trial on the final model (its strength
 // is the baseline), and only for an extension that is its strength alone, in
 // which the force is linear, and whose fit re-partitions with the Stribeck
-// curve's velocity scale (coupled_base_parameters): velocity strengthening.
+// curve's velocity scale (repartitions_with_stribeck): velocity strengthening.
 // Where the extension shares only parameters the force is linear in (load
 // dependence, asymmetry, tilt), the linearised figure is the refit's (shares
 // found 0.97-1.02 on the generator's files); where it has time and length
@@ -936,11 +944,7 @@ constexpr double kMinRecoveredShare = 0.1;
 // -1.4 to 4.3 over 101 files).
 void check_by_injection(const ModelData& data, const Current& current, const std::vector<char>& in_fit,
                         const DiagnosisOptions& options, const CandidateTrial& trial, DetectableStrength& figure) {
-  const std::vector<std::string> coupled = coupled_base_parameters(trial.effect);
-  if (!strength_is_linear(trial.effect) || trial.parameters.size() != 1 ||
-      std::find(coupled.begin(), coupled.end(), "vs") == coupled.end()) {
-    return;
-  }
+  if (!strength_is_linear(trial.effect) || trial.parameters.size() != 1 || !repartitions_with_stribeck(trial.effect)) return;
   if (!std::isfinite(figure.value) || !(figure.value > 0)) return;
   const auto fitted = std::find_if(trial.parameters.begin(), trial.parameters.end(),
                                    [&](const ParamEstimate& e) { return e.name == figure.parameter; });
@@ -1160,8 +1164,7 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
     parallel_for(out.rejected.size(), options.threads, [&](std::size_t j) {
       RejectedEffect& r = out.rejected[j];
       r.minimum_detectable = basis.minimum_detectable_strength(r.effect, criteria);
-      const std::vector<std::string> coupled = coupled_base_parameters(r.effect);
-      if (r.minimum_detectable && past_bounds && std::find(coupled.begin(), coupled.end(), "vs") != coupled.end()) {
+      if (r.minimum_detectable && past_bounds && repartitions_with_stribeck(r.effect)) {
         r.minimum_detectable->value = std::numeric_limits<double>::infinity();
         r.minimum_detectable->withheld = "the final model is past its physical bounds (see the warnings): a velocity dependence "
                                          "can hide in its Stribeck curve, where the linearised figure sees none";
