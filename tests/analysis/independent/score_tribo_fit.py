@@ -56,11 +56,12 @@ def truth_strength(effect, truth):
 
 
 def minimum_detectable(report, effect):
-    """The report's minimum detectable strength of a rejected effect: (value or inf, unit) or None."""
+    """The report's minimum detectable strength of a rejected effect: (value or inf, unit,
+    parameter, withheld) or None; withheld: why no figure is given, or None."""
     for r in report.get("rejected_effects", []):
         if r["name"] == effect and "minimum_detectable" in r:
             m = r["minimum_detectable"]
-            return (m["value"] if m["value"] is not None else float("inf")), m["unit"], m["parameter"]
+            return (m["value"] if m["value"] is not None else float("inf")), m["unit"], m["parameter"], m.get("withheld")
     return None
 
 
@@ -135,12 +136,15 @@ def main():
             injected = truth_strength(effect, truth)
             below = injected is not None and injected < mds[0]
             below_detection[effect] += below
-            print(f"    {effect} reported not identifiable below {mds[2]} = {mds[0]:.3g} {mds[1]}; injected "
+            claim = (f"no figure given ({mds[3][:60]})" if mds[3]
+                     else f"reported not identifiable below {mds[2]} = {mds[0]:.3g} {mds[1]}")
+            print(f"    {effect} {claim}; injected "
                   + (f"{injected:.3g}" if injected is not None else "(another form)")
                   + (": below detection" if below else ""))
     print()
     for e in effects:
-        note = f" (+{below_detection[e]} missed below the reported minimum detectable strength)" if below_detection[e] else ""
+        note = (f" (+{below_detection[e]} missed below the reported minimum detectable strength, or with none given)"
+                if below_detection[e] else "")
         print(f"{e:24s} right {right_first[e]}/{len(seeds)}{note}")
     total = sum(right_first.values())
     print(f"total right {total}/{len(effects) * len(seeds)}; base-parameter coverage on clean files "
