@@ -66,14 +66,21 @@ DriftKnotChoice choose_drift_intervals(ModelData& data, const std::vector<double
     Moments total(functions);
     std::map<int, Moments> folds;
     std::vector<double> x(static_cast<std::size_t>(functions));
+    // A pass's samples are consecutive: its fold is looked up once.
+    int fold_pass = -1;
+    Moments* fold = nullptr;
     for (std::size_t i = 0; i < residual.size(); ++i) {
       if (!in_fit[i] || !std::isfinite(residual[i])) continue;
-      data.drift_basis_at(i, x.data());
-      Moments* fold = nullptr;
-      if (m.pass_of[i] >= 0) fold = &folds.try_emplace(m.pass_of[i], functions).first->second;
-      for (int a = 0; a < functions; ++a) {
+      // Only the four functions that are not zero at i enter the sums.
+      const int first = data.drift_basis_at(i, x.data());
+      const int end = std::min(first + 4, functions);
+      if (m.pass_of[i] != fold_pass) {
+        fold_pass = m.pass_of[i];
+        fold = fold_pass >= 0 ? &folds.try_emplace(fold_pass, functions).first->second : nullptr;
+      }
+      for (int a = first; a < end; ++a) {
         if (x[a] == 0.0) continue;
-        for (int b = 0; b < functions; ++b) {
+        for (int b = first; b < end; ++b) {
           if (x[b] == 0.0) continue;
           total.gram(a, b) += x[a] * x[b];
           if (fold) fold->gram(a, b) += x[a] * x[b];

@@ -142,12 +142,6 @@ int cubic_bspline_basis_into(double u, int intervals, double* b) {
   return k;
 }
 
-// The drift functions at sample i into out (as ModelData::drift_basis_at);
-// returns the first of the four that are not zero.
-int drift_basis_span(const ModelData& d, std::size_t i, double* out) {
-  return cubic_bspline_basis_into(d.drift_spline_coordinate(d.series.time_s[i]), d.drift_functions - 3, out);
-}
-
 // The drift spline's knots: at quantiles of the fitted samples' times (the
 // sliding samples that are not held out), so that each knot interval holds
 // the same share of the data the fit sees, as regression splines place
@@ -184,8 +178,8 @@ std::vector<double> cubic_bspline_basis(double u, int intervals) {
   return b;
 }
 
-void ModelData::drift_basis_at(std::size_t i, double* out) const {
-  cubic_bspline_basis_into(drift_spline_coordinate(series.time_s[i]), drift_functions - 3, out);
+int ModelData::drift_basis_at(std::size_t i, double* out) const {
+  return cubic_bspline_basis_into(drift_spline_coordinate(series.time_s[i]), drift_functions - 3, out);
 }
 
 double ModelData::drift_spline_coordinate(double time_s) const {
@@ -546,7 +540,7 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
       // Only the four functions that are not zero here: each other term is
       // a coefficient times zero, which adds nothing to the force or its
       // derivatives (with up to 15 functions, most of the additive work).
-      const auto first = static_cast<std::size_t>(drift_basis_span(d, i, basis.data()));
+      const auto first = static_cast<std::size_t>(d.drift_basis_at(i, basis.data()));
       for (std::size_t j = first; j < std::min(first + 4, drift_c.size()); ++j) f = f + drift_c[j] * basis[j];
     }
     if (periodic && st.periodic_additive) {

@@ -107,8 +107,8 @@ struct ModelData {
   std::vector<double> normalised_time;
   // The drift functions' values at sample i into out[0, drift_functions),
   // computed when needed: a stored table would cost drift_functions doubles
-  // per sample.
-  void drift_basis_at(std::size_t i, double* out) const;
+  // per sample. Returns the first of the four that are not zero.
+  int drift_basis_at(std::size_t i, double* out) const;
   // The force the model is fitted to and a pass starts from: the record's,
   // or a copy with an effect injected into it (injection and recovery of a
   // minimum detectable strength, analysis/diagnosis.cc); never null after
