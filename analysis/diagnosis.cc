@@ -1035,8 +1035,9 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
       if (!current.fit.params.structure.has(e)) open.push_back(e);
     }
     std::vector<Signature> signatures(open.size());
+    const SignatureContext context(input);
     parallel_for(open.size(), options.threads, [&](std::size_t j) {
-      Signature sig = compute_signature(open[j], input);
+      Signature sig = compute_signature(open[j], context);
       if (sig.applicable) {
         sig.score_t = score_test(data, current.fit.params, current.model, open[j], sig, in_fit);
         sig.summary += fmt("; score test t = %.1f", sig.score_t);

@@ -35,56 +35,6 @@ double pass_length(const MeasuredSeries& s, const Pass& p) {
   return std::fabs(s.position_m[p.last] - s.position_m[p.first]);
 }
 
-// Shared per-sample quantities for all signatures.
-struct Context {
-  explicit Context(const SignatureInput& input) : in(input), s(input.data.series), m(input.data.motion) {
-    const std::size_t n = s.size();
-    const ModelParams& p = in.params;
-    sigma0 = p.value("sigma0");
-    fv = p.value("Fv");
-    r.resize(n);
-    level.resize(n);
-    g.resize(n);
-    zone.assign(n, Zone::kNone);
-    for (std::size_t i = 0; i < n; ++i) {
-      r[i] = s.force_n[i] - in.model[i];
-      const double w = std::max(std::fabs(s.velocity_m_per_s[i]), 1e-300);
-      const double normal = s.has_normal() ? s.normal_force_n[i] : 0.0;
-      level[i] = std::max(steady_state_friction(p, w, normal) - fv * w, 0.0);
-      g[i] = level[i] / sigma0;
-    }
-    for (std::size_t i = 0; i < n; ++i) {
-      if (!in.in_fit[i]) continue;
-      const int pi = m.pass_of[i];
-      if (pi < 0) {
-        zone[i] = Zone::kHold;
-        continue;
-      }
-      const Pass& pass = m.passes[static_cast<std::size_t>(pi)];
-      const double d = m.distance_since_start_m[i];
-      if (d < 5 * g[i]) zone[i] = Zone::kPresliding;
-      else if (s.velocity_m_per_s[i] * pass.direction <= 0) zone[i] = Zone::kNone;
-      else if (d >= 0.2 * pass_length(s, pass)) zone[i] = Zone::kSteady;
-      else zone[i] = Zone::kSliding;
-    }
-  }
-
-  bool sliding(std::size_t i) const { return zone[i] == Zone::kSliding || zone[i] == Zone::kSteady; }
-  bool steady(std::size_t i) const { return zone[i] == Zone::kSteady; }
-  bool pass_in_fit(const Pass& p) const { return in.in_fit[p.first] && in.in_fit[p.last]; }
-  // Level factor of the friction parameters: N for load-scaled models, else 1.
-  double level_factor(std::size_t i) const {
-    return in.params.structure.load_scaled && s.has_normal() ? std::max(s.normal_force_n[i], 0.0) : 1.0;
-  }
-
-  enum class Zone { kNone, kHold, kPresliding, kSliding, kSteady };
-  const SignatureInput& in;
-  const MeasuredSeries& s;
-  const MotionSegmentation& m;
-  double sigma0 = 0, fv = 0;
-  std::vector<double> r, level, g;
-  std::vector<Zone> zone;
-};
 
 Signature not_applicable(Effect e, std::string why) {
   Signature sig;
@@ -120,7 +70,7 @@ SignaturePlot binned(const std::vector<double>& x, const std::vector<double>& y,
 }
 
 // ---------------------------------------------------------------------------
-Signature dwell_stiction(const Context& c) {
+Signature dwell_stiction(const SignatureContext& c) {
   const Effect e = Effect::kDwellStiction;
   // Per onset after a hold: (a) the force excess at onset over the same
   // pass's later sliding level (immune to drift), against ln(dwell); (b) the
@@ -189,7 +139,7 @@ Signature dwell_stiction(const Context& c) {
 }
 
 // ---------------------------------------------------------------------------
-Signature drift(const Context& c) {
+Signature drift(const SignatureContext& c) {
   const Effect e = Effect::kDrift;
   struct Block {
     double t = 0, r = 0, dir = 0, normal = 0;
@@ -269,7 +219,7 @@ Signature drift(const Context& c) {
 }
 
 // ---------------------------------------------------------------------------
-Signature frictional_lag(const Context& c) {
+Signature frictional_lag(const SignatureContext& c) {
   const Effect e = Effect::kFrictionalLag;
   const ModelParams& p = c.in.params;
   const bool mu = p.structure.load_scaled;
@@ -292,25 +242,34 @@ Signature frictional_lag(const Context& c) {
   // crosses one (log-interpolated); the significance is that delay's t.
   struct Trial {
     double tau, coef, t;
-    std::vector<double> q, r;
+    std::vector<double> q;
   };
+  // The rows, their residuals and S(|v(t)|) are the same for every trial delay.
+  std::vector<std::size_t> rows;
+  std::vector<double> residual, level_now;
+  for (std::size_t i = 0; i < c.s.size(); ++i) {
+    if (!(c.sliding(i) || c.zone[i] == SignatureContext::Zone::kPresliding)) continue;
+    rows.push_back(i);
+    residual.push_back(c.r[i]);
+    level_now.push_back(stribeck(std::fabs(v[i])));
+  }
   std::vector<Trial> trials;
   for (double steps : {1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0}) {
     const double tau = steps * dt;
     if (tau > 0.5) break;
     Design design;
-    Trial trial{tau, 0, 0, {}, {}};
+    Trial trial{tau, 0, 0, {}};
+    trial.q.reserve(rows.size());
     std::size_t k = 0;
-    for (std::size_t i = 0; i < c.s.size(); ++i) {
-      if (!(c.sliding(i) || c.zone[i] == Context::Zone::kPresliding)) continue;
+    for (std::size_t row = 0; row < rows.size(); ++row) {
+      const std::size_t i = rows[row];
       const double target = t[i] - tau;
       while (k + 1 < c.s.size() && t[k + 1] <= target) ++k;
       const double vl = target <= t.front() ? v.front()
                                             : v[k] + (target - t[k]) / (t[k + 1] - t[k]) * (v[std::min(k + 1, c.s.size() - 1)] - v[k]);
-      const double q = c.m.direction[i] * (stribeck(std::fabs(vl)) - stribeck(std::fabs(v[i]))) * c.level_factor(i);
+      const double q = c.m.direction[i] * (stribeck(std::fabs(vl)) - level_now[row]) * c.level_factor(i);
       design.add_row({1.0, static_cast<double>(c.m.direction[i]), q}, c.r[i]);
       trial.q.push_back(q);
-      trial.r.push_back(c.r[i]);
     }
     const Regression reg = design.fit();
     if (!reg.ok) continue;
@@ -337,7 +296,7 @@ Signature frictional_lag(const Context& c) {
       best_tau = tau;
       best_coef = a.coef;
       best_q = a.q;
-      best_r = a.r;
+      best_r = residual;
     }
   }
   Signature sig;
@@ -353,7 +312,7 @@ Signature frictional_lag(const Context& c) {
 }
 
 // ---------------------------------------------------------------------------
-Signature presliding_hysteresis(const Context& c) {
+Signature presliding_hysteresis(const SignatureContext& c) {
   const Effect e = Effect::kPreslidingHysteresis;
   constexpr int kBins = 16;
   constexpr double kZone = 4.0;  // presliding lengths g after each reversal or onset
@@ -421,7 +380,7 @@ Signature presliding_hysteresis(const Context& c) {
 // ---------------------------------------------------------------------------
 // Distance after a reversal over which |F| stays below a fraction of the pass's
 // sliding level, before the force first reaches half of it in the new direction.
-double dead_zone(const Context& c, const Pass& p, const std::vector<double>& friction_force, double level) {
+double dead_zone(const SignatureContext& c, const Pass& p, const std::vector<double>& friction_force, double level) {
   double zone = 0;
   for (std::size_t i = p.first + 1; i <= p.last; ++i) {
     const double f = p.direction * friction_force[i];
@@ -431,7 +390,7 @@ double dead_zone(const Context& c, const Pass& p, const std::vector<double>& fri
   return zone;
 }
 
-Signature backlash(const Context& c) {
+Signature backlash(const SignatureContext& c) {
   const Effect e = Effect::kBacklash;
   // The friction part of the measurement: measured minus the model's additive terms.
   std::vector<double> measured(c.s.size()), model(c.s.size());
@@ -485,7 +444,7 @@ Signature backlash(const Context& c) {
 }
 
 // ---------------------------------------------------------------------------
-Signature velocity_strengthening(const Context& c) {
+Signature velocity_strengthening(const SignatureContext& c) {
   const Effect e = Effect::kVelocityStrengthening;
   // Per pass: the mean direction-signed residual (relative to the level
   // factor) over its plateau, against the plateau speed. The base model is
@@ -537,7 +496,7 @@ Signature velocity_strengthening(const Context& c) {
 }
 
 // ---------------------------------------------------------------------------
-Signature load_dependence(const Context& c) {
+Signature load_dependence(const SignatureContext& c) {
   const Effect e = Effect::kLoadDependence;
   if (!c.s.has_normal()) return not_applicable(e, "no normal-load channel");
   const double normal_ref = c.in.data.normal_ref;
@@ -582,7 +541,7 @@ Signature load_dependence(const Context& c) {
 }
 
 // ---------------------------------------------------------------------------
-Signature tilt_offset(const Context& c) {
+Signature tilt_offset(const SignatureContext& c) {
   const Effect e = Effect::kTiltOffset;
   if (!c.s.has_normal()) return not_applicable(e, "no normal-load channel (a constant offset is part of the base model)");
   // (a) at rest: the residual follows the load where it changes between
@@ -654,7 +613,7 @@ Signature tilt_offset(const Context& c) {
 }
 
 // ---------------------------------------------------------------------------
-Signature direction_asymmetry(const Context& c) {
+Signature direction_asymmetry(const SignatureContext& c) {
   const Effect e = Effect::kDirectionAsymmetry;
   int forward = 0, backward = 0;
   std::vector<double> level, speed, rr, sv;
@@ -716,7 +675,7 @@ Signature direction_asymmetry(const Context& c) {
 }
 
 // ---------------------------------------------------------------------------
-Signature position_periodic(const Context& c) {
+Signature position_periodic(const SignatureContext& c) {
   const Effect e = Effect::kPositionPeriodic;
   std::vector<std::size_t> rows;
   std::vector<double> steps;
@@ -824,7 +783,7 @@ Signature position_periodic(const Context& c) {
 // level factor) against sgn(ln(v2/v1)) exp(-s/D), s the slip since the
 // step, for D on a log grid; the best |t| (autocorrelation-inflated) is the
 // strength. Onsets after holds are left out (dwell stiction's signature).
-Signature rate_state(const Context& c) {
+Signature rate_state(const SignatureContext& c) {
   const Effect e = Effect::kRateState;
   struct Step {
     std::size_t at, end;
@@ -922,8 +881,41 @@ Signature rate_state(const Context& c) {
 
 }  // namespace
 
-Signature compute_signature(Effect effect, const SignatureInput& input) {
-  const Context c(input);
+SignatureContext::SignatureContext(const SignatureInput& input) : in(input), s(input.data.series), m(input.data.motion) {
+  const std::size_t n = s.size();
+  const ModelParams& p = in.params;
+  sigma0 = p.value("sigma0");
+  fv = p.value("Fv");
+  r.resize(n);
+  level.resize(n);
+  g.resize(n);
+  zone.assign(n, Zone::kNone);
+  for (std::size_t i = 0; i < n; ++i) {
+    r[i] = s.force_n[i] - in.model[i];
+    const double w = std::max(std::fabs(s.velocity_m_per_s[i]), 1e-300);
+    const double normal = s.has_normal() ? s.normal_force_n[i] : 0.0;
+    level[i] = std::max(steady_state_friction(p, w, normal) - fv * w, 0.0);
+    g[i] = level[i] / sigma0;
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!in.in_fit[i]) continue;
+    const int pi = m.pass_of[i];
+    if (pi < 0) {
+      zone[i] = Zone::kHold;
+      continue;
+    }
+    const Pass& pass = m.passes[static_cast<std::size_t>(pi)];
+    const double d = m.distance_since_start_m[i];
+    if (d < 5 * g[i]) zone[i] = Zone::kPresliding;
+    else if (s.velocity_m_per_s[i] * pass.direction <= 0) zone[i] = Zone::kNone;
+    else if (d >= 0.2 * pass_length(s, pass)) zone[i] = Zone::kSteady;
+    else zone[i] = Zone::kSliding;
+  }
+}
+
+Signature compute_signature(Effect effect, const SignatureInput& input) { return compute_signature(effect, SignatureContext(input)); }
+
+Signature compute_signature(Effect effect, const SignatureContext& c) {
   switch (effect) {
     case Effect::kDwellStiction: return dwell_stiction(c);
     case Effect::kFrictionalLag: return frictional_lag(c);

@@ -22,6 +22,7 @@
 //     zero over a distance after reversals; hysteresis changes its shape only.
 #pragma once
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -56,6 +57,30 @@ struct SignatureInput {
   const std::vector<char>& in_fit;
 };
 
+// The per-sample quantities every signature reads: the residual, the model's
+// steady friction level and presliding length g, and each sample's zone.
+// Built once per model and shared read-only by a round's signatures (6 ms
+// each on a 200 000-sample record, built once per signature before).
+struct SignatureContext {
+  explicit SignatureContext(const SignatureInput& input);
+  bool sliding(std::size_t i) const { return zone[i] == Zone::kSliding || zone[i] == Zone::kSteady; }
+  bool steady(std::size_t i) const { return zone[i] == Zone::kSteady; }
+  bool pass_in_fit(const Pass& p) const { return in.in_fit[p.first] && in.in_fit[p.last]; }
+  // Level factor of the friction parameters: N for load-scaled models, else 1.
+  double level_factor(std::size_t i) const {
+    return in.params.structure.load_scaled && s.has_normal() ? std::max(s.normal_force_n[i], 0.0) : 1.0;
+  }
+
+  enum class Zone { kNone, kHold, kPresliding, kSliding, kSteady };
+  const SignatureInput& in;
+  const MeasuredSeries& s;
+  const MotionSegmentation& m;
+  double sigma0 = 0, fv = 0;
+  std::vector<double> r, level, g;
+  std::vector<Zone> zone;
+};
+
+Signature compute_signature(Effect effect, const SignatureContext& context);
 Signature compute_signature(Effect effect, const SignatureInput& input);
 
 }  // namespace tribo::analysis
