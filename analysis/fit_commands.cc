@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/diagnosis_report.h"
+#include "analysis/parallel_for.h"
 #include "analysis/scratch_metrics.h"
 
 namespace tribo::analysis {
@@ -61,13 +62,17 @@ DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r)
   // one serves the parameters' motion-model systematic error.
   std::optional<MeasuredSeries> alternative;
   const bool smoothed = !(r.smooth_s > 0 || r.central_differences);
-  if (smoothed && !series.reference_m.empty() && series.velocity_m_per_s.empty()) {
-    alternative = series;
-    derive_motion_smoothed(*alternative, !r.loop_force);
-    if (alternative->loop_taps == 0) alternative.reset();
+  if (smoothed && !series.reference_m.empty() && series.velocity_m_per_s.empty()) alternative = series;
+  if (!smoothed) {
+    derive_motion(series, r.smooth_s);
+  } else {
+    // The two estimates are independent: one per core.
+    parallel_for(alternative ? 2 : 1, 0, [&](std::size_t k) {
+      if (k == 0) derive_motion_smoothed(series, r.loop_force);
+      else derive_motion_smoothed(*alternative, !r.loop_force);
+    });
   }
-  if (!smoothed) derive_motion(series, r.smooth_s);
-  else derive_motion_smoothed(series, r.loop_force);
+  if (alternative && alternative->loop_taps == 0) alternative.reset();
 
   DiagnosisOptions options;
   options.base.fit_mass = r.fit_mass;

@@ -33,10 +33,13 @@ void transition(double dt, double q, Mat3& F, Mat3& Q) {
   Q *= q;
 }
 
+// The filtered states only: the backward pass forms each prediction again
+// from them (the same operations, so the same values) rather than hold it
+// (96 bytes per sample).
 struct FilterPass {
   double log_likelihood = 0;
-  std::vector<Vec3> predicted_mean, filtered_mean;
-  std::vector<Mat3> predicted_cov, filtered_cov;
+  std::vector<Vec3> filtered_mean;
+  std::vector<Mat3> filtered_cov;
 };
 
 // Positions in units of the noise (y / r_sd), so r = 1 and every number is of
@@ -45,9 +48,7 @@ FilterPass kalman(const std::vector<double>& t, const std::vector<double>& y, do
   const std::size_t n = y.size();
   FilterPass out;
   if (keep) {
-    out.predicted_mean.resize(n);
     out.filtered_mean.resize(n);
-    out.predicted_cov.resize(n);
     out.filtered_cov.resize(n);
   }
   Vec3 m(y[0], 0, 0);
@@ -74,8 +75,6 @@ FilterPass kalman(const std::vector<double>& t, const std::vector<double>& y, do
     P = Pp - k * Pp.row(0);
     P = 0.5 * (P + P.transpose());
     if (keep) {
-      out.predicted_mean[i] = mp;
-      out.predicted_cov[i] = Pp;
       out.filtered_mean[i] = m;
       out.filtered_cov[i] = P;
     }
@@ -164,9 +163,11 @@ MotionEstimate estimate_motion(const std::vector<double>& t, const std::vector<d
   Mat3 F, Q;
   for (std::size_t i = n - 1; i-- > 0;) {
     transition(t[i + 1] - t[i], q, F, Q);
-    const Mat3 gain = f.filtered_cov[i] * F.transpose() * f.predicted_cov[i + 1].inverse();
-    smooth[i] = f.filtered_mean[i] + gain * (smooth[i + 1] - f.predicted_mean[i + 1]);
-    Ps = f.filtered_cov[i] + gain * (Ps - f.predicted_cov[i + 1]) * gain.transpose();
+    const Vec3 predicted_mean = F * f.filtered_mean[i];
+    const Mat3 predicted_cov = F * f.filtered_cov[i] * F.transpose() + Q;
+    const Mat3 gain = f.filtered_cov[i] * F.transpose() * predicted_cov.inverse();
+    smooth[i] = f.filtered_mean[i] + gain * (smooth[i + 1] - predicted_mean);
+    Ps = f.filtered_cov[i] + gain * (Ps - predicted_cov) * gain.transpose();
     velocity_sd[i] = std::sqrt(std::max(Ps(1, 1), 0.0));
   }
   out.position_m.resize(n);
