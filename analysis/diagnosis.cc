@@ -163,7 +163,8 @@ ModelParams with_default_stribeck(const ModelData& data, const ModelParams& curr
 // level: its values past the base's physical bounds, or its Stribeck
 // velocity below the slowest pass, where no sliding sample holds the static
 // level. Otherwise the second start is not made: on the independent
-// generator's 120 files it changed no acceptance and took 15 % of the CPU.
+// generator's 120 files it changed no acceptance and took 15 % of the
+// diagnosis time.
 bool stribeck_may_be_bent(const ModelData& data, const ModelParams& current) {
   FitResult as_fit;
   as_fit.params = current;
