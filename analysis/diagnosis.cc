@@ -238,9 +238,10 @@ FitResult fit_extension_once(const ModelData& data, const ModelParams& current, 
 
 // A candidate fit's relative cost, for the order the jobs start in: the
 // Jacobian's width (free parameters) times the fits fit_extension makes (two
-// for rate_state, and for drift and tilt_offset on a base that may be bent). Counting one fit for drift and tilt
-// started tilt (0.64 s) after two shorter fits and ended the 200 s run's first
-// round 0.13 s later, one core idle (bench/analysis_bench.cc).
+// for rate_state, and for drift and tilt_offset on a base that may be bent).
+// Counting one fit for drift and tilt started tilt (0.64 s) after two shorter
+// fits and ended the 200 s run's first round 0.13 s later, one core idle
+// (bench/analysis_bench.cc).
 double expected_fit_cost(const ModelData& data, const ModelParams& current, Effect effect) {
   const double width = static_cast<double>(current.free_count() + effect_parameters(effect, data, current.structure).size());
   const bool two_fits = effect == Effect::kRateState ||

@@ -35,7 +35,6 @@ double pass_length(const MeasuredSeries& s, const Pass& p) {
   return std::fabs(s.position_m[p.last] - s.position_m[p.first]);
 }
 
-
 Signature not_applicable(Effect e, std::string why) {
   Signature sig;
   sig.effect = e;

@@ -60,7 +60,8 @@ struct SignatureInput {
 // The per-sample quantities every signature reads: the residual, the model's
 // steady friction level and presliding length g, and each sample's zone.
 // Built once per model and shared read-only by a round's signatures (6 ms
-// each on a 200 000-sample record, built once per signature before).
+// each on a 200 000-sample record, built once per signature before). It
+// refers to the input's arrays: the input must outlive it.
 struct SignatureContext {
   explicit SignatureContext(const SignatureInput& input);
   bool sliding(std::size_t i) const { return zone[i] == Zone::kSliding || zone[i] == Zone::kSteady; }
