@@ -126,7 +126,7 @@ ModelParams with_strength(const ModelParams& current, Effect effect, const Model
 
 void raise_to_fitted_error(DetectableStrength& figure, Effect effect, const std::vector<ParamEstimate>& trial_parameters,
                            const DetectabilityCriteria& criteria) {
-  if (!strength_is_linear(effect) || !std::isfinite(figure.value)) return;
+  if (!(strength_is_linear(effect) || effect == Effect::kRateState) || !std::isfinite(figure.value)) return;
   for (const ParamEstimate& e : trial_parameters) {
     if (e.name != figure.parameter || e.fixed || !(std::isfinite(e.std_error) && e.std_error > 0)) continue;
     const double needed = (criteria.min_strength_z + normal_quantile(criteria.detection_probability)) * e.std_error;

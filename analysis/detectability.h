@@ -95,7 +95,12 @@ double normal_quantile(double p);
 // strength gate then needs at least (min_strength_z + margin) times that
 // error: figure raised to it when lower. Only for effects whose force is
 // linear in their strength (dwell_dFs, log_velocity_coeff, load_exponent,
-// asym_levels, tilt_tan), whose error does not depend on the strength fitted;
+// asym_levels, tilt_tan), whose error does not depend on the strength fitted,
+// and for rate_state (along rs_a), whose error grows with the strength
+// fitted: there the raised figure is still a lower bound, but the linearised
+// one alone was far below it (the independent generator's rate-and-state
+// files with speed steps: figures of 0.0008 against fitted errors of
+// 0.0023-0.0047 and an injected a of 0.004-0.005, refused in all ten);
 // trial_parameters: the effect's parameters from its last trial fit.
 void raise_to_fitted_error(DetectableStrength& figure, Effect effect, const std::vector<ParamEstimate>& trial_parameters,
                            const DetectabilityCriteria& criteria);

@@ -37,6 +37,10 @@ bound is taken against the friction level). At six times the default, on
 seed 3, whose base fit takes the rise into a rising Stribeck curve, it is
 named first (fitted a second time from that rise moved into the log term).
 
+With speed steps within the passes (the protocol of the generator's
+rate_state files) a clean record accepts nothing; rate-and-state friction at
+the generator's default, refused, is not called identifiable at its strength.
+
 usage: check_tribo_fit.py TRIBO_FIT WORK_DIR
 """
 import json
@@ -49,12 +53,15 @@ import transducer_sim  # noqa: E402
 
 
 def diagnose(tribo_fit, work, effect, seed=3, extra=(), strength=None):
-    csv = transducer_sim.write(work, effect, seed, strength)
+    return run_contract(tribo_fit, transducer_sim.write(work, effect, seed, strength), extra)
+
+
+def run_contract(tribo_fit, csv, extra=()):
     cmd = [tribo_fit, "diagnose", csv, "--time", "t_s", "--position", "x_m", "--force", "force_N",
            "--normal", "normal_N", "--reference", "x_ref_m", "--json", *extra]
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode != 0:
-        sys.exit(f"tribo-fit failed on {effect}: {r.stderr}")
+        sys.exit(f"tribo-fit failed on {csv}: {r.stderr}")
     return json.loads(r.stdout)
 
 
@@ -226,6 +233,32 @@ def main():
     # the candidate fitted from there found 0.005 +- 0.005 of the injected
     # 0.015. The rise moved into the log term is its second start.
     check_first(tribo_fit, work, "velocity_strengthening", 3, failures, strength=0.18)
+
+    # Speed steps within the passes (the protocol of the generator's
+    # rate_state files): a clean record accepts nothing.
+    csv = transducer_sim.write(work, "none", 3, steps=True)
+    report = run_contract(tribo_fit, csv)
+    accepted = [a["name"] for a in report["accepted_effects"]]
+    if accepted:
+        failures.append(f"none with speed steps, seed 3: accepted {accepted}")
+    print(f"none with speed steps, seed 3: accepted {accepted}")
+
+    # Rate-and-state friction at the generator's default (a = 0.05 of the
+    # levels, b = 1.2 a, Dc = 1 um) is refused on the strength gate although
+    # it lowers the held-out error by 19-56 %; where it is not named, the
+    # report must not call the injected a identifiable. The linearised figure
+    # was 0.0008 against an injected 0.0045 (seed 2); the trial's fitted error
+    # now bounds it from below.
+    report = diagnose(tribo_fit, work, "rate_state", 2)
+    truth = json.load(open(os.path.join(work, "rate_state_seed2.json")))
+    injected = truth["rate_state"]["a_mu"]
+    accepted = [a["name"] for a in report["accepted_effects"]]
+    rs = next((r for r in report["rejected_effects"] if r["name"] == "rate_state"), None)
+    m = (rs or {}).get("minimum_detectable") or {}
+    figure = m.get("value")
+    if accepted[:1] != ["rate_state"] and figure is not None and figure < injected:
+        failures.append(f"rate_state seed 2: not named ({accepted}) while the figure {figure} lies below the injected {injected:.4g}")
+    print(f"rate_state, seed 2: accepted {accepted}, figure {figure}, injected {injected:.4g}")
     if failures:
         sys.exit("; ".join(failures))
 

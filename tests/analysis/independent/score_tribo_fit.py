@@ -52,6 +52,8 @@ def truth_strength(effect, truth):
         return strength * truth["contact"]["mu_c"]
     if effect in ("frictional_lag", "direction_asymmetry", "tilt_offset", "backlash"):
         return strength
+    if effect == "rate_state":  # levels x (1 + a ln v + ...): a mu_c in mu, the analysis's rs_a
+        return truth["rate_state"]["a_mu"]
     return None
 
 

@@ -24,15 +24,23 @@ form (written here, not taken from the analysis):
   backlash                play in series: the contact unloads to zero on reversal, the
                           gap b is crossed with no force, then the bristle reloads
   wear_in (outside the vocabulary) levels x (1 + w (1 - exp(-S / 20 um))), S = total slip
+  rate_state              levels x (1 + a ln(|v| / V*) + b ln(V* theta / Dc)) (|v| floored at
+                          0.05 um/s), theta by Dieterich's ageing law d theta/dt = 1 - |v| theta / Dc
+                          (exact at each substep's speed), V* = 1 um/s, Dc = 1 um, b = 1.2 a,
+                          theta at the start Dc / V*; its passes step in speed half-way (below)
 
 Protocol: loads 0.5, 1, 2 mN reached at rest; 5 um passes both ways at 0.5,
-2, 8 and 20 um/s, each after a hold of 0.25-8 s; about 110 s.
+2, 8 and 20 um/s, each after a hold of 0.25-8 s; about 110 s. With speed steps
+(rate_state's files, or --steps): each pass slides its first 2.5 um at its speed
+and the rest at three times it (the passes towards +x) or the other way round
+(towards -x), so the friction's response to a speed change within sliding is
+in the record; about 90 s.
 
 Writes CSV columns t_s, x_m, x_ref_m, force_N, normal_N (the contract of
 `tribo-fit diagnose FILE --time t_s --position x_m --force force_N --normal
 normal_N --reference x_ref_m`) and a JSON file with the truth.
 
-usage: transducer_sim.py OUT_DIR EFFECT SEED [--strength S]
+usage: transducer_sim.py OUT_DIR EFFECT SEED [--strength S] [--steps]
 """
 import json
 import math
@@ -62,11 +70,13 @@ DEFAULT_STRENGTH = {
     "presliding_hysteresis": 0.5,    # breakaway ratio r
     "backlash": 0.3e-6,              # gap, m
     "wear_in": 0.15,                 # relative rise over 20 um of slip
+    "rate_state": 0.05,              # a, relative (b = 1.2 a)
 }
+STEPPED_EFFECTS = {"rate_state"}  # their files use the protocol with speed steps
 EFFECTS = list(DEFAULT_STRENGTH)
 
 
-def protocol(rng):
+def protocol(rng, steps=False):
     """Reference position and normal load knots: list of (t, x, N)."""
     knots = [(0.0, 0.0, 0.0)]
     t, x = 0.0, 0.0
@@ -82,6 +92,13 @@ def protocol(rng):
                 t += holds[k % len(holds)]
                 k += 1
                 knots.append((t, x, load))
+                if steps:  # half at one speed, half at three times it
+                    first, second = (speed, 3 * speed) if direction > 0 else (3 * speed, speed)
+                    for v in (first, second):
+                        x += direction * 2.5e-6
+                        t += 2.5e-6 / v
+                        knots.append((t, x, load))
+                    continue
                 x += direction * 5e-6
                 t += 5e-6 / speed
                 knots.append((t, x, load))
@@ -107,11 +124,12 @@ def random_contact(rng):
     }
 
 
-def simulate(effect, seed, strength=None):
+def simulate(effect, seed, strength=None, steps=None):
     rng = np.random.default_rng(seed)
     p = random_contact(rng)
     s = DEFAULT_STRENGTH[effect] if strength is None else strength
-    knots = protocol(rng)
+    steps = effect in STEPPED_EFFECTS if steps is None else steps
+    knots = protocol(rng, steps)
     duration = knots[-1][0]
     dt = 1.0 / (RATE_HZ * SUBSTEPS)
     n = int(duration * RATE_HZ * SUBSTEPS)
@@ -138,6 +156,8 @@ def simulate(effect, seed, strength=None):
     total_slip = 0.0
     rest_time = 0.0
     dwell_at_onset = 0.0
+    rs_v_ref, rs_dc = 1e-6, 1e-6
+    theta = rs_dc / rs_v_ref
     moving = False
     x_contact = 0.0  # backlash: position of the contact behind the play
     sig0, sig1, fv = p["sigma0_n_per_m"], p["sigma1_n_s_per_m"], p["fv_n_s_per_m"]
@@ -191,6 +211,12 @@ def simulate(effect, seed, strength=None):
             level *= 1 + s * math.log(1 + dwell_at_onset / 0.1) * math.exp(-slip_since_onset / 0.5e-6)
         if effect == "wear_in":
             level *= 1 + s * (1 - math.exp(-total_slip / 20e-6))
+        if effect == "rate_state":
+            if speed < rest_speed:
+                theta += dt
+            else:
+                theta = rs_dc / speed + (theta - rs_dc / speed) * math.exp(-speed * dt / rs_dc)
+            level *= 1 + s * math.log(max(speed, 0.05e-6) / rs_v_ref) + 1.2 * s * math.log(rs_v_ref * theta / rs_dc)
         v_str = speed
         if effect == "frictional_lag":
             v_lag += (speed - v_lag) * (1 - math.exp(-dt / s))
@@ -240,15 +266,20 @@ def simulate(effect, seed, strength=None):
              "force_resolution_n": FORCE_RESOLUTION_N, "force_noise_n": FORCE_NOISE_N}
     if effect == "position_periodic":
         truth["period_m"] = period_m
+    if effect == "rate_state":
+        truth["rate_state"] = {"a_rel": s, "b_rel": 1.2 * s, "a_mu": s * p["mu_c"], "b_mu": 1.2 * s * p["mu_c"],
+                               "dc_m": rs_dc, "v_ref_m_per_s": rs_v_ref, "law": "ageing"}
+    truth["speed_steps"] = steps
     columns = {"t_s": t_out, "x_m": x_meas, "x_ref_m": ref[keep], "force_N": f_meas, "normal_N": n_meas,
                "v_true_m_s": v[keep], "x_true_m": x_true}
     return columns, truth
 
 
-def write(out_dir, effect, seed, strength=None):
+def write(out_dir, effect, seed, strength=None, steps=None):
     os.makedirs(out_dir, exist_ok=True)
-    columns, truth = simulate(effect, seed, strength)
-    stem = os.path.join(out_dir, f"{effect}_seed{seed}")
+    columns, truth = simulate(effect, seed, strength, steps)
+    stepped = truth["speed_steps"] and effect not in STEPPED_EFFECTS
+    stem = os.path.join(out_dir, f"{effect}{'_steps' if stepped else ''}_seed{seed}")
     names = list(columns)
     data = np.column_stack([columns[k] for k in names])
     np.savetxt(stem + ".csv", data, delimiter=",", header=",".join(names), comments="", fmt="%.9g")
@@ -264,6 +295,10 @@ if __name__ == "__main__":
         k = args.index("--strength")
         strength = float(args[k + 1])
         del args[k:k + 2]
+    steps = None
+    if "--steps" in args:
+        args.remove("--steps")
+        steps = True
     if len(args) != 3 or args[1] not in EFFECTS:
         sys.exit(__doc__)
-    print(write(args[0], args[1], int(args[2]), strength))
+    print(write(args[0], args[1], int(args[2]), strength, steps))
