@@ -100,7 +100,7 @@ double normal_quantile(double p);
 // fitted: there the raised figure is still a lower bound, but the linearised
 // one alone was far below it (the independent generator's rate-and-state
 // files with speed steps: figures of 0.0008 against fitted errors of
-// 0.0023-0.0047 and an injected a of 0.004-0.005, refused in all ten);
+// 0.0023-0.0039 and an injected a of 0.004-0.006, refused in all ten);
 // trial_parameters: the effect's parameters from its last trial fit.
 void raise_to_fitted_error(DetectableStrength& figure, Effect effect, const std::vector<ParamEstimate>& trial_parameters,
                            const DetectabilityCriteria& criteria);

@@ -30,11 +30,11 @@ form (written here, not taken from the analysis):
                           theta at the start Dc / V*; its passes step in speed half-way (below)
 
 Protocol: loads 0.5, 1, 2 mN reached at rest; 5 um passes both ways at 0.5,
-2, 8 and 20 um/s, each after a hold of 0.25-8 s; about 110 s. With speed steps
+2, 8 and 20 um/s, each after a hold of 0.25-8 s; about 150 s. With speed steps
 (rate_state's files, or --steps): each pass slides its first 2.5 um at its speed
 and the rest at three times it (the passes towards +x) or the other way round
 (towards -x), so the friction's response to a speed change within sliding is
-in the record; about 90 s.
+in the record; about 120 s.
 
 Writes CSV columns t_s, x_m, x_ref_m, force_N, normal_N (the contract of
 `tribo-fit diagnose FILE --time t_s --position x_m --force force_N --normal
