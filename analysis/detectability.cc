@@ -124,9 +124,16 @@ ModelParams with_strength(const ModelParams& current, Effect effect, const Model
   return at_strength(with_effect(current, effect, data), effect, s);
 }
 
+namespace {
+
+// The effects whose figure the fitted error bounds (raise_to_fitted_error).
+bool fitted_error_bounds_figure(Effect effect) { return strength_is_linear(effect) || effect == Effect::kRateState; }
+
+}  // namespace
+
 void raise_to_fitted_error(DetectableStrength& figure, Effect effect, const std::vector<ParamEstimate>& trial_parameters,
                            const DetectabilityCriteria& criteria) {
-  if (!(strength_is_linear(effect) || effect == Effect::kRateState) || !std::isfinite(figure.value)) return;
+  if (!fitted_error_bounds_figure(effect) || !std::isfinite(figure.value)) return;
   for (const ParamEstimate& e : trial_parameters) {
     if (e.name != figure.parameter || e.fixed || !(std::isfinite(e.std_error) && e.std_error > 0)) continue;
     const double needed = (criteria.min_strength_z + normal_quantile(criteria.detection_probability)) * e.std_error;

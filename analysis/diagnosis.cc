@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <map>
 #include <tuple>
+#include <utility>
 
 #include "analysis/autodiff.h"
 #include "analysis/motion_estimate.h"
@@ -165,13 +166,21 @@ ModelParams with_default_stribeck(const ModelData& data, const ModelParams& curr
 // level. Otherwise the second start is not made: on the independent
 // generator's 120 files it changed no acceptance and took 15 % of the
 // diagnosis time.
+// The slowest and the fastest pass's median speed (HUGE_VAL, 0 without passes).
+std::pair<double, double> pass_speed_range(const ModelData& data) {
+  double slowest = HUGE_VAL, fastest = 0;
+  for (const Pass& pass : data.motion.passes) {
+    slowest = std::min(slowest, pass.median_speed_m_per_s);
+    fastest = std::max(fastest, pass.median_speed_m_per_s);
+  }
+  return {slowest, fastest};
+}
+
 bool stribeck_may_be_bent(const ModelData& data, const ModelParams& current) {
   FitResult as_fit;
   as_fit.params = current;
   if (!base_out_of_bounds(data, as_fit).empty()) return true;
-  double slowest = HUGE_VAL;
-  for (const Pass& pass : data.motion.passes) slowest = std::min(slowest, pass.median_speed_m_per_s);
-  return current.index("vs") >= 0 && current.value("vs") < slowest;
+  return current.index("vs") >= 0 && current.value("vs") < pass_speed_range(data).first;
 }
 
 // Whether current's Stribeck curve rises from the static level to the
@@ -197,11 +206,7 @@ ModelParams rise_as_log_velocity(const ModelData& data, const ModelParams& curre
   const double fc = current.value(c_name), fs = current.value(s_name), vs = current.value("vs");
   const double delta = current.structure.stribeck_exponent;
   const auto level = [&](double v) { return fc + (fs - fc) * std::exp(-std::pow(v / vs, delta)); };
-  double slow = HUGE_VAL, fast = 0;
-  for (const Pass& pass : data.motion.passes) {
-    slow = std::min(slow, pass.median_speed_m_per_s);
-    fast = std::max(fast, pass.median_speed_m_per_s);
-  }
+  const auto [slow, fast] = pass_speed_range(data);
   if (!(fast > slow && slow > 0)) return p;
   // The viscous term's part of the rise goes into the log term too (Fv back at its default).
   const double viscous_rise = (current.value("Fv") - p.value("Fv")) * (fast - slow) / (mu ? data.normal_ref : 1.0);
