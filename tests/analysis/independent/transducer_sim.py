@@ -70,9 +70,10 @@ DEFAULT_STRENGTH = {
     "presliding_hysteresis": 0.5,    # breakaway ratio r
     "backlash": 0.3e-6,              # gap, m
     "wear_in": 0.15,                 # relative rise over 20 um of slip
-    "rate_state": 0.05,              # a, relative (b = 1.2 a)
+    "rate_state": 0.05,              # a, relative (b = RS_B_OVER_A a)
 }
 STEPPED_EFFECTS = {"rate_state"}  # their files use the protocol with speed steps
+RS_B_OVER_A = 1.2  # rate_state: the evolution's coefficient b over the direct effect's a
 EFFECTS = list(DEFAULT_STRENGTH)
 
 
@@ -216,7 +217,7 @@ def simulate(effect, seed, strength=None, steps=None):
                 theta += dt
             else:
                 theta = rs_dc / speed + (theta - rs_dc / speed) * math.exp(-speed * dt / rs_dc)
-            level *= 1 + s * math.log(max(speed, 0.05e-6) / rs_v_ref) + 1.2 * s * math.log(rs_v_ref * theta / rs_dc)
+            level *= 1 + s * math.log(max(speed, 0.05e-6) / rs_v_ref) + RS_B_OVER_A * s * math.log(rs_v_ref * theta / rs_dc)
         v_str = speed
         if effect == "frictional_lag":
             v_lag += (speed - v_lag) * (1 - math.exp(-dt / s))
@@ -267,7 +268,8 @@ def simulate(effect, seed, strength=None, steps=None):
     if effect == "position_periodic":
         truth["period_m"] = period_m
     if effect == "rate_state":
-        truth["rate_state"] = {"a_rel": s, "b_rel": 1.2 * s, "a_mu": s * p["mu_c"], "b_mu": 1.2 * s * p["mu_c"],
+        b = RS_B_OVER_A * s
+        truth["rate_state"] = {"a_rel": s, "b_rel": b, "a_mu": s * p["mu_c"], "b_mu": b * p["mu_c"],
                                "dc_m": rs_dc, "v_ref_m_per_s": rs_v_ref, "law": "ageing"}
     truth["speed_steps"] = steps
     columns = {"t_s": t_out, "x_m": x_meas, "x_ref_m": ref[keep], "force_N": f_meas, "normal_N": n_meas,
