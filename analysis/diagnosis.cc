@@ -814,38 +814,6 @@ std::vector<char> without_holds(const ModelData& data, std::vector<char> mask) {
   return mask;
 }
 
-// Whether a pass starts from the bristle state the model carries through the
-// hold, or from the force measured at rest: on a record whose position noise
-// hides the nanometres a stopping contact relaxes over (10 nm of noise is
-// 30 µN on a 3000 N/m contact), the modelled hold ends at the wrong force
-// and every following pass inherits it. The two are compared where both
-// answer, on the held-out passes.
-std::tuple<ModelStructure, LugreFit, PassStartChoice> choose_pass_start_state(const ModelData& data,
-                                                                              const DiagnosisOptions& options,
-                                                                              const std::vector<char>& in_fit,
-                                                                              const std::vector<char>& heldout) {
-  std::array<ModelStructure, 2> structures{options.base, options.base};
-  structures[0].state_from_rest = false;
-  structures[1].state_from_rest = true;
-  std::array<LugreFit, 2> fits;
-  std::array<double, 2> rms{};
-  const std::vector<char> compared = without_holds(data, heldout);
-  parallel_for(2, options.threads, [&](std::size_t k) {
-    fits[k] = fit_lugre(data, structures[k], k == 1 ? without_holds(data, in_fit) : in_fit, options.lugre);
-    rms[k] = rms_over(data.series.force_n, simulate(data, fits[k].result.params), compared);
-  });
-  PassStartChoice choice{rms[0], rms[1], rms[1] < rms[0], {}};
-  // A fit past the base model's physical bounds (mu_s 2.6e16, a negative
-  // viscous term) can still score on held-out passes: it is not a choice.
-  const std::array<std::string, 2> objections{base_objection(data, fits[0].result), base_objection(data, fits[1].result)};
-  if (objections[0].empty() != objections[1].empty()) {
-    choice.state_from_rest = !objections[0].empty();
-    choice.objection = objections[choice.state_from_rest ? 0 : 1];
-  }
-  const std::size_t k = choice.state_from_rest ? 1 : 0;
-  return {structures[k], std::move(fits[k]), choice};
-}
-
 }  // namespace
 
 namespace {
@@ -1059,21 +1027,20 @@ void check_by_injection(const ModelData& data, const Current& current, const std
 
 }  // namespace
 
-Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options) {
+namespace {
+
+// The diagnosis with each pass's start as options.base says.
+Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& options, MotionSegmentation motion) {
   Diagnosis out;
-  out.motion = segment_motion(series, options.segmentation);
+  out.motion = std::move(motion);
   ModelData data(series, out.motion);
   std::vector<char> in_fit = invert(out.motion.heldout);
   std::vector<char> heldout(out.motion.heldout.begin(), out.motion.heldout.end());
   const std::vector<char> everything(series.size(), 1);
-  ModelStructure base = options.base;
-  if (options.choose_state_from_rest && !out.motion.holds.empty()) {
-    std::tie(base, out.base, out.pass_start) = choose_pass_start_state(data, options, in_fit, heldout);
-  } else {
-    LugreFitOptions lugre = options.lugre;
-    lugre.threads = options.threads;
-    out.base = fit_lugre(data, base, base.state_from_rest ? without_holds(data, in_fit) : in_fit, lugre);
-  }
+  const ModelStructure base = options.base;
+  LugreFitOptions lugre = options.lugre;
+  lugre.threads = options.threads;
+  out.base = fit_lugre(data, base, base.state_from_rest ? without_holds(data, in_fit) : in_fit, lugre);
   if (base.state_from_rest) {
     // The holds only set each pass's initial state (ModelStructure::state_from_rest).
     in_fit = without_holds(data, in_fit);
@@ -1240,7 +1207,7 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
     if (!not_clear.empty()) {
       DiagnosisOptions again = options;
       for (const RejectedEffect& r : not_clear) std::erase(again.candidates, r.effect);
-      Diagnosis redo = diagnose(series, again);
+      Diagnosis redo = diagnose_one(series, again, out.motion);
       for (RejectedEffect& r : not_clear) redo.rejected.push_back(std::move(r));
       return redo;
     }
@@ -1298,6 +1265,47 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
     if (std::find(out.warnings.begin(), out.warnings.end(), w) == out.warnings.end()) out.warnings.push_back(w);
   }
   return out;
+}
+
+// Whether a pass starts from the bristle state the model carries through the
+// hold, or from the force measured at rest. On a record whose position noise
+// hides the nanometres a stopping contact relaxes over (10 nm of noise is
+// 30 µN on a 3000 N/m contact), the modelled hold can end at the wrong force
+// and every following pass inherits it; on another (the damper's), the
+// modelled state predicts the passes better. The record is diagnosed both
+// ways, and the final models are compared where both answer, on the held-out
+// passes: the base fits alone cannot decide, since the effect a record
+// carries (a drift, the dwell peaks) bends each base fit its own way.
+Diagnosis diagnose_both_pass_starts(const MeasuredSeries& series, const DiagnosisOptions& options,
+                                    const MotionSegmentation& motion) {
+  std::array<Diagnosis, 2> runs;  // modelled holds, state from rest
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    DiagnosisOptions one = options;
+    one.choose_state_from_rest = false;
+    one.base.state_from_rest = k == 1;
+    runs[k] = diagnose_one(series, one, motion);
+  }
+  const ModelData data(series, motion);
+  const std::vector<char> passes = without_holds(data, std::vector<char>(motion.heldout.begin(), motion.heldout.end()));
+  PassStartChoice choice;
+  choice.heldout_rms_modelled_holds = rms_over(series.force_n, runs[0].model_before, passes);
+  choice.heldout_rms_state_from_rest = rms_over(series.force_n, runs[1].model_before, passes);
+  choice.final_heldout_rms_modelled_holds = rms_over(series.force_n, runs[0].model_after, passes);
+  choice.final_heldout_rms_state_from_rest = rms_over(series.force_n, runs[1].model_after, passes);
+  choice.state_from_rest = choice.final_heldout_rms_state_from_rest <= choice.final_heldout_rms_modelled_holds;
+  const std::size_t k = choice.state_from_rest ? 1 : 0;
+  choice.objection = base_objection(data, runs[1 - k].final_fit);
+  Diagnosis out = std::move(runs[k]);
+  out.pass_start = choice;
+  return out;
+}
+
+}  // namespace
+
+Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options) {
+  MotionSegmentation motion = segment_motion(series, options.segmentation);
+  if (options.choose_state_from_rest && !motion.holds.empty()) return diagnose_both_pass_starts(series, options, motion);
+  return diagnose_one(series, options, std::move(motion));
 }
 
 }  // namespace tribo::analysis

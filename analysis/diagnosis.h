@@ -62,9 +62,10 @@ struct DiagnosisOptions {
   int max_candidates_per_round = 10;
   int max_rounds = 6;
   unsigned threads = 0;  // candidates fitted at once (0: one per core); the result does not depend on it
-  // Leave base.state_from_rest to the data: fit the base model both ways and
-  // keep the one with the lower held-out error over the passes (the holds
-  // are not compared: with the state from the force they are not modelled).
+  // Leave base.state_from_rest to the data: diagnose the record both ways and
+  // keep the one whose final model has the lower held-out error over the
+  // passes (the holds are not compared: with the state from the force they
+  // are not modelled). Twice the work, on records with holds.
   bool choose_state_from_rest = false;
   // For each effect not accepted: the strength this record would reveal
   // (analysis/detectability.h).
@@ -106,11 +107,16 @@ struct BaseContactChoice {
 };
 
 // The evidence for the state each pass starts from, when it was chosen.
+// Where each pass starts, chosen on the final models' held-out pass RMS
+// (diagnosis.cc, diagnose_both_pass_starts). Force units, over held-out
+// pass samples (holds excluded: one of the two does not model them).
 struct PassStartChoice {
-  double heldout_rms_modelled_holds = 0;  // N, over held-out pass samples
+  double heldout_rms_modelled_holds = 0;  // the base fits'
   double heldout_rms_state_from_rest = 0;
-  bool state_from_rest = false;           // the choice
-  std::string objection;                  // why the other option's base fit was not physical, when that decided
+  double final_heldout_rms_modelled_holds = 0;  // the final models': these decide
+  double final_heldout_rms_state_from_rest = 0;
+  bool state_from_rest = false;                 // the choice
+  std::string objection;                        // the other start's final base past its physical bounds (information)
 };
 
 struct ErrorStats {

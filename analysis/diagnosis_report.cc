@@ -110,7 +110,9 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
     j["base_model"]["pass_start_state"] = {
         {"chosen", d.pass_start->state_from_rest ? "from the force at rest" : "modelled through the holds"},
         {"heldout_pass_rms_modelled_holds", d.pass_start->heldout_rms_modelled_holds},
-        {"heldout_pass_rms_state_from_rest", d.pass_start->heldout_rms_state_from_rest}};
+        {"heldout_pass_rms_state_from_rest", d.pass_start->heldout_rms_state_from_rest},
+        {"final_heldout_pass_rms_modelled_holds", d.pass_start->final_heldout_rms_modelled_holds},
+        {"final_heldout_pass_rms_state_from_rest", d.pass_start->final_heldout_rms_state_from_rest}};
     if (!d.pass_start->objection.empty()) j["base_model"]["pass_start_state"]["other_not_physical"] = d.pass_start->objection;
   }
   if (d.drift_knots) {
@@ -216,10 +218,12 @@ std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
   }
   line("base model (LuGre):");
   if (d.pass_start) {
-    line("  each pass starts %s (held-out pass RMS %.4g with the holds modelled, %.4g from the force at rest)",
+    line("  each pass starts %s (the record diagnosed both ways; held-out pass RMS of the final model %.4g with the "
+         "holds modelled, %.4g from the force at rest; of the base fit %.4g and %.4g)",
          d.pass_start->state_from_rest ? "from the force at rest" : "from the state modelled through the holds",
+         d.pass_start->final_heldout_rms_modelled_holds, d.pass_start->final_heldout_rms_state_from_rest,
          d.pass_start->heldout_rms_modelled_holds, d.pass_start->heldout_rms_state_from_rest);
-    if (!d.pass_start->objection.empty()) line("    the other start's base fit is not physical: %s", d.pass_start->objection.c_str());
+    if (!d.pass_start->objection.empty()) line("    the other start's final base is not physical: %s", d.pass_start->objection.c_str());
   }
   if (d.base_contact) {
     line("  contact law chosen on held-out data: %s%s%s", d.base_contact->chosen.c_str(),

@@ -269,9 +269,13 @@ ModelData::ModelData(const MeasuredSeries& s, const MotionSegmentation& m) : ser
   // driven at zero velocity while the tip rests: inside each hold, from the
   // first to the last sample within four position-noise widths of the resting
   // position (the hold's edges, found on smoothed speed, can hold the end and
-  // the start of motion).
+  // the start of motion). The width is the record's noise floor as well: a
+  // smoothed position carries almost no white noise, and a band of its width
+  // held nothing (the model's state then ran through every hold on the
+  // smoother's velocity, 178 -> -8 µN over one hold of the independent
+  // generator's rate_state seed-3 file).
   drive_velocity = s.velocity_m_per_s;
-  const double band = 4 * std::max(m.position_noise_m, 1e-300);
+  const double band = 4 * std::max({m.position_noise_m, s.position_noise_m, 1e-300});
   at_rest.assign(n, 0);
   for (const Hold& h : m.holds) {
     for (std::size_t i = h.first; i <= h.last; ++i) at_rest[i] = 1;

@@ -29,17 +29,22 @@ with the knot count chosen by the record; the tilt of the tilt seed-2 file is
 kept. The lag of the seed-2 file is named first (each held-out
 pass votes in the block agreement with the candidate's change there).
 Velocity strengthening at three times the default, fitted and not accepted on
-seed 7, has a minimum detectable strength above the injected one, and on
-seed 8 by injection and recovery (the linearised figure was below it), and on
-seed 9, whose base is past its bounds, no figure is given; on seed 10,
+seed 7, has a minimum detectable strength above the injected one, set by injection
+and recovery (the linearised figure was below it), and it
+is named first on seeds 8 and 9 since the holds are held; on seed 10,
 whose fit leaves the static level at 1e-4, it is named first (its strength
-bound is taken against the friction level). At six times the default, on
+bound is taken against the friction level). Where the final base is past
+its bounds (drift seed 2) no velocity-dependent figure is given. At six times the default, on
 seed 3, whose base fit takes the rise into a rising Stribeck curve, it is
 named first (fitted a second time from that rise moved into the log term).
 
 With speed steps within the passes (the protocol of the generator's
 rate_state files) a clean record accepts nothing; rate-and-state friction at
-the generator's default, refused, is not called identifiable at its strength.
+the generator's default is named first (seed 2).
+
+Each pass's start (modelled through the holds or from the force at rest) is
+chosen on the final models' held-out pass error: the presliding seed-2 file
+with the force taps starts from rest, with the lower final error.
 
 usage: check_tribo_fit.py TRIBO_FIT WORK_DIR
 """
@@ -144,17 +149,19 @@ def main():
     print(f"dwell_stiction, seed 3: accepted {accepted}, base mu_s {mu_s:.3g}")
 
     # The loop model driven by the force too: the generator's servo yields by
-    # -1/20 000 m/N. On the presliding seed-2 file the pass start with modelled
-    # holds fits mu_s ~ 1e16 and scores better on held-out passes; refused as
-    # not physical, the start from the force at rest keeps presliding (before
-    # that refusal: nothing accepted, breakaway_ratio driven to 1e-19).
+    # -1/20 000 m/N. On the presliding seed-2 file the base fit with modelled
+    # holds took mu_s ~ 1e16 and scored better on held-out passes (before the
+    # hold band held the holds); the pass start is now chosen on the final
+    # models, and the start from the force at rest keeps presliding with the
+    # lower held-out pass error (1.31 against 1.79 uN).
     report = diagnose(tribo_fit, work, "presliding_hysteresis", 2, ("--motion-estimator", "rts_loop_force"))
     response = report["input"].get("loop_force_response_m_per_n", 0)
     if not -5.5e-5 <= response <= -4.5e-5:
         failures.append(f"loop force response {response} m/N, the generator's -5e-5 +- 10 %")
     start = report["base_model"].get("pass_start_state", {})
     accepted = [a["name"] for a in report["accepted_effects"]]
-    if start.get("chosen") != "from the force at rest" or not start.get("other_not_physical"):
+    if start.get("chosen") != "from the force at rest" or not (
+            start.get("final_heldout_pass_rms_state_from_rest", 1) < start.get("final_heldout_pass_rms_modelled_holds", 0)):
         failures.append(f"presliding seed 2 with the force taps: pass start {start}")
     if accepted[:1] != ["presliding_hysteresis"]:
         failures.append(f"presliding seed 2 with the force taps: accepted {accepted}")
@@ -172,7 +179,19 @@ def main():
     if "tilt_offset" in accepted or "load changes at rest" not in tilt.get("reason", ""):
         failures.append(f"drift seed 5: accepted {accepted}; tilt_offset: {tilt.get('reason', '')[:160]}")
     print(f"drift, seed 5: accepted {accepted}; tilt_offset {tilt.get('reason', '')[:100]}")
-    check_first(tribo_fit, work, "drift", 2, failures)
+    report = diagnose(tribo_fit, work, "drift", 2)
+    accepted = [a["name"] for a in report["accepted_effects"]]
+    if accepted[:1] != ["drift"]:
+        failures.append(f"drift seed 2: accepted {accepted}, drift not first")
+    # Its final base keeps a Stribeck spike past the bounds (static level
+    # over 5 times the Coulomb level): the velocity-dependent effects'
+    # figures are withheld there, not linearised on a flat Stribeck curve.
+    past_bounds = any("out of bounds" in w for w in report["warnings"])
+    vs = next((r for r in report["rejected_effects"] if r["name"] == "velocity_strengthening"), {})
+    withheld = ((vs.get("minimum_detectable") or {}).get("withheld") or "")
+    if past_bounds and not withheld:
+        failures.append("drift seed 2: final base past its bounds, yet a velocity_strengthening figure is given")
+    print(f"drift, seed 2: accepted {accepted}; base past bounds {past_bounds}, figure withheld: {withheld[:60]}")
     check_first(tribo_fit, work, "tilt_offset", 2, failures)
     # The drift spline's knot count from the record (leave-one-pass-out
     # cross-validation): with the fixed 12 intervals the drift file of seed 8
@@ -188,40 +207,27 @@ def main():
     # on seed 7 it is fitted and not accepted, and the linearised figure
     # (0.0049 per e-fold in mu) lay below the injected c mu_c (0.0095). The
     # candidate's own fitted error now bounds the figure from below, and the
-    # report does not call the injected strength identifiable.
+    # report does not call the injected strength identifiable; since the
+    # holds are held, injection and recovery sets it (0.0188).
     report = diagnose(tribo_fit, work, "velocity_strengthening", 7, strength=0.09)
     truth = json.load(open(os.path.join(work, "velocity_strengthening_seed7.json")))
     injected = 0.09 * truth["contact"]["mu_c"]
     vs = next((r for r in report["rejected_effects"] if r["name"] == "velocity_strengthening"), None)
-    figure = ((vs or {}).get("minimum_detectable") or {}).get("value")
-    if vs is None or figure is None or figure < injected:
-        failures.append(f"velocity_strengthening x3 seed 7: figure {figure} below the injected {injected:.4g}"
+    m7 = (vs or {}).get("minimum_detectable") or {}
+    figure = m7.get("value")
+    if vs is None or figure is None or figure < injected or m7.get("bound_by") != "injection and recovery":
+        failures.append(f"velocity_strengthening x3 seed 7: figure {figure} ({m7.get('bound_by')}) below the injected {injected:.4g}"
                         f" while not accepted ({(vs or {}).get('reason', 'accepted')[:120]})")
     print(f"velocity_strengthening x3, seed 7: figure {figure}, injected {injected:.4g}")
 
-    # On seed 8 the linearised figure and the fitted error (0.0069) lay below
-    # the injected 0.0084; injected into the record at that figure, a refit
-    # finds half of it, and the figure is divided by the share found.
-    report = diagnose(tribo_fit, work, "velocity_strengthening", 8, strength=0.09)
-    truth = json.load(open(os.path.join(work, "velocity_strengthening_seed8.json")))
-    injected = 0.09 * truth["contact"]["mu_c"]
-    vs = next((r for r in report["rejected_effects"] if r["name"] == "velocity_strengthening"), None)
-    m = (vs or {}).get("minimum_detectable") or {}
-    if vs is None or m.get("value") is None or m["value"] < injected or m.get("bound_by") != "injection and recovery":
-        failures.append(f"velocity_strengthening x3 seed 8: figure {m.get('value')} ({m.get('bound_by')}), injected {injected:.4g}"
-                        f" ({(vs or {}).get('reason', 'accepted')[:120]})")
-    print(f"velocity_strengthening x3, seed 8: figure {m.get('value')}, share found {m.get('recovered_share')}, injected {injected:.4g}")
-
-    # On seed 9 the base fit took the velocity dependence into a Stribeck
-    # spike (mu_s 2.5e3 at vs 24 nm/s) and the figure (0.0051) lay below the
-    # injected 0.0103, which was not found: no figure is given past the bounds.
-    report = diagnose(tribo_fit, work, "velocity_strengthening", 9, strength=0.09)
-    vs = next((r for r in report["rejected_effects"] if r["name"] == "velocity_strengthening"), None)
-    m = (vs or {}).get("minimum_detectable") or {}
-    if vs is None or m.get("value") is not None or not m.get("withheld"):
-        failures.append(f"velocity_strengthening x3 seed 9: figure {m.get('value')} given past the base's bounds"
-                        f" ({(vs or {}).get('reason', 'accepted')[:120]})")
-    print(f"velocity_strengthening x3, seed 9: figure withheld: {(m.get('withheld') or '')[:100]}")
+    # Seeds 8 and 9 were missed until the holds were held (the hold band from
+    # the record's noise floor) and the pass start chosen on the final
+    # models: named first now (their figures 0.34 and 0.12 of the injected:
+    # the Stribeck partition of docs/identification.md). Seed 8's figure was
+    # then raised by injection and recovery, seed 9's withheld past the
+    # bounds; those paths are checked on seed 7 above and drift seed 2.
+    check_first(tribo_fit, work, "velocity_strengthening", 8, failures, strength=0.09)
+    check_first(tribo_fit, work, "velocity_strengthening", 9, failures, strength=0.09)
 
     # On seed 10 the fit leaves mu_s at 1e-4 beside mu_c 0.137; the bound on
     # the strength, taken against the static level alone, refused a 34 %
@@ -244,21 +250,12 @@ def main():
     print(f"none with speed steps, seed 3: accepted {accepted}")
 
     # Rate-and-state friction at the generator's default (a = 0.05 of the
-    # levels, b = 1.2 a, Dc = 1 um) is refused on the strength gate although
-    # it lowers the held-out error by 19-56 %; where it is not named, the
-    # report must not call the injected a identifiable. The linearised figure
-    # was 0.0008 against an injected 0.0045 (seed 2); the trial's fitted error
-    # now bounds it from below.
-    report = diagnose(tribo_fit, work, "rate_state", 2)
-    truth = json.load(open(os.path.join(work, "rate_state_seed2.json")))
-    injected = truth["rate_state"]["a_mu"]
-    accepted = [a["name"] for a in report["accepted_effects"]]
-    rs = next((r for r in report["rejected_effects"] if r["name"] == "rate_state"), None)
-    m = (rs or {}).get("minimum_detectable") or {}
-    figure = m.get("value")
-    if accepted[:1] != ["rate_state"] and figure is not None and figure < injected:
-        failures.append(f"rate_state seed 2: not named ({accepted}) while the figure {figure} lies below the injected {injected:.4g}")
-    print(f"rate_state, seed 2: accepted {accepted}, figure {figure}, injected {injected:.4g}")
+    # levels, b = 1.2 a, Dc = 1 um): refused on all ten seeds while the
+    # model's bristle ran through the holds on the smoother's velocity (the
+    # hold band had the width of the smoothed position's noise, near 0);
+    # named first now. On seed 2 the report had also called a = 0.0008
+    # identifiable against an injected 0.0045.
+    check_first(tribo_fit, work, "rate_state", 2, failures)
     if failures:
         sys.exit("; ".join(failures))
 
