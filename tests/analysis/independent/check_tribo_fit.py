@@ -31,7 +31,8 @@ pass votes in the block agreement with the candidate's change there).
 Velocity strengthening at three times the default, fitted and not accepted on
 seed 7, has a minimum detectable strength above the injected one, set by injection
 and recovery (the linearised figure was below it), and it
-is named first on seeds 8 and 9 since the holds are held; on seed 10,
+is named first on seeds 8 and 9 since the holds are held; on seed 4, fitted
+with the opposite sign, no figure calls the missed strength identifiable; on seed 10,
 whose fit leaves the static level at 1e-4, it is named first (its strength
 bound is taken against the friction level). Where the final base is past
 its bounds (drift seed 2) no velocity-dependent figure is given. At six times the default, on
@@ -228,6 +229,19 @@ def main():
     # bounds; those paths are checked on seed 7 above and drift seed 2.
     check_first(tribo_fit, work, "velocity_strengthening", 8, failures, strength=0.09)
     check_first(tribo_fit, work, "velocity_strengthening", 9, failures, strength=0.09)
+    # Seed 4: fitted with the opposite sign (-0.0018) at -16.6 % held-out, and
+    # refused; its figure, 0.0024 by injection and recovery, called the missed
+    # 0.0106 identifiable. A trial that takes the velocity dependence the
+    # other way now withholds the figure.
+    report = diagnose(tribo_fit, work, "velocity_strengthening", 4, strength=0.09)
+    truth = json.load(open(os.path.join(work, "velocity_strengthening_seed4.json")))
+    injected = 0.09 * truth["contact"]["mu_c"]
+    accepted = [a["name"] for a in report["accepted_effects"]]
+    vs = next((r for r in report["rejected_effects"] if r["name"] == "velocity_strengthening"), None)
+    m4 = (vs or {}).get("minimum_detectable") or {}
+    if accepted[:1] != ["velocity_strengthening"] and m4.get("value") is not None and m4["value"] < injected:
+        failures.append(f"velocity_strengthening x3 seed 4: not named ({accepted}), figure {m4['value']} below the injected {injected:.4g}")
+    print(f"velocity_strengthening x3, seed 4: accepted {accepted}, figure {m4.get('value')}, withheld: {(m4.get('withheld') or '')[:60]}")
 
     # On seed 10 the fit leaves mu_s at 1e-4 beside mu_c 0.137; the bound on
     # the strength, taken against the static level alone, refused a 34 %
