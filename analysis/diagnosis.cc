@@ -7,7 +7,6 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
-#include <tuple>
 #include <utility>
 
 #include "analysis/autodiff.h"
