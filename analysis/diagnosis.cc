@@ -502,7 +502,48 @@ std::string out_of_bounds(const ModelData& data, const FitResult& fit, Effect ef
 // a few per cent can come from an extension bending into some other misfit
 // (on clean files of the independent generator: dwell stiction at 1.8-2.2
 // standard errors); a real effect stands clear of zero (there: 5-1600).
-std::string undetermined_strength(const FitResult& fit, Effect effect, double min_z) {
+std::string undetermined_strength(const FitResult& fit, Effect effect, double min_z, double longest_hold_s);
+
+namespace {
+
+double longest_hold_s(const ModelData& data) {
+  double longest = 0;
+  for (const Hold& h : data.motion.holds) longest = std::max(longest, data.series.time_s[h.last] - data.series.time_s[h.first]);
+  return longest;
+}
+
+// Dwell stiction's strength as the record determines it: the peak its term
+// adds after the longest hold, dwell_dFs T / (T + dwell_time), with the
+// error of that combination. dwell_dFs alone is the term's asymptote, which
+// trades off against dwell_time when the holds do not reach saturation (on
+// the independent generator's dwell file of seed 4, dwell_time 1.3 +- 1.4 s
+// beside holds of up to 8 s). nullopt when the fit has no covariance for the two.
+std::optional<std::string> dwell_peak_objection(const FitResult& fit, double longest_hold_s, double min_z) {
+  const int kf = fit.params.index("dwell_dFs"), kt = fit.params.index("dwell_time");
+  if (kf < 0 || kt < 0 || !(longest_hold_s > 0)) return std::nullopt;
+  const auto row = [&](int k) { return static_cast<std::size_t>(k) < fit.covariance_row.size() ? fit.covariance_row[static_cast<std::size_t>(k)] : -1; };
+  const int rf = row(kf), rt = row(kt);
+  if (rf < 0 || rt < 0 || rf >= fit.covariance.rows() || rt >= fit.covariance.rows()) return std::nullopt;
+  const double dfs = fit.params.value("dwell_dFs"), tau = fit.params.value("dwell_time"), T = longest_hold_s;
+  const double share = T / (T + tau);
+  const Eigen::Vector2d g(share, -dfs * T / ((T + tau) * (T + tau)));
+  Eigen::Matrix2d c;
+  c << fit.covariance(rf, rf), fit.covariance(rf, rt), fit.covariance(rt, rf), fit.covariance(rt, rt);
+  const double error = std::sqrt(std::max(g.dot(c * g), 0.0));
+  const double peak = dfs * share, z = error > 0 ? std::fabs(peak) / error : 0.0;
+  if (!std::isfinite(z)) return std::nullopt;
+  if (z >= min_z) return std::string();
+  return fmt::sprintf("fitted dwell peak after the longest hold (%.3g s), dwell_dFs T / (T + dwell_time) = %.3g +- %.2g, stands %.1f "
+             "standard errors from no effect (below %.0f): the strength is not determined",
+             T, peak, error, z, min_z);
+}
+
+}  // namespace
+
+std::string undetermined_strength(const FitResult& fit, Effect effect, double min_z, double longest_hold_s) {
+  if (effect == Effect::kDwellStiction) {
+    if (auto o = dwell_peak_objection(fit, longest_hold_s, min_z)) return *o;
+  }
   const auto neutral = [effect](const std::string& name) -> std::optional<double> {
     switch (effect) {
       case Effect::kDwellStiction: return name == "dwell_dFs" ? std::optional(0.0) : std::nullopt;
@@ -576,7 +617,7 @@ std::string undetermined_strength(const FitResult& fit, Effect effect, double mi
 std::string candidate_objection(const ModelData& data, const FitResult& fit, Effect effect,
                                 const std::vector<double>& model, double min_strength_z) {
   std::string objection = out_of_bounds(data, fit, effect);
-  if (objection.empty()) objection = undetermined_strength(fit, effect, min_strength_z);
+  if (objection.empty()) objection = undetermined_strength(fit, effect, min_strength_z, longest_hold_s(data));
   if (objection.empty() && effect == Effect::kTiltOffset) objection = tilt_rest_objection(data, model, fit);
   return objection;
 }
@@ -954,11 +995,11 @@ void add_motion_systematic(const ModelData& primary, const MeasuredSeries& alter
 // The accepted effects whose strength does not stand clear of none once the
 // motion model's systematic part is in its error: they may be the motion
 // estimate's own.
-std::vector<RejectedEffect> motion_model_refusals(const std::vector<AcceptedEffect>& accepted, const FitResult& final_fit,
-                                                  const DiagnosisOptions& options) {
+std::vector<RejectedEffect> motion_model_refusals(const ModelData& data, const std::vector<AcceptedEffect>& accepted,
+                                                  const FitResult& final_fit, const DiagnosisOptions& options) {
   std::vector<RejectedEffect> out;
   for (const AcceptedEffect& a : accepted) {
-    const std::string objection = undetermined_strength(final_fit, a.effect, options.min_strength_z);
+    const std::string objection = undetermined_strength(final_fit, a.effect, options.min_strength_z, longest_hold_s(data));
     if (objection.empty()) continue;
     RejectedEffect r;
     r.effect = a.effect;
@@ -1214,7 +1255,7 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
     add_motion_systematic(data, *options.alternative_motion, out.motion, in_fit, options, out.final_fit);
     // The rounds after a refused effect's acceptance were taken in its
     // presence: the record is diagnosed again without it as a candidate.
-    std::vector<RejectedEffect> not_clear = motion_model_refusals(out.accepted, out.final_fit, options);
+    std::vector<RejectedEffect> not_clear = motion_model_refusals(data, out.accepted, out.final_fit, options);
     if (!not_clear.empty()) {
       DiagnosisOptions again = options;
       for (const RejectedEffect& r : not_clear) std::erase(again.candidates, r.effect);
