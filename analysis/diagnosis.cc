@@ -495,15 +495,6 @@ std::string out_of_bounds(const ModelData& data, const FitResult& fit, Effect ef
   }
 }
 
-// Why a fitted extension's strength is not told from no effect, or empty:
-// every parameter that sets how strong the effect is (its value with the
-// effect off: 0, or 1 for the breakaway ratio) stands fewer than min_z of
-// its standard errors from that value. A held-out gain and an AICc drop of
-// a few per cent can come from an extension bending into some other misfit
-// (on clean files of the independent generator: dwell stiction at 1.8-2.2
-// standard errors); a real effect stands clear of zero (there: 5-1600).
-std::string undetermined_strength(const FitResult& fit, Effect effect, double min_z, double longest_hold_s);
-
 namespace {
 
 double longest_hold_s(const ModelData& data) {
@@ -540,6 +531,15 @@ std::optional<std::string> dwell_peak_objection(const FitResult& fit, double lon
 
 }  // namespace
 
+// Why a fitted extension's strength is not told from no effect, or empty:
+// every parameter that sets how strong the effect is (its value with the
+// effect off: 0, or 1 for the breakaway ratio) stands fewer than min_z of
+// its standard errors from that value. A held-out gain and an AICc drop of
+// a few per cent can come from an extension bending into some other misfit
+// (on clean files of the independent generator: dwell stiction at 1.8-2.2
+// standard errors); a real effect stands clear of zero (there: 5-1600).
+// Dwell stiction is judged by its peak after the longest hold instead
+// (dwell_peak_objection) when the fit has the covariance of its two parameters.
 std::string undetermined_strength(const FitResult& fit, Effect effect, double min_z, double longest_hold_s) {
   if (effect == Effect::kDwellStiction) {
     if (auto o = dwell_peak_objection(fit, longest_hold_s, min_z)) return *o;
