@@ -72,6 +72,13 @@ struct DetectableStrength {
   bool from_injection = false;
   // Not empty: no figure is given (value +inf), and why (diagnosis.cc).
   std::string withheld;
+  // Rediagnosis (diagnosis.cc): the strengths at which the effect was
+  // injected into the record and the record diagnosed again for it (the
+  // final model refitted without it, then the candidate's screening, fit and
+  // gates), in order; the figure is the first found. Empty: not checked.
+  std::vector<double> rediagnosed_at;
+  bool rediagnosis_found = false;
+  bool from_rediagnosis = false;  // the figure was raised (or, none found, set to +inf) by it
 };
 
 struct DetectabilityCriteria {

@@ -82,7 +82,7 @@ double score_test(const ModelData& data, const ModelParams& current, const std::
   }
   Eigen::MatrixXd X = model_jacobian(data, start, start.theta, columns, rows);
   Eigen::VectorXd y(static_cast<Eigen::Index>(rows.size()));
-  for (std::size_t r = 0; r < rows.size(); ++r) y[static_cast<Eigen::Index>(r)] = data.series.force_n[rows[r]] - current_model[rows[r]];
+  for (std::size_t r = 0; r < rows.size(); ++r) y[static_cast<Eigen::Index>(r)] = (*data.fitted_force)[rows[r]] - current_model[rows[r]];
   // Drop columns without variation (a parameter these samples do not feel).
   std::vector<int> kept;
   for (Eigen::Index j = 0; j < X.cols(); ++j) {
@@ -360,6 +360,7 @@ std::string tilt_rest_objection(const ModelData& data, const std::vector<double>
   const MeasuredSeries& s = data.series;
   if (fit.params.index("tilt_tan") < 0 || !s.has_normal()) return {};
   const double tan_fit = fit.params.value("tilt_tan");
+  const std::vector<double>& force = *data.fitted_force;
   Design rest;
   int stretches = 0;
   for (const Hold& h : rest_stretches(s, data.motion, 0.2, 20)) {
@@ -372,12 +373,12 @@ std::string tilt_rest_objection(const ModelData& data, const std::vector<double>
     double mean_n = 0, mean_r = 0;
     for (std::size_t i = h.first; i <= h.last; ++i) {
       mean_n += s.normal_force_n[i];
-      mean_r += s.force_n[i] - model[i];
+      mean_r += force[i] - model[i];
     }
     const auto count = static_cast<double>(h.last - h.first + 1);
     mean_n /= count;
     mean_r /= count;
-    for (std::size_t i = h.first; i <= h.last; ++i) rest.add_row({s.normal_force_n[i] - mean_n}, s.force_n[i] - model[i] - mean_r);
+    for (std::size_t i = h.first; i <= h.last; ++i) rest.add_row({s.normal_force_n[i] - mean_n}, force[i] - model[i] - mean_r);
     ++stretches;
   }
   if (stretches == 0) return {};
@@ -529,6 +530,25 @@ std::optional<std::string> dwell_peak_objection(const FitResult& fit, double lon
              T, peak, error, z, min_z);
 }
 
+// Rate-and-state with its evolution b within min_z errors of zero is its
+// direct effect a ln v alone, which is the velocity_strengthening term in the
+// same form (friction_model.cc): the label would claim a state the record
+// does not show. On the full reliability map (tribo's plain LuGre plant,
+// config/campaigns/identification_reliability_full.toml) velocity
+// strengthening at coeff 0.005 was named rate_state in 9 of 15 runs; on seed 1
+// at 10 nm a = 0.0048 (the 0.005 injected), b = -0.0007 +- 0.0036.
+std::optional<std::string> rate_state_evolution_objection(const FitResult& fit, double min_z) {
+  for (const ParamEstimate& e : parameters_of(fit, Effect::kRateState)) {
+    if (e.name != "rs_b" || e.fixed || !(e.std_error > 0) || !std::isfinite(e.std_error)) continue;
+    const double z = std::fabs(e.value) / e.std_error;
+    if (z >= min_z) return std::nullopt;
+    return fmt::sprintf("fitted rs_b %.3g +- %.2g stands %.1f standard errors from no evolution (below %.0f): without a "
+                        "determined state the direct effect alone is velocity strengthening",
+                        e.value, e.std_error, z, min_z);
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 // Why a fitted extension's strength is not told from no effect, or empty:
@@ -543,6 +563,9 @@ std::optional<std::string> dwell_peak_objection(const FitResult& fit, double lon
 std::string undetermined_strength(const FitResult& fit, Effect effect, double min_z, double longest_hold_s) {
   if (effect == Effect::kDwellStiction) {
     if (auto o = dwell_peak_objection(fit, longest_hold_s, min_z)) return *o;
+  }
+  if (effect == Effect::kRateState) {
+    if (auto o = rate_state_evolution_objection(fit, min_z)) return *o;
   }
   const auto neutral = [effect](const std::string& name) -> std::optional<double> {
     switch (effect) {
@@ -940,14 +963,21 @@ BaseContactChoice choose_base_contact(const ModelData& data, const DiagnosisOpti
     choice.options.push_back({"rate_state_contact", rms_over(force, rs->model, heldout), contact_objection(data, rs->fit), rs->fit.estimates});
     fitted.push_back(std::move(*rs));
   }
+  // A contact replaces LuGre only if it is physical and predicts the held-out
+  // passes no worse than LuGre, which the base keeps, physical or not, when
+  // the contact is not chosen. On the default instrument's clean
+  // identification runs LuGre and the elasto-plastic fits can all be past
+  // their bounds while the rate-and-state contact is not: taken alone, it was
+  // chosen at 33-43 uN of held-out RMS beside LuGre's 22 and the
+  // elasto-plastic law's 6-10, and the final error rose to 12-15 % (from 7 %).
   std::vector<std::size_t> pool;
   for (std::size_t k = 0; k < choice.options.size(); ++k) {
-    if (choice.options[k].note.empty()) pool.push_back(k);
+    if (choice.options[k].note.empty() && choice.options[k].heldout_rms <= choice.options[0].heldout_rms) pool.push_back(k);
   }
   if (pool.empty()) {
     for (std::size_t k = 0; k < choice.options.size(); ++k) pool.push_back(k);
-    choice.warning = "every contact law tried is at or past a physical bound (see base_model.contact_choice); "
-                     "the one kept is chosen on held-out error alone";
+    choice.warning = "every contact law tried is at or past a physical bound, or predicts the held-out passes worse "
+                     "than LuGre (see base_model.contact_choice); the one kept is chosen on held-out error alone";
   }
   std::size_t best = pool.front();
   for (std::size_t k : pool) {
@@ -965,17 +995,36 @@ BaseContactChoice choose_base_contact(const ModelData& data, const DiagnosisOpti
 
 }  // namespace
 
+// How much worse the other motion estimate may let the model predict the
+// held-out passes for its shifts to count as the motion's uncertainty.
+constexpr double kMaxAlternativeMotionRatio = 1.5;
+
 // The final model refitted, from its own values, on the record with the other
 // motion estimate: a parameter that the choice of motion model moves by more
 // than its statistical error is known no better than that move (on the
 // independent generator the contact stiffness moves 2-9 % between the loop
 // models with and without the servo's yield, against errors of 1-2 %).
 void add_motion_systematic(const ModelData& primary, const MeasuredSeries& alternative, const MotionSegmentation& motion,
-                           const std::vector<char>& in_fit, const DiagnosisOptions& options, FitResult& fit) {
+                           const std::vector<char>& in_fit, const std::vector<char>& heldout, double heldout_rms,
+                           const DiagnosisOptions& options, FitResult& fit) {
   ModelData data(alternative, motion);
   data.set_drift_intervals(primary.drift_intervals());
   const FitResult refit = fit_model(data, fit.params, in_fit, options.lugre.fit);
   if (!std::isfinite(refit.rss) || refit.estimates.size() != fit.estimates.size()) return;
+  // A motion model under which the model predicts the held-out passes much
+  // worse is not a defensible one for this record, and its shifts are misfit,
+  // not the motion's uncertainty. On the independent generator the two loop
+  // models' base fits predict alike (held-out RMS ratio 0.85-1.06); on tribo's
+  // plain LuGre plant the loop model driven by the force does 3.6-9 times
+  // worse, and its refit moved a 0.02 direction asymmetry by 0.02, refusing
+  // it in 5 of 5 runs at 5 uN of force noise.
+  const double alternative_rms = rms_over(alternative.force_n, simulate(data, refit.params), heldout);
+  if (!(alternative_rms <= kMaxAlternativeMotionRatio * heldout_rms)) {
+    fit.warnings.push_back(fmt("the motion model's systematic error is not assessed: refitted on the other motion estimate, "
+                               "the model predicts the held-out passes %.2g times worse (held-out RMS %.3g against %.3g)",
+                               alternative_rms / heldout_rms, alternative_rms, heldout_rms));
+    return;
+  }
   // A refit that leaves the base model's physical bounds where the fit kept
   // them has found another valley, not the same model on other motion.
   if (const std::string o = base_objection(data, refit); !o.empty() && base_objection(primary, fit).empty()) {
@@ -1075,6 +1124,81 @@ void check_by_injection(const ModelData& data, const Current& current, const std
   figure.from_injection = true;
   figure.value = figure.recovered_share >= kMinRecoveredShare ? figure.value / figure.recovered_share
                                                               : std::numeric_limits<double>::infinity();
+}
+
+// A round's gates for a candidate fit against the model before it: its
+// held-out gain, the share of that change in improved held-out passes, its
+// AICc change, and no objection to its values.
+bool passes_round_gates(double heldout_gain, double agreement, double delta_aicc, const std::string& objection,
+                        const DiagnosisOptions& options) {
+  return heldout_gain >= options.min_heldout_gain && agreement >= options.min_block_agreement &&
+         delta_aicc <= options.max_delta_aicc && objection.empty();
+}
+
+// Effects whose figure is checked by rediagnosis: those a refit can take up
+// along a path the linearised figure does not follow (the base's Stribeck
+// curve and viscous term, or another candidate of the same form). On the
+// full reliability map (tribo's plain LuGre plant, 675 runs,
+// config/campaigns/identification_reliability_full.toml) the linearised
+// figure lay at or below the injected strength in 10 of the 46 runs that
+// missed velocity strengthening (figures from 0.0014, injected 0.005-0.01)
+// and in 28 of the 60 that missed a first-order frictional lag (figures 5-28
+// ms, injected 20-50 ms).
+bool rediagnosed(Effect effect) {
+  return effect == Effect::kVelocityStrengthening || effect == Effect::kFrictionalLag;
+}
+
+// Whether a round would accept the effect had the record held it at
+// strength s along the figure's axis: the effect added to the record in the
+// model's own form on the final model, the final model (without it) refitted
+// to that record, as the base fit takes up what it can mimic, then the
+// candidate's signature, score test, fit and gates as in a round.
+bool accepted_when_injected(const ModelData& data, const Current& current, const std::vector<char>& in_fit,
+                            const std::vector<char>& heldout, const DiagnosisOptions& options, Effect effect, double s) {
+  std::vector<double> injected(*data.fitted_force);
+  {
+    const std::vector<double> with_effect_n = simulate(data, with_strength(current.fit.params, effect, data, s));
+    for (std::size_t i = 0; i < injected.size(); ++i) injected[i] += with_effect_n[i] - current.model[i];
+  }
+  ModelData record = data;
+  record.fitted_force = &injected;
+  const Current refit = evaluate(record, fit_model(record, current.fit.params, in_fit, options.lugre.fit));
+  const SignatureInput input{record, refit.fit.params, refit.model, refit.friction, in_fit};
+  Signature sig = compute_signature(effect, SignatureContext(input));
+  if (!sig.applicable) return false;
+  sig.score_t = score_test(record, refit.fit.params, refit.model, effect, sig, in_fit);
+  if (std::max(sig.strength, sig.score_t / options.score_t_threshold) < options.min_signature_strength) return false;
+  const FitResult fit = fit_extension(record, refit.fit.params, effect, sig, in_fit, options);
+  const std::vector<double> model = simulate(record, fit.params);
+  const double before = rms_over(injected, refit.model, heldout);
+  const double gain = before > 0 ? 1.0 - rms_over(injected, model, heldout) / before : 0.0;
+  const double n = static_cast<double>(refit.fit.n);
+  return passes_round_gates(gain, block_agreement(data.motion, heldout, injected, refit.model, model),
+                            aicc(fit.rss, fit.n, n, fit.k) - aicc(refit.fit.rss, refit.fit.n, n, refit.fit.k),
+                            candidate_objection(record, fit, effect, model, options.min_strength_z), options);
+}
+
+// The minimum detectable strength checked by rediagnosis
+// (accepted_when_injected) at itself, then at two and four times it: the
+// first strength found is the figure; none found, no figure.
+void check_by_rediagnosis(const ModelData& data, const Current& current, const std::vector<char>& in_fit,
+                          const std::vector<char>& heldout, const DiagnosisOptions& options, Effect effect,
+                          DetectableStrength& figure) {
+  if (!rediagnosed(effect) || !std::isfinite(figure.value) || !(figure.value > 0)) return;
+  const double first = figure.value;
+  for (double factor : {1.0, 2.0, 4.0}) {
+    const double s = factor * first;
+    if (factor > 1.0 && s > figure.searched_up_to) break;
+    figure.rediagnosed_at.push_back(s);
+    if (accepted_when_injected(data, current, in_fit, heldout, options, effect, s)) {
+      figure.rediagnosis_found = true;
+      figure.from_rediagnosis = factor > 1.0;
+      figure.value = s;
+      return;
+    }
+  }
+  figure.from_rediagnosis = true;
+  figure.value = std::numeric_limits<double>::infinity();
 }
 
 }  // namespace
@@ -1202,8 +1326,8 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
         objections[j] = candidate_objection(data, fits[j], e, model, options.min_strength_z);
       }
       const double gain = heldout_before > 0 ? 1.0 - heldout_checks[j].first / heldout_before : 0.0;
-      passed[j] = gain >= options.min_heldout_gain && heldout_checks[j].second >= options.min_block_agreement &&
-                  aicc(fits[j].rss, fits[j].n, n, fits[j].k) - aicc_current <= options.max_delta_aicc && objections[j].empty();
+      passed[j] = passes_round_gates(gain, heldout_checks[j].second, aicc(fits[j].rss, fits[j].n, n, fits[j].k) - aicc_current,
+                                     objections[j], options);
       if (passed[j]) polished[j] = fit_model(data, fits[j].params, in_fit, options.lugre.fit);
     });
     const std::size_t first_trial = out.trials.size();
@@ -1252,7 +1376,8 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
 
   out.final_fit = current.fit;
   if (options.alternative_motion) {
-    add_motion_systematic(data, *options.alternative_motion, out.motion, in_fit, options, out.final_fit);
+    add_motion_systematic(data, *options.alternative_motion, out.motion, in_fit, heldout,
+                          rms_over(series.force_n, current.model, heldout), options, out.final_fit);
     // The rounds after a refused effect's acceptance were taken in its
     // presence: the record is diagnosed again without it as a candidate.
     std::vector<RejectedEffect> not_clear = motion_model_refusals(data, out.accepted, out.final_fit, options);
@@ -1306,6 +1431,15 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
         raise_to_fitted_error(*r.minimum_detectable, r.effect, r.last_trial->parameters, criteria);
         check_by_injection(data, current, in_fit, options, *r.last_trial, *r.minimum_detectable);
       }
+    });
+  }
+  // After the basis is gone: each check holds a refit of the final model and
+  // a copy of the force, and the basis beside them raised the diagnosis' peak
+  // heap from 204 to 369 bytes a sample (tests/analysis/fit_memory_test.cc).
+  if (options.minimum_detectable) {
+    parallel_for(out.rejected.size(), options.threads, [&](std::size_t j) {
+      RejectedEffect& r = out.rejected[j];
+      if (r.minimum_detectable) check_by_rediagnosis(data, current, in_fit, heldout, options, r.effect, *r.minimum_detectable);
     });
   }
 

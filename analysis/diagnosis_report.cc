@@ -59,6 +59,14 @@ std::string csv_text(std::string s) {
   return s;
 }
 
+std::string strengths_text(const std::vector<double>& strengths) {
+  std::string text;
+  for (std::size_t k = 0; k < strengths.size(); ++k) {
+    text += (k == 0 ? "" : k + 1 == strengths.size() ? " and " : ", ") + fmt::sprintf("%.3g", strengths[k]);
+  }
+  return text;
+}
+
 }  // namespace
 
 std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const ReportInfo& info) {
@@ -146,12 +154,14 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
                                       {"searched_up_to", m->searched_up_to},
                                       {"axis", m->axis},
                                       {"detection_probability", m->detection_probability},
-                                      {"bound_by", m->from_injection      ? "injection and recovery"
+                                      {"bound_by", m->from_rediagnosis    ? "injection and rediagnosis"
+                                                   : m->from_injection    ? "injection and recovery"
                                                    : m->from_fitted_error ? "the candidate's fitted standard error"
                                                                           : "the linearised gates"},
                                       {"injected_strength", std::isfinite(m->injected_strength) ? Json(m->injected_strength) : Json(nullptr)},
                                       {"recovered_share", std::isfinite(m->recovered_share) ? Json(m->recovered_share) : Json(nullptr)},
-                                      {"withheld", m->withheld.empty() ? Json(nullptr) : Json(m->withheld)}};
+                                      {"withheld", m->withheld.empty() ? Json(nullptr) : Json(m->withheld)},
+                                      {"rediagnosed_at", m->rediagnosed_at}};
     }
     rejected.push_back(std::move(effect));
   }
@@ -184,6 +194,11 @@ std::string minimum_detectable_text(const DetectableStrength& m) {
   const std::string recovered = m.from_injection ? fmt::sprintf("; injected into the record at %.3g, a refit found %.0f %% of it",
                                                                 m.injected_strength, 100 * m.recovered_share)
                                                   : "";
+  if (!std::isfinite(m.value) && m.from_rediagnosis) {
+    return fmt::sprintf("not identifiable from this record: %s injected at %s %s and the record diagnosed again for it, "
+                        "the final model refitted without it, never accepted",
+                        m.parameter, strengths_text(m.rediagnosed_at), m.unit);
+  }
   if (!std::isfinite(m.value) && m.from_injection) {
     return fmt::sprintf("not identifiable from this record: %s injected at %.3g %s, a refit found %.0f %% of it", m.parameter,
                         m.injected_strength, m.unit, 100 * m.recovered_share);
@@ -191,10 +206,18 @@ std::string minimum_detectable_text(const DetectableStrength& m) {
   if (!std::isfinite(m.value)) {
     return fmt::sprintf("not identifiable from this record at any %s up to %.3g %s", m.parameter, m.searched_up_to, m.unit);
   }
+  std::string rediagnosed;
+  if (m.from_rediagnosis) {
+    rediagnosed = fmt::sprintf("; injected at %s and the record diagnosed again for it, the final model refitted without "
+                               "it: accepted first at %.3g", strengths_text(m.rediagnosed_at), m.value);
+  } else if (m.rediagnosis_found) {
+    rediagnosed = "; injected there and the record diagnosed again for it: accepted";
+  }
   return fmt::sprintf("not reliably identifiable from this record below %s = %.3g %s (minimum detectable strength: found "
-                      "with %.0f %% probability there; %s%s%s)",
+                      "with %.0f %% probability there; %s%s%s%s)",
                       m.parameter, m.value, m.unit, 100 * m.detection_probability, m.axis,
-                      m.from_fitted_error && !m.from_injection ? "; from the candidate's fitted standard error" : "", recovered);
+                      m.from_fitted_error && !m.from_injection && !m.from_rediagnosis ? "; from the candidate's fitted standard error" : "",
+                      m.from_rediagnosis ? "" : recovered, rediagnosed);
 }
 
 std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {

@@ -109,9 +109,10 @@ struct ModelData {
   // computed when needed: a stored table would cost drift_functions doubles
   // per sample. Returns the first of the four that are not zero.
   int drift_basis_at(std::size_t i, double* out) const;
-  // The force the model is fitted to and a pass starts from: the record's,
-  // or a copy with an effect injected into it (injection and recovery of a
-  // minimum detectable strength, analysis/diagnosis.cc); never null after
+  // The force the model is fitted to, a pass starts from and the residual
+  // signatures and score test read: the record's, or a copy with an effect
+  // injected into it (injection and recovery, and rediagnosis, of a minimum
+  // detectable strength, analysis/diagnosis.cc); never null after
   // construction. Copy the data to point it elsewhere.
   const std::vector<double>* fitted_force = nullptr;
   std::vector<double> drive_velocity;  // the measured velocity, zero inside holds

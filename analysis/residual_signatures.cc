@@ -395,7 +395,7 @@ Signature backlash(const SignatureContext& c) {
   std::vector<double> measured(c.s.size()), model(c.s.size());
   for (std::size_t i = 0; i < c.s.size(); ++i) {
     const double additive = c.in.model[i] - c.in.friction[i];
-    measured[i] = c.s.force_n[i] - additive;
+    measured[i] = (*c.in.data.fitted_force)[i] - additive;
     model[i] = c.in.friction[i];
   }
   std::vector<double> excess, steps;
@@ -889,8 +889,9 @@ SignatureContext::SignatureContext(const SignatureInput& input) : in(input), s(i
   level.resize(n);
   g.resize(n);
   zone.assign(n, Zone::kNone);
+  const std::vector<double>& force = *in.data.fitted_force;  // the record's, or one with an effect injected
   for (std::size_t i = 0; i < n; ++i) {
-    r[i] = s.force_n[i] - in.model[i];
+    r[i] = force[i] - in.model[i];
     const double w = std::max(std::fabs(s.velocity_m_per_s[i]), 1e-300);
     const double normal = s.has_normal() ? s.normal_force_n[i] : 0.0;
     level[i] = std::max(steady_state_friction(p, w, normal) - fv * w, 0.0);

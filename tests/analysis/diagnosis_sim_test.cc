@@ -24,10 +24,13 @@
 //
 // Every test runs its own simulation (about 1 s of CPU for the 197 s
 // protocol at 10 kHz) and one diagnosis (5-15 s).
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <functional>
 #include <iostream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -35,6 +38,7 @@
 #include <gtest/gtest.h>
 
 #include "analysis/diagnosis_report.h"
+#include "analysis/fit_commands.h"
 #include "tests/analysis/analysis_test_support.h"
 #include "tests/analysis/sim_identification_run.h"
 
@@ -296,6 +300,33 @@ TEST(DiagnosisSim, TheContactLawIsChosenOnHeldOutData) {
   EXPECT_TRUE(plain.accepted.empty()) << accepted_names(plain);
 }
 
+// A contact law replaces LuGre only if it is physical and predicts the
+// held-out passes no worse than LuGre. On the default instrument's clean run
+// (seed 4, lateral force noise 5 uN, as the contact-choice reliability map
+// runs it) LuGre and the elasto-plastic fits are past their bounds and the
+// rate-and-state contact is not: taken as the only physical one it was kept
+// at 43 uN of held-out RMS beside LuGre's 22, and the final held-out NRMSE
+// rose to 0.146 from LuGre's 0.073.
+TEST(DiagnosisSim, AContactThatPredictsWorseThanLugreIsNotChosen) {
+  const MeasuredSeries s = testing::simulated_identification_record(
+      testing::default_instrument_identification_config(
+          [](v1::DaemonConfig& c) { c.mutable_sim()->mutable_sensors()->set_lateral_force_noise_n(5e-6); }),
+      4);
+  DiagnoseRequest request;
+  request.tribo_run = true;
+  request.choose_base_contact = true;
+  const DiagnoseOutcome outcome = diagnose_series(s, request);
+  ASSERT_TRUE(outcome.error.empty()) << outcome.error;
+  const Diagnosis& d = outcome.diagnosis;
+  report("default instrument, clean, seed 4, contact chosen", d);
+  ASSERT_TRUE(d.base_contact);
+  const auto& options = d.base_contact->options;
+  const auto chosen = std::find_if(options.begin(), options.end(), [&](const auto& o) { return o.name == d.base_contact->chosen; });
+  ASSERT_NE(chosen, options.end());
+  EXPECT_LE(chosen->heldout_rms, options.front().heldout_rms) << d.base_contact->chosen << " against lugre";
+  EXPECT_LT(d.after.heldout.rms, d.before.heldout.rms);
+}
+
 // The minimum detectable strength is a prediction the diagnosis can be held
 // to: velocity strengthening at what the clean record needs (the strength
 // found with 90 % probability) is found on the same protocol, and at 0.3 of
@@ -324,6 +355,52 @@ TEST(DiagnosisSim, TheMinimumDetectableStrengthPredictsWhatIsFound) {
     v.set_coeff(0.3 * needed);
   });
   EXPECT_FALSE(accepted(weak, Effect::kVelocityStrengthening)) << accepted_names(weak);
+}
+
+// Velocity strengthening at coeff 0.005 (2.5 times the config's), the
+// record's position at the default instrument's 10 nm floor, diagnosed as
+// tribo-fit diagnoses a run directory.
+Diagnosis diagnose_velocity_strengthening_run(std::uint64_t seed) {
+  const MeasuredSeries s = testing::simulated_identification_record(testing::identification_config([](v1::DaemonConfig& c) {
+    auto& v = *friction(c).mutable_velocity_strengthening();
+    v.set_enabled(true);
+    v.set_coeff(0.005);
+    c.mutable_sim()->mutable_sensors()->set_lateral_position_record_noise_m(10e-9);
+  }), seed);
+  DiagnoseRequest request;
+  request.tribo_run = true;
+  DiagnoseOutcome outcome = diagnose_series(s, request);
+  if (!outcome.error.empty()) throw std::runtime_error(outcome.error);
+  report("velocity_strengthening 0.005, record position noise 10 nm, seed " + std::to_string(seed), outcome.diagnosis);
+  return std::move(outcome.diagnosis);
+}
+
+// Rate-and-state whose evolution b is not told from zero is its direct
+// effect a ln v alone: velocity strengthening, in the same form. On seed 1
+// both candidates lowered the held-out error by 17.5 % in the first round,
+// and rate_state won by 0.1 % with a = 0.0048 (the 0.005 injected) and
+// b = -0.0007 +- 0.0036; velocity strengthening then showed no signature and
+// its linearised figure called 0.0014 identifiable (docs/identification.md,
+// "Rate-and-state without an evolution").
+TEST(DiagnosisSim, VelocityStrengtheningIsNotNamedRateStateWithoutAnEvolution) {
+  const Diagnosis d = diagnose_velocity_strengthening_run(1);
+  EXPECT_TRUE(accepted(d, Effect::kVelocityStrengthening)) << accepted_names(d);
+  EXPECT_FALSE(accepted(d, Effect::kRateState)) << accepted_names(d);
+}
+
+// A velocity strengthening the diagnosis misses is not called identifiable
+// below its strength. On seed 2 rate_state is accepted with an evolution
+// clear of zero (a = 0.0125, b = 0.0076 +- 0.0007, D_c 44 nm: a - b is the
+// 0.005 injected) and takes the log-velocity term up; the linearised figure
+// of velocity strengthening was 0.0028. Injected into the
+// record at 0.0028, 0.0055 and 0.011 and the record diagnosed again for it,
+// it is never accepted (docs/identification.md, "The figures checked by
+// rediagnosis").
+TEST(DiagnosisSim, AMissedVelocityStrengtheningIsNotCalledIdentifiableBelowItsStrength) {
+  const Diagnosis d = diagnose_velocity_strengthening_run(2);
+  if (accepted(d, Effect::kVelocityStrengthening)) return;
+  const double figure = minimum_detectable(d, Effect::kVelocityStrengthening);
+  EXPECT_TRUE(!std::isfinite(figure) || figure > 0.005) << "called identifiable at " << figure << ", yet 0.005 was missed";
 }
 
 TEST(DiagnosisSim, ACleanRunAcceptsNothing) {

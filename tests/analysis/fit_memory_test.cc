@@ -129,7 +129,10 @@ TEST(FitMemory, TheDiagnosisStaysUnder300BytesPerSampleOnOneThread) {
   const double per_sample = static_cast<double>(peak) / static_cast<double>(s.size());
   std::printf("diagnose, %zu samples, one thread: peak heap %.1f bytes per sample (the input series not counted)\n",
               s.size(), per_sample);
-  // 203.9 measured (227.9 with a copy of the score test's Jacobian in its
+  // 212.4 measured (203.9 before the minimum detectable strengths were
+  // checked by rediagnosis, which holds a refit of the final model and a copy
+  // of the force once the detectability basis is freed; 369 with the basis
+  // still held; 227.9 with a copy of the score test's Jacobian in its
   // regression, the fit samples' indices in every fit and two unread
   // per-sample arrays of the segmentation; 629.3 before the Jacobian was
   // streamed: a dual number array per Jacobian, three more copies of it in

@@ -36,7 +36,7 @@ v1::DaemonConfig default_instrument_identification_config(const ConfigEdit& edit
   });
 }
 
-analysis::MeasuredSeries simulated_identification_run(const v1::DaemonConfig& config, std::uint64_t seed) {
+analysis::MeasuredSeries simulated_identification_record(const v1::DaemonConfig& config, std::uint64_t seed) {
   const v1::Protocol protocol = daemon::testing::load_protocol_file("identification.textproto");
   const daemon::testing::LoopRun run = daemon::testing::run_in_loop(config, protocol, {}, seed);
   if (run.outcome.end != daemon::RunEnd::kCompleted) {
@@ -49,7 +49,11 @@ analysis::MeasuredSeries simulated_identification_run(const v1::DaemonConfig& co
   for (const Sample& s : run.samples) {
     if (s.segment_index >= 1 && s.segment_index < last) loaded.push_back(s);
   }
-  analysis::MeasuredSeries series = analysis::series_from_samples(loaded, "identification run (simulated)");
+  return analysis::series_from_samples(loaded, "identification run (simulated)");
+}
+
+analysis::MeasuredSeries simulated_identification_run(const v1::DaemonConfig& config, std::uint64_t seed) {
+  analysis::MeasuredSeries series = simulated_identification_record(config, seed);
   analysis::derive_motion(series, 0);
   return series;
 }

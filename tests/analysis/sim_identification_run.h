@@ -37,4 +37,8 @@ v1::DaemonConfig default_instrument_identification_config(const ConfigEdit& edit
 // return are left out); velocity and acceleration derived from the position.
 analysis::MeasuredSeries simulated_identification_run(const v1::DaemonConfig& config, std::uint64_t seed = 1);
 
+// The same record as tribo-fit reads a run directory, before any motion is
+// derived (analysis::diagnose_series estimates it).
+analysis::MeasuredSeries simulated_identification_record(const v1::DaemonConfig& config, std::uint64_t seed = 1);
+
 }  // namespace tribo::testing
