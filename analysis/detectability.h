@@ -77,7 +77,6 @@ struct DetectableStrength {
   // final model refitted without it, then the candidate's screening, fit and
   // gates), in order; the figure is the first found. Empty: not checked.
   std::vector<double> rediagnosed_at;
-  bool rediagnosis_found = false;
   bool from_rediagnosis = false;  // the figure was raised (or, none found, set to +inf) by it
 };
 

@@ -1191,7 +1191,6 @@ void check_by_rediagnosis(const ModelData& data, const Current& current, const s
     if (factor > 1.0 && s > figure.searched_up_to) break;
     figure.rediagnosed_at.push_back(s);
     if (accepted_when_injected(data, current, in_fit, heldout, options, effect, s)) {
-      figure.rediagnosis_found = true;
       figure.from_rediagnosis = factor > 1.0;
       figure.value = s;
       return;

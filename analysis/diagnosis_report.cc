@@ -210,7 +210,7 @@ std::string minimum_detectable_text(const DetectableStrength& m) {
   if (m.from_rediagnosis) {
     rediagnosed = fmt::sprintf("; injected at %s and the record diagnosed again for it, the final model refitted without "
                                "it: accepted first at %.3g", strengths_text(m.rediagnosed_at), m.value);
-  } else if (m.rediagnosis_found) {
+  } else if (!m.rediagnosed_at.empty()) {  // accepted at the figure itself
     rediagnosed = "; injected there and the record diagnosed again for it: accepted";
   }
   return fmt::sprintf("not reliably identifiable from this record below %s = %.3g %s (minimum detectable strength: found "
