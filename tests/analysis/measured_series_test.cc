@@ -13,21 +13,31 @@
 namespace tribo::analysis {
 namespace {
 
-std::filesystem::path temp_file(const std::string& name, const std::string& content) {
-  const auto path = std::filesystem::temp_directory_path() / ("tribo_analysis_" + std::to_string(::getpid()) + "_" + name);
-  std::ofstream(path) << content;
-  return path;
-}
+// A file in the temp directory for one test, removed when it goes out of
+// scope (the two CSV tests left theirs behind on every run).
+struct TempFile {
+  TempFile(const std::string& name, const std::string& content)
+      : path(std::filesystem::temp_directory_path() / ("tribo_analysis_" + std::to_string(::getpid()) + "_" + name)) {
+    std::ofstream(path) << content;
+  }
+  ~TempFile() {
+    std::error_code ignored;
+    std::filesystem::remove(path, ignored);
+  }
+  TempFile(const TempFile&) = delete;
+  TempFile& operator=(const TempFile&) = delete;
+  std::filesystem::path path;
+};
 
 TEST(SeriesInput, MapsNamedColumnsInAnyOrderAndScalesTheForce) {
-  const auto path = temp_file("map.csv", "force,t,x,extra\n1.5,0,0.1,9\n-2.5,0.5,0.2,9\n");
+  const TempFile file("map.csv", "force,t,x,extra\n1.5,0,0.1,9\n-2.5,0.5,0.2,9\n");
   ColumnMapping c;
   c.time = "t";
   c.position = "x";
   c.force = "force";
   c.force_scale = -1;
   std::string error;
-  const auto s = read_csv_series(path, c, error);
+  const auto s = read_csv_series(file.path, c, error);
   ASSERT_TRUE(s) << error;
   ASSERT_EQ(s->size(), 2u);
   EXPECT_EQ(s->time_s[1], 0.5);
@@ -39,17 +49,17 @@ TEST(SeriesInput, MapsNamedColumnsInAnyOrderAndScalesTheForce) {
 }
 
 TEST(SeriesInput, NamesTheMissingColumnAndTheBadRow) {
-  const auto path = temp_file("bad.csv", "t,x,f\n0,0,1\n0.1,oops,2\n");
+  const TempFile file("bad.csv", "t,x,f\n0,0,1\n0.1,oops,2\n");
   ColumnMapping c;
   c.time = "t";
   c.position = "x";
   c.force = "f";
   std::string error;
-  EXPECT_FALSE(read_csv_series(path, c, error));
+  EXPECT_FALSE(read_csv_series(file.path, c, error));
   EXPECT_NE(error.find(":3:"), std::string::npos) << error;
   EXPECT_NE(error.find("'x'"), std::string::npos) << error;
   c.normal = "N";
-  EXPECT_FALSE(read_csv_series(path, c, error));
+  EXPECT_FALSE(read_csv_series(file.path, c, error));
   EXPECT_NE(error.find("'N' not in the header"), std::string::npos) << error;
 }
 
