@@ -534,9 +534,9 @@ std::optional<std::string> dwell_peak_objection(const FitResult& fit, double lon
 // direct effect a ln v alone, which is the velocity_strengthening term in the
 // same form (friction_model.cc): the label would claim a state the record
 // does not show. On the full reliability map (tribo's plain LuGre plant,
-// config/campaigns/identification_reliability_full.toml) velocity
-// strengthening at coeff 0.005 was named rate_state in 9 of 15 runs; on seed 1
-// at 10 nm a = 0.0048 (the 0.005 injected), b = -0.0007 +- 0.0036.
+// config/campaigns/identification_reliability_full.toml) 11 of the 60
+// velocity-strengthening runs were named rate_state; on seed 1 at 10 nm per
+// loop sample a = 0.0048 (the 0.005 injected), b = -0.0007 +- 0.0036.
 std::optional<std::string> rate_state_evolution_objection(const FitResult& fit, double min_z) {
   for (const ParamEstimate& e : parameters_of(fit, Effect::kRateState)) {
     if (e.name != "rs_b" || e.fixed || !(e.std_error > 0) || !std::isfinite(e.std_error)) continue;
@@ -1081,6 +1081,15 @@ bool took_opposite_sign(const CandidateTrial& trial, double min_heldout_gain) {
          trial.parameters.front().value <= 0 && trial.heldout_gain >= min_heldout_gain;
 }
 
+// The record's force with the effect added at strength s along its figure's
+// axis, in the model's own form on the final model.
+std::vector<double> force_with_effect(const ModelData& data, const Current& current, Effect effect, double s) {
+  std::vector<double> force(*data.fitted_force);
+  const std::vector<double> with_effect_n = simulate(data, with_strength(current.fit.params, effect, data, s));
+  for (std::size_t i = 0; i < force.size(); ++i) force[i] += with_effect_n[i] - current.model[i];
+  return force;
+}
+
 // The minimum detectable strength checked by injection and recovery, as a
 // survey's completeness is measured: the effect added to the record at the
 // figure, in the model's own form on the final model, and fitted again as
@@ -1110,10 +1119,7 @@ void check_by_injection(const ModelData& data, const Current& current, const std
                                    [&](const ParamEstimate& e) { return e.name == figure.parameter; });
   if (fitted == trial.parameters.end() || !std::isfinite(fitted->value)) return;
   const double sign = fitted->value < 0 ? -1.0 : 1.0;
-  const std::vector<double> with_effect_n =
-      simulate(data, with_strength(current.fit.params, trial.effect, data, sign * figure.value));
-  std::vector<double> injected(*data.fitted_force);
-  for (std::size_t i = 0; i < injected.size(); ++i) injected[i] += with_effect_n[i] - current.model[i];
+  const std::vector<double> injected = force_with_effect(data, current, trial.effect, sign * figure.value);
   ModelData record = data;
   record.fitted_force = &injected;
   const FitResult refit = fit_extension(record, current.fit.params, trial.effect, trial.signature, in_fit, options);
@@ -1155,11 +1161,7 @@ bool rediagnosed(Effect effect) {
 // candidate's signature, score test, fit and gates as in a round.
 bool accepted_when_injected(const ModelData& data, const Current& current, const std::vector<char>& in_fit,
                             const std::vector<char>& heldout, const DiagnosisOptions& options, Effect effect, double s) {
-  std::vector<double> injected(*data.fitted_force);
-  {
-    const std::vector<double> with_effect_n = simulate(data, with_strength(current.fit.params, effect, data, s));
-    for (std::size_t i = 0; i < injected.size(); ++i) injected[i] += with_effect_n[i] - current.model[i];
-  }
+  const std::vector<double> injected = force_with_effect(data, current, effect, s);
   ModelData record = data;
   record.fitted_force = &injected;
   const Current refit = evaluate(record, fit_model(record, current.fit.params, in_fit, options.lugre.fit));
