@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "analysis/autodiff.h"
+#include "analysis/creep_in_holds.h"
 #include "analysis/motion_estimate.h"
 #include "analysis/parallel_for.h"
 #include "analysis/regression.h"
@@ -1229,6 +1230,60 @@ void check_by_rediagnosis(const ModelData& data, const Current& current, const s
 
 namespace {
 
+// Drift as a creep under a stuck contact, from the holds of minutes
+// (analysis/creep_in_holds.h): the pass model cannot show it, since it holds
+// a stuck contact's force constant and the passes forget the creep. Accepted,
+// it takes drift's place among the accepted effects (a drift of the force
+// reading, which the rounds fit over the passes, not accepted before);
+// refused, its reason is added to drift's.
+void add_creep_in_holds(const MeasuredSeries& series, const FitResult& final_fit, const DiagnosisOptions& options,
+                        Diagnosis& out) {
+  const auto drift = std::find_if(out.rejected.begin(), out.rejected.end(),
+                                  [](const RejectedEffect& r) { return r.effect == Effect::kDrift; });
+  if (drift == out.rejected.end()) return;
+  const ModelParams& p = final_fit.params;
+  const double stiffness = p.index("sigma0") >= 0 ? p.value("sigma0") : std::numeric_limits<double>::quiet_NaN();
+  CreepInHoldsOptions creep_options;
+  creep_options.min_heldout_gain = options.min_heldout_gain;
+  creep_options.min_block_agreement = options.min_block_agreement;
+  creep_options.min_strength_z = options.min_strength_z;
+  CreepInHolds creep = creep_in_holds(series, out.motion, stiffness, creep_options);
+  if (creep.holds.empty()) return;
+  if (!creep.accepted) {
+    drift->reason += "; holds of minutes: " + creep.verdict;
+    out.creep = std::move(creep);
+    return;
+  }
+  AcceptedEffect a;
+  a.effect = Effect::kDrift;
+  const std::string unit = series.force_unit + "/s";
+  a.parameters.push_back(ParamEstimate{"creep_rate", unit, creep.creep_rate_per_s, creep.creep_rate_std_error, false, true,
+                                       Effect::kDrift});
+  if (std::isfinite(creep.creep_speed_m_per_s)) {
+    a.parameters.push_back(ParamEstimate{"creep_speed", "m/s", creep.creep_speed_m_per_s, creep.creep_speed_std_error,
+                                         false, true, Effect::kDrift});
+  }
+  a.trial.effect = Effect::kDrift;
+  a.trial.round = static_cast<int>(out.accepted.size());
+  a.trial.fitted = true;
+  a.trial.passed = true;
+  a.trial.heldout_rms_before = creep.heldout_rms_before;
+  a.trial.heldout_rms_after = creep.heldout_rms_after;
+  a.trial.heldout_gain = creep.heldout_gain;
+  a.trial.block_agreement = creep.block_agreement;
+  a.trial.verdict = creep.verdict;
+  a.trial.signature.applicable = true;
+  a.trial.signature.strength = std::fabs(creep.creep_rate_per_s) / creep.creep_rate_std_error;
+  a.trial.signature.summary = "the held force's slope in each hold of minutes:";
+  for (const HoldSlope& h : creep.holds) {
+    a.trial.signature.summary += fmt::sprintf("%s %.3g per s at %.3g", &h == &creep.holds.front() ? "" : ",", h.slope_per_s, h.mean_force);
+  }
+  a.trial.parameters = a.parameters;
+  out.accepted.push_back(std::move(a));
+  out.rejected.erase(drift);
+  out.creep = std::move(creep);
+}
+
 // The diagnosis with each pass's start as options.base says.
 Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& options, MotionSegmentation motion) {
   Diagnosis out;
@@ -1467,6 +1522,8 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
       if (r.minimum_detectable) check_by_rediagnosis(data, current, in_fit, heldout, options, r.effect, *r.minimum_detectable);
     });
   }
+
+  add_creep_in_holds(series, current.fit, options, out);
 
   std::vector<double> residual(series.size());
   for (std::size_t i = 0; i < series.size(); ++i) residual[i] = series.force_n[i] - current.model[i];

@@ -32,6 +32,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/creep_in_holds.h"
 #include "analysis/detectability.h"
 #include "analysis/drift_knot_choice.h"
 #include "analysis/effect.h"
@@ -173,6 +174,9 @@ struct Diagnosis {
   std::optional<PassStartChoice> pass_start;
   std::optional<BaseContactChoice> base_contact;
   std::optional<DriftKnotChoice> drift_knots;  // when drift is a candidate
+  // Drift as a creep under a stuck contact, assessed on records with holds
+  // of minutes (analysis/creep_in_holds.h); accepted, drift is accepted with it.
+  std::optional<CreepInHolds> creep;
   FitResult final_fit;
   std::vector<AcceptedEffect> accepted;
   std::vector<RejectedEffect> rejected;

@@ -132,6 +132,42 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
                         {"tried", std::move(tried)}};
   }
 
+  if (d.creep) {
+    const CreepInHolds& c = *d.creep;
+    Json holds = Json::array();
+    for (const auto& h : c.holds) {
+      holds.push_back({{"start_s", h.start_s}, {"duration_s", h.duration_s}, {"mean_force", h.mean_force},
+                       {"slope_per_s", h.slope_per_s}, {"slope_std_error", h.slope_std_error},
+                       {"levels_off", h.levels_off}});
+    }
+    auto number = [](double x) { return std::isfinite(x) ? Json(x) : Json(nullptr); };
+    j["creep_in_holds"] = {{"accepted", c.accepted},
+                           {"verdict", c.verdict},
+                           {"holds", std::move(holds)},
+                           {"creep_rate_per_s", c.creep_rate_per_s},
+                           {"creep_rate_std_error", c.creep_rate_std_error},
+                           {"drain_per_s", c.drain_per_s},
+                           {"drain_std_error", c.drain_std_error},
+                           {"creep_model", c.creep_model},
+                           {"creep_trend_per_s", c.creep_trend_per_s},
+                           {"creep_trend_std_error", c.creep_trend_std_error},
+                           {"strength_z", c.strength_z},
+                           {"reading_share", number(c.reading_share)},
+                           {"reading_share_std_error", number(c.reading_share_std_error)},
+                           {"stiffness_per_m", number(c.stiffness_per_m)},
+                           {"stiffness_std_error", c.stiffness_std_error},
+                           {"stiffness_source", c.stiffness_source},
+                           {"creep_speed_m_per_s", number(c.creep_speed_m_per_s)},
+                           {"creep_speed_std_error", number(c.creep_speed_std_error)},
+                           {"levelling_holds", c.levelling_holds},
+                           {"heldout_rms_before", c.heldout_rms_before},
+                           {"heldout_rms_after", c.heldout_rms_after},
+                           {"heldout_gain", c.heldout_gain},
+                           {"block_agreement", c.block_agreement}};
+  } else {
+    j["creep_in_holds"] = nullptr;
+  }
+
   Json& accepted = j["accepted_effects"] = Json::array();
   for (const auto& a : d.accepted) {
     Json effect = {{"name", effect_name(a.effect)}, {"parameters", parameters_json(a.parameters)}};

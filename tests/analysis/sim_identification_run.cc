@@ -36,20 +36,34 @@ v1::DaemonConfig default_instrument_identification_config(const ConfigEdit& edit
   });
 }
 
+v1::DaemonConfig shipped_config(const std::string& file, const ConfigEdit& edit) {
+  v1::DaemonConfig config;
+  if (auto error = daemon::load_daemon_config(std::string(TRIBO_SOURCE_DIR) + file, config)) {
+    throw std::runtime_error(*error);
+  }
+  if (edit) edit(config);
+  return config;
+}
+
 analysis::MeasuredSeries simulated_identification_record(const v1::DaemonConfig& config, std::uint64_t seed) {
-  const v1::Protocol protocol = daemon::testing::load_protocol_file("identification.textproto");
+  return simulated_record(config, "identification.textproto", seed);
+}
+
+analysis::MeasuredSeries simulated_record(const v1::DaemonConfig& config, const std::string& protocol_file,
+                                          std::uint64_t seed) {
+  const v1::Protocol protocol = daemon::testing::load_protocol_file(protocol_file);
   const daemon::testing::LoopRun run = daemon::testing::run_in_loop(config, protocol, {}, seed);
   if (run.outcome.end != daemon::RunEnd::kCompleted) {
-    throw std::runtime_error("identification run did not complete: " + daemon::trip_description(run.outcome.trip));
+    throw std::runtime_error(protocol_file + " run did not complete: " + daemon::trip_description(run.outcome.trip));
   }
-  if (run.samples.empty()) throw std::runtime_error("identification run recorded nothing");
+  if (run.samples.empty()) throw std::runtime_error(protocol_file + " run recorded nothing");
   // Segment 0 is the unloaded approach, the last the unloaded return.
   const std::uint32_t last = run.samples.back().segment_index;
   std::vector<Sample> loaded;
   for (const Sample& s : run.samples) {
     if (s.segment_index >= 1 && s.segment_index < last) loaded.push_back(s);
   }
-  return analysis::series_from_samples(loaded, "identification run (simulated)");
+  return analysis::series_from_samples(loaded, protocol_file + " run (simulated)");
 }
 
 analysis::MeasuredSeries simulated_identification_run(const v1::DaemonConfig& config, std::uint64_t seed) {

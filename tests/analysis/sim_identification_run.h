@@ -13,6 +13,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <string>
 
 #include "analysis/measured_series.h"
 #include "tribo/v1/daemon_config.pb.h"
@@ -40,5 +41,15 @@ analysis::MeasuredSeries simulated_identification_run(const v1::DaemonConfig& co
 // The same record as tribo-fit reads a run directory, before any motion is
 // derived (analysis::diagnose_series estimates it).
 analysis::MeasuredSeries simulated_identification_record(const v1::DaemonConfig& config, std::uint64_t seed = 1);
+
+// A shipped config (path from the source tree, e.g. "/config/tribod.textproto")
+// as it is, then edited.
+v1::DaemonConfig shipped_config(const std::string& file, const ConfigEdit& edit = {});
+
+// Any shipped protocol (config/protocols/<protocol_file>) recorded as above:
+// the loaded segments, from the first after the approach to the last before
+// the return.
+analysis::MeasuredSeries simulated_record(const v1::DaemonConfig& config, const std::string& protocol_file,
+                                          std::uint64_t seed = 1);
 
 }  // namespace tribo::testing

@@ -233,7 +233,7 @@ class ShippedSpecs(unittest.TestCase):
     def test_every_spec_under_config_campaigns_expands_and_validates(self):
         expected = {"identification_reliability.toml": 130, "identification_reliability_lugre_plain.toml": 130,
                     "identification_reliability_contact_choice.toml": 130,
-                    "identification_reliability_full.toml": 675,
+                    "identification_reliability_full.toml": 675, "creep_holds.toml": 35,
                     "identification_reliability_small.toml": 15, "identification_reliability_tiny.toml": 2,
                     "scorecard_sweep.toml": 25, "scorecard_sweep_tiny.toml": 2}
         specs = sorted(glob.glob(os.path.join(ARGS.source_dir, "config/campaigns/*.toml")))
