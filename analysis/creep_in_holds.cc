@@ -233,41 +233,44 @@ double squared_error(const Eigen::VectorXd& predicted, const Eigen::VectorXd& y)
   return predicted.allFinite() ? (predicted - y).squaredNorm() : std::numeric_limits<double>::infinity();
 }
 
-std::string refusal(const CreepInHolds& c, const CreepInHoldsOptions& options, double creep_cv, double drain_cv) {
+// The form the holds' drift takes, or why none: kCreep or kReading with an
+// empty reason when accepted.
+struct Judgement {
+  HoldDriftForm form = HoldDriftForm::kNone;
+  std::string reason;
+};
+
+Judgement judge(const CreepInHolds& c, const CreepInHoldsOptions& options, double creep_cv, double drain_cv) {
   if (!(c.strength_z >= options.min_strength_z)) {
-    return fmt::sprintf("the held force's slopes (%s) stand %.1f standard errors from none (below %.0f)", c.creep_model,
-                        c.strength_z, options.min_strength_z);
+    return {HoldDriftForm::kNone, fmt::sprintf("the held force's slopes (%s) stand %.1f standard errors from none (below %.0f)",
+                                               c.creep_model, c.strength_z, options.min_strength_z)};
   }
   if (drain_cv < creep_cv) {
-    return fmt::sprintf("the held force relaxes towards zero: its slopes follow it (%.3g +- %.3g per s of held force) "
-                        "better than a creep does, held out hold by hold; the contact drains, it does not creep",
-                        c.drain_per_s, c.drain_std_error);
+    return {HoldDriftForm::kNone,
+            fmt::sprintf("the held force relaxes towards zero: its slopes follow it (%.3g +- %.3g per s of held force) "
+                         "better than a drift does, held out hold by hold; the contact drains",
+                         c.drain_per_s, c.drain_std_error)};
   }
   if (!std::isfinite(c.reading_share)) {
-    return "too few passes after the holds to tell a creep from a drift of the force reading";
+    return {HoldDriftForm::kNone, "too few passes after the holds to tell a creep from a drift of the force reading"};
   }
   const double from_creep = std::fabs(c.reading_share) / c.reading_share_std_error;
   const double from_reading = std::fabs(c.reading_share - 1.0) / c.reading_share_std_error;
-  if (from_reading < 2.0 && from_creep >= 2.0) {
-    return fmt::sprintf("the passes carry %.2f +- %.2f of the holds' force change: a drift of the force reading, which "
-                        "the passes show too, not a creep",
-                        c.reading_share, c.reading_share_std_error);
-  }
-  if (from_creep >= 2.0) {
-    return fmt::sprintf("the passes carry %.2f +- %.2f of the holds' force change, neither none (a creep) nor all (a "
-                        "drift of the force reading)",
-                        c.reading_share, c.reading_share_std_error);
-  }
-  if (from_reading < 2.0) {
-    return fmt::sprintf("the passes carry %.2f +- %.2f of the holds' force change: a creep is not told from a drift of "
-                        "the force reading by these passes",
-                        c.reading_share, c.reading_share_std_error);
+  HoldDriftForm form = HoldDriftForm::kNone;
+  if (from_reading < 2.0 && from_creep >= 2.0) form = HoldDriftForm::kReading;
+  if (from_creep < 2.0 && from_reading >= 2.0) form = HoldDriftForm::kCreep;
+  if (form == HoldDriftForm::kNone) {
+    return {form, fmt::sprintf("the passes carry %.2f +- %.2f of the holds' force change, %s", c.reading_share,
+                               c.reading_share_std_error,
+                               from_creep < 2.0 ? "not told from none (a creep) or all (a drift of the force reading)"
+                                                : "neither none (a creep) nor all (a drift of the force reading)")};
   }
   if (c.heldout_gain < options.min_heldout_gain || c.block_agreement < options.min_block_agreement) {
-    return fmt::sprintf("did not clearly help on held-out holds: RMS %+.2f %%, %.0f %% of the change in improved holds",
-                        -100 * c.heldout_gain, 100 * c.block_agreement);
+    return {HoldDriftForm::kNone,
+            fmt::sprintf("did not clearly help on held-out holds: RMS %+.2f %%, %.0f %% of the change in improved holds",
+                         -100 * c.heldout_gain, 100 * c.block_agreement)};
   }
-  return {};
+  return {form, {}};
 }
 
 // How many standard errors from none the creep's coefficients stand, as the
@@ -284,7 +287,8 @@ double strength_of(const LineFit& fit, const Eigen::MatrixXd& x, const Eigen::Ve
 }  // namespace
 
 CreepInHolds creep_in_holds(const MeasuredSeries& series, const MotionSegmentation& motion,
-                            double model_stiffness_per_m, const CreepInHoldsOptions& options) {
+                            double model_stiffness_per_m, double model_stiffness_std_error,
+                            const CreepInHoldsOptions& options) {
   CreepInHolds out;
   std::vector<Hold> long_holds;
   for (const Hold& h : motion.holds) {
@@ -306,7 +310,7 @@ CreepInHolds creep_in_holds(const MeasuredSeries& series, const MotionSegmentati
   }
   const Stiffness settled = settling_stiffness(series, long_holds, options);
   out.stiffness_per_m = std::isfinite(settled.value) ? settled.value : model_stiffness_per_m;
-  out.stiffness_std_error = std::isfinite(settled.value) ? settled.std_error : 0.0;
+  out.stiffness_std_error = std::isfinite(settled.value) ? settled.std_error : model_stiffness_std_error;
   out.stiffness_source = std::isfinite(settled.value)
                              ? fmt::sprintf("dF/dx as the holds settle, the median of %zu", settled.holds)
                              : "the pass model's sigma0";
@@ -352,9 +356,9 @@ CreepInHolds creep_in_holds(const MeasuredSeries& series, const MotionSegmentati
   reading_drift_share(series, motion, long_holds, out);
   leave_one_hold_out(series, motion, options, predicted, out);
   const std::string& unit = series.force_unit;
-  const std::string refused =
-      refusal(out, options, squared_error(predicted, y), squared_error(leave_one_out(drain, y), y));
-  out.accepted = refused.empty();
+  const Judgement judged = judge(out, options, squared_error(predicted, y), squared_error(leave_one_out(drain, y), y));
+  out.form = judged.form;
+  out.accepted = judged.form != HoldDriftForm::kNone;
   const std::string trend =
       is_linear ? fmt::sprintf(", changing by %.3g +- %.3g from the first hold to the last", out.creep_trend_per_s,
                                out.creep_trend_std_error)
@@ -384,8 +388,13 @@ CreepInHolds creep_in_holds(const MeasuredSeries& series, const MotionSegmentati
           ? fmt::sprintf("; the passes carry %.2f +- %.2f of the holds' force change (a reading drift: 1, a creep: 0)",
                          out.reading_share, out.reading_share_std_error)
           : "";
-  out.verdict = out.accepted ? "creep under a stuck contact: " + evidence + speed_text + passes_text
-                             : "not a creep under a stuck contact: " + refused + " (" + evidence + passes_text + ")";
+  if (out.form == HoldDriftForm::kCreep) {
+    out.verdict = "creep under a stuck contact: " + evidence + speed_text + passes_text;
+  } else if (out.form == HoldDriftForm::kReading) {
+    out.verdict = "a drift of the force reading, in the holds and carried by the passes: " + evidence + passes_text;
+  } else {
+    out.verdict = "the holds' drift is not named: " + judged.reason + " (" + evidence + passes_text + ")";
+  }
   return out;
 }
 

@@ -24,7 +24,8 @@
 // speed, signed along +x (the sample's motion against the tip). The errors
 // come from the holds' scatter about the line (each hold one observation),
 // the strength from the joint test of a and a'.
-// Mimics, each a reason to refuse the creep:
+// Mimics, each a reason to refuse the creep (the second named when it is what
+// the record shows):
 //   - drain: slope_i = b F_i (F_i the hold's mean force), a contact that lets
 //     its held force relax towards zero (plain LuGre under position noise,
 //     b < 0), predicts the holds' slopes better, one hold left out at a time;
@@ -33,7 +34,7 @@
 //     passes' forces, regressed on an offset and a friction level per load
 //     and on the holds' accumulated force change, carry a share of it: 1 for
 //     a reading drift, 0 for a creep; the creep needs a share 2 standard
-//     errors from 1 and within 2 of 0.
+//     errors from 1 and within 2 of 0, the reading drift the reverse.
 // Held out: each hold's slope predicted by the creep fitted to the others,
 // against the pass model's constant held force; the gain in RMS over the
 // holds and the share of that change in holds that improved, gated as a
@@ -69,6 +70,10 @@ struct HoldSlope {
   bool levels_off = false;
 };
 
+// What the holds' drift is: none, a creep under the stuck contact, or a
+// drift of the force reading (which the passes carry too).
+enum class HoldDriftForm { kNone, kCreep, kReading };
+
 struct CreepInHolds {
   std::vector<HoldSlope> holds;
   std::string creep_model;  // "one rate in every hold" or "a rate changing linearly over the holds"
@@ -81,7 +86,7 @@ struct CreepInHolds {
   // passes follow the holds.
   double reading_share = 0, reading_share_std_error = 0;
   double stiffness_per_m = 0;   // k, force units per metre
-  double stiffness_std_error = 0;  // 0 for the pass model's sigma0 (its own error not carried)
+  double stiffness_std_error = 0;
   std::string stiffness_source; // dF/dx as the holds settle, or the pass model's sigma0
   double creep_speed_m_per_s = 0, creep_speed_std_error = 0;  // -a / k
   int levelling_holds = 0;  // holds whose force levels off: the speed is then a lower bound
@@ -90,8 +95,9 @@ struct CreepInHolds {
   double heldout_rms_before = 0, heldout_rms_after = 0;
   double heldout_gain = 0;
   double block_agreement = 0;
-  bool accepted = false;
-  std::string verdict;          // why accepted or not, with the numbers
+  bool accepted = false;        // form is not kNone
+  HoldDriftForm form = HoldDriftForm::kNone;
+  std::string verdict;          // the form, or why none, with the numbers
 };
 
 // holds is empty when the record has fewer than min_holds long holds
@@ -99,9 +105,10 @@ struct CreepInHolds {
 // settle (the position loop moves the stuck tip by tens of nm after the
 // stop), where at least half the long holds move by five position noise
 // floors (the pass model's sigma0 came out 25 % high on the default
-// instrument's creep run), else model_stiffness_per_m (<= 0 or NaN: the speed
-// is not given, the rest is).
+// instrument's creep run), else model_stiffness_per_m with its fitted error
+// (<= 0 or NaN: the speed is not given, the rest is).
 CreepInHolds creep_in_holds(const MeasuredSeries& series, const MotionSegmentation& motion,
-                            double model_stiffness_per_m, const CreepInHoldsOptions& options = {});
+                            double model_stiffness_per_m, double model_stiffness_std_error,
+                            const CreepInHoldsOptions& options = {});
 
 }  // namespace tribo::analysis

@@ -1230,24 +1230,29 @@ void check_by_rediagnosis(const ModelData& data, const Current& current, const s
 
 namespace {
 
-// Drift as a creep under a stuck contact, from the holds of minutes
-// (analysis/creep_in_holds.h): the pass model cannot show it, since it holds
-// a stuck contact's force constant and the passes forget the creep. Accepted,
-// it takes drift's place among the accepted effects (a drift of the force
-// reading, which the rounds fit over the passes, not accepted before);
-// refused, its reason is added to drift's.
+// Drift from the holds of minutes (analysis/creep_in_holds.h), as a creep
+// under a stuck contact or a drift of the force reading: the pass model
+// cannot show a creep, since it holds a stuck contact's force constant and
+// the passes forget the creep, and on a protocol of few long holds the
+// rounds' drift spline has too few passes to follow. Accepted, drift moves
+// to the accepted effects (when the rounds did not accept it); refused, the
+// reason is added to drift's.
 void add_creep_in_holds(const MeasuredSeries& series, const FitResult& final_fit, const DiagnosisOptions& options,
                         Diagnosis& out) {
   const auto drift = std::find_if(out.rejected.begin(), out.rejected.end(),
                                   [](const RejectedEffect& r) { return r.effect == Effect::kDrift; });
   if (drift == out.rejected.end()) return;
-  const ModelParams& p = final_fit.params;
-  const double stiffness = p.index("sigma0") >= 0 ? p.value("sigma0") : std::numeric_limits<double>::quiet_NaN();
+  double stiffness = std::numeric_limits<double>::quiet_NaN(), stiffness_error = 0;
+  for (const ParamEstimate& e : final_fit.estimates) {
+    if (e.name != "sigma0") continue;
+    stiffness = e.value;
+    stiffness_error = std::isfinite(e.std_error) ? e.std_error : 0.0;
+  }
   CreepInHoldsOptions creep_options;
   creep_options.min_heldout_gain = options.min_heldout_gain;
   creep_options.min_block_agreement = options.min_block_agreement;
   creep_options.min_strength_z = options.min_strength_z;
-  CreepInHolds creep = creep_in_holds(series, out.motion, stiffness, creep_options);
+  CreepInHolds creep = creep_in_holds(series, out.motion, stiffness, stiffness_error, creep_options);
   if (creep.holds.empty()) return;
   if (!creep.accepted) {
     drift->reason += "; holds of minutes: " + creep.verdict;
@@ -1257,9 +1262,10 @@ void add_creep_in_holds(const MeasuredSeries& series, const FitResult& final_fit
   AcceptedEffect a;
   a.effect = Effect::kDrift;
   const std::string unit = series.force_unit + "/s";
-  a.parameters.push_back(ParamEstimate{"creep_rate", unit, creep.creep_rate_per_s, creep.creep_rate_std_error, false, true,
-                                       Effect::kDrift});
-  if (std::isfinite(creep.creep_speed_m_per_s)) {
+  const bool is_creep = creep.form == HoldDriftForm::kCreep;
+  a.parameters.push_back(ParamEstimate{is_creep ? "creep_rate" : "reading_drift_rate", unit, creep.creep_rate_per_s,
+                                       creep.creep_rate_std_error, false, true, Effect::kDrift});
+  if (is_creep && std::isfinite(creep.creep_speed_m_per_s)) {
     a.parameters.push_back(ParamEstimate{"creep_speed", "m/s", creep.creep_speed_m_per_s, creep.creep_speed_std_error,
                                          false, true, Effect::kDrift});
   }

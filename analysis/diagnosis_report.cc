@@ -141,7 +141,11 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
                        {"levels_off", h.levels_off}});
     }
     auto number = [](double x) { return std::isfinite(x) ? Json(x) : Json(nullptr); };
+    const char* form = c.form == HoldDriftForm::kCreep     ? "creep under a stuck contact"
+                       : c.form == HoldDriftForm::kReading ? "drift of the force reading"
+                                                           : nullptr;
     j["creep_in_holds"] = {{"accepted", c.accepted},
+                           {"form", form ? Json(form) : Json(nullptr)},
                            {"verdict", c.verdict},
                            {"holds", std::move(holds)},
                            {"creep_rate_per_s", c.creep_rate_per_s},

@@ -40,7 +40,15 @@ Writes CSV columns t_s, x_m, x_ref_m, force_N, normal_N (the contract of
 `tribo-fit diagnose FILE --time t_s --position x_m --force force_N --normal
 normal_N --reference x_ref_m`) and a JSON file with the truth.
 
-usage: transducer_sim.py OUT_DIR EFFECT SEED [--strength S] [--steps]
+Outside those thirteen, with holds of minutes (--holds: at 1 and 2 mN, four
+5 um passes at 2 um/s both ways, each followed by a 25 nm step back and a
+100 s hold; about 840 s), which creep's files use:
+
+  creep                   the sample moves at a constant speed s along +x under the
+                          tip: the contact sees the tip's velocity less s (a stuck
+                          contact loads at sigma0 s)
+
+usage: transducer_sim.py OUT_DIR EFFECT SEED [--strength S] [--steps] [--holds]
 """
 import json
 import math
@@ -73,6 +81,9 @@ DEFAULT_STRENGTH = {
     "rate_state": 0.05,              # a, relative (b = RS_B_OVER_A a)
 }
 STEPPED_EFFECTS = {"rate_state"}  # their files use the protocol with speed steps
+# Outside the 13-effect contract above: effects whose files use the protocol
+# with holds of minutes (--holds), and their default strengths.
+HOLD_EFFECTS = {"creep": 0.3e-9}  # the sample's creep speed along +x, m/s
 RS_B_OVER_A = 1.2  # rate_state: the evolution's coefficient b over the direct effect's a
 EFFECTS = list(DEFAULT_STRENGTH)
 
@@ -108,6 +119,28 @@ def protocol(rng, steps=False):
     return knots
 
 
+def holds_protocol():
+    """Holds of minutes: at 1 and 2 mN, four 5 um passes at 2 um/s both ways,
+    each followed by a 25 nm step back at 0.5 um/s and a 100 s hold; about 840 s."""
+    knots = [(0.0, 0.0, 0.0)]
+    t, x = 0.0, 0.0
+    for load in (1e-3, 2e-3):
+        t += 1.0
+        knots.append((t, x, load))
+        t += 2.0
+        knots.append((t, x, load))
+        for direction in (1, -1, 1, -1):
+            x += direction * 5e-6
+            t += 5e-6 / 2e-6
+            knots.append((t, x, load))
+            x -= direction * 25e-9
+            t += 25e-9 / 0.5e-6
+            knots.append((t, x, load))
+            t += 100.0
+            knots.append((t, x, load))
+    return knots
+
+
 def interpolate(knots, t):
     kt = np.array([k[0] for k in knots])
     return np.interp(t, kt, [k[1] for k in knots]), np.interp(t, kt, [k[2] for k in knots])
@@ -125,12 +158,13 @@ def random_contact(rng):
     }
 
 
-def simulate(effect, seed, strength=None, steps=None):
+def simulate(effect, seed, strength=None, steps=None, holds=None):
     rng = np.random.default_rng(seed)
     p = random_contact(rng)
-    s = DEFAULT_STRENGTH[effect] if strength is None else strength
+    s = {**DEFAULT_STRENGTH, **HOLD_EFFECTS}[effect] if strength is None else strength
     steps = effect in STEPPED_EFFECTS if steps is None else steps
-    knots = protocol(rng, steps)
+    holds = effect in HOLD_EFFECTS if holds is None else holds
+    knots = holds_protocol() if holds else protocol(rng, steps)
     duration = knots[-1][0]
     dt = 1.0 / (RATE_HZ * SUBSTEPS)
     n = int(duration * RATE_HZ * SUBSTEPS)
@@ -184,6 +218,8 @@ def simulate(effect, seed, strength=None, steps=None):
             elif d < -half:
                 x_contact = x[i] + half
             vc = vi if engaged else 0.0
+        elif effect == "creep":  # the sample moves at s under the tip: the contact sees v - s
+            engaged, vc = True, vi - s
         else:
             engaged, vc = True, vi
         speed = abs(vc)
@@ -272,16 +308,18 @@ def simulate(effect, seed, strength=None, steps=None):
         truth["rate_state"] = {"a_rel": s, "b_rel": b, "a_mu": s * p["mu_c"], "b_mu": b * p["mu_c"],
                                "dc_m": rs_dc, "v_ref_m_per_s": rs_v_ref, "law": "ageing"}
     truth["speed_steps"] = steps
+    truth["holds_of_minutes"] = holds
     columns = {"t_s": t_out, "x_m": x_meas, "x_ref_m": ref[keep], "force_N": f_meas, "normal_N": n_meas,
                "v_true_m_s": v[keep], "x_true_m": x_true}
     return columns, truth
 
 
-def write(out_dir, effect, seed, strength=None, steps=None):
+def write(out_dir, effect, seed, strength=None, steps=None, holds=None):
     os.makedirs(out_dir, exist_ok=True)
-    columns, truth = simulate(effect, seed, strength, steps)
+    columns, truth = simulate(effect, seed, strength, steps, holds)
     stepped = truth["speed_steps"] and effect not in STEPPED_EFFECTS
-    stem = os.path.join(out_dir, f"{effect}{'_steps' if stepped else ''}_seed{seed}")
+    held = truth["holds_of_minutes"] and effect not in HOLD_EFFECTS
+    stem = os.path.join(out_dir, f"{effect}{'_steps' if stepped else ''}{'_holds' if held else ''}_seed{seed}")
     names = list(columns)
     data = np.column_stack([columns[k] for k in names])
     np.savetxt(stem + ".csv", data, delimiter=",", header=",".join(names), comments="", fmt="%.9g")
@@ -301,6 +339,10 @@ if __name__ == "__main__":
     if "--steps" in args:
         args.remove("--steps")
         steps = True
-    if len(args) != 3 or args[1] not in EFFECTS:
+    holds = None
+    if "--holds" in args:
+        args.remove("--holds")
+        holds = True
+    if len(args) != 3 or args[1] not in EFFECTS + list(HOLD_EFFECTS):
         sys.exit(__doc__)
-    print(write(args[0], args[1], int(args[2]), strength, steps))
+    print(write(args[0], args[1], int(args[2]), strength, steps, holds))
