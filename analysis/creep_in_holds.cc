@@ -16,6 +16,8 @@ namespace tribo::analysis {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr const char* kOneRate = "one rate in every hold";
+constexpr const char* kLinearRate = "a rate changing linearly over the holds";
 
 // The force's slope in one hold after its settling time; duration 0 when the
 // hold is too short or the slope not determined.
@@ -284,6 +286,43 @@ double strength_of(const LineFit& fit, const Eigen::MatrixXd& x, const Eigen::Ve
   return -normal_quantile(0.5 * p);
 }
 
+// The report's sentence: the form named, or why none, with the numbers.
+std::string verdict_text(const CreepInHolds& c, const CreepInHoldsOptions& options, const std::string& unit,
+                         const std::string& reason) {
+  const std::string trend =
+      c.creep_model == kLinearRate ? fmt::sprintf(", changing by %.3g +- %.3g from the first hold to the last",
+                                                  c.creep_trend_per_s, c.creep_trend_std_error)
+                                   : "";
+  const std::string evidence = fmt::sprintf(
+      "the held force changes at %.3g +- %.3g %s/s on average in %zu holds of at least %.0f s%s (%s, %.1f standard "
+      "errors from none; drain alternative %.3g +- %.3g per s of held force); held out (each hold from the others) RMS "
+      "%+.2f %%, %.0f %% of the change in improved holds",
+      c.creep_rate_per_s, c.creep_rate_std_error, unit, c.holds.size(), options.min_hold_s, trend, c.creep_model,
+      c.strength_z, c.drain_per_s, c.drain_std_error, -100 * c.heldout_gain, 100 * c.block_agreement);
+  const std::string bound =
+      c.levelling_holds > 0 ? fmt::sprintf(" (a lower bound: in %d of the holds the held force levels off, the contact "
+                                           "slipping at its friction level)",
+                                           c.levelling_holds)
+                            : "";
+  const std::string speed = std::isfinite(c.creep_speed_m_per_s)
+                                ? fmt::sprintf("; mean creep speed %.3g +- %.3g m/s%s along +x (the sample against the tip, "
+                                               "or the position sensor's zero, which the position loop follows), from the "
+                                               "contact stiffness %.4g +- %.2g %s/m (%s)",
+                                               c.creep_speed_m_per_s, c.creep_speed_std_error, bound, c.stiffness_per_m,
+                                               c.stiffness_std_error, unit, c.stiffness_source)
+                                : "";
+  const std::string passes =
+      std::isfinite(c.reading_share)
+          ? fmt::sprintf("; the passes carry %.2f +- %.2f of the holds' force change (a reading drift: 1, a creep: 0)",
+                         c.reading_share, c.reading_share_std_error)
+          : "";
+  switch (c.form) {
+    case HoldDriftForm::kCreep: return "creep under a stuck contact: " + evidence + speed + passes;
+    case HoldDriftForm::kReading: return "a drift of the force reading, in the holds and carried by the passes: " + evidence + passes;
+    default: return "the holds' drift is not named: " + reason + " (" + evidence + passes + ")";
+  }
+}
+
 }  // namespace
 
 CreepInHolds creep_in_holds(const MeasuredSeries& series, const MotionSegmentation& motion,
@@ -339,7 +378,7 @@ CreepInHolds creep_in_holds(const MeasuredSeries& series, const MotionSegmentati
     out.holds.clear();
     return out;
   }
-  out.creep_model = is_linear ? "a rate changing linearly over the holds" : "one rate in every hold";
+  out.creep_model = is_linear ? kLinearRate : kOneRate;
   out.creep_rate_per_s = creep.coef[0];  // the mean over the holds (the time axis is centred)
   out.creep_rate_std_error = creep.std_error[0];
   out.creep_trend_per_s = is_linear ? creep.coef[1] : 0.0;
@@ -355,46 +394,11 @@ CreepInHolds creep_in_holds(const MeasuredSeries& series, const MotionSegmentati
                                     : kNaN;
   reading_drift_share(series, motion, long_holds, out);
   leave_one_hold_out(series, motion, options, predicted, out);
-  const std::string& unit = series.force_unit;
   const Judgement judged = judge(out, options, squared_error(predicted, y), squared_error(leave_one_out(drain, y), y));
   out.form = judged.form;
   out.accepted = judged.form != HoldDriftForm::kNone;
-  const std::string trend =
-      is_linear ? fmt::sprintf(", changing by %.3g +- %.3g from the first hold to the last", out.creep_trend_per_s,
-                               out.creep_trend_std_error)
-                : "";
-  const std::string evidence = fmt::sprintf(
-      "the held force changes at %.3g +- %.3g %s/s on average in %zu holds of at least %.0f s%s (%s, %.1f standard "
-      "errors from none; drain alternative %.3g +- %.3g per s of held force); held out (each hold from the others) RMS "
-      "%+.2f %%, %.0f %% of the change in improved holds",
-      out.creep_rate_per_s, out.creep_rate_std_error, unit, out.holds.size(), options.min_hold_s, trend, out.creep_model,
-      out.strength_z, out.drain_per_s, out.drain_std_error, -100 * out.heldout_gain, 100 * out.block_agreement);
-  int levelling = 0;
-  for (const HoldSlope& h : out.holds) levelling += h.levels_off ? 1 : 0;
-  out.levelling_holds = levelling;
-  const std::string bound =
-      levelling > 0 ? fmt::sprintf(" (a lower bound: in %d of the holds the held force levels off, the contact slipping at its "
-                                   "friction level)",
-                                   levelling)
-                    : "";
-  const std::string speed_text =
-      speed ? fmt::sprintf("; mean creep speed %.3g +- %.3g m/s%s along +x (the sample against the tip, or the position "
-                           "sensor's zero, which the position loop follows), from the contact stiffness %.4g +- %.2g %s/m (%s)",
-                           out.creep_speed_m_per_s, out.creep_speed_std_error, bound, stiffness_per_m,
-                           out.stiffness_std_error, unit, out.stiffness_source)
-            : "";
-  const std::string passes_text =
-      std::isfinite(out.reading_share)
-          ? fmt::sprintf("; the passes carry %.2f +- %.2f of the holds' force change (a reading drift: 1, a creep: 0)",
-                         out.reading_share, out.reading_share_std_error)
-          : "";
-  if (out.form == HoldDriftForm::kCreep) {
-    out.verdict = "creep under a stuck contact: " + evidence + speed_text + passes_text;
-  } else if (out.form == HoldDriftForm::kReading) {
-    out.verdict = "a drift of the force reading, in the holds and carried by the passes: " + evidence + passes_text;
-  } else {
-    out.verdict = "the holds' drift is not named: " + judged.reason + " (" + evidence + passes_text + ")";
-  }
+  for (const HoldSlope& h : out.holds) out.levelling_holds += h.levels_off ? 1 : 0;
+  out.verdict = verdict_text(out, options, series.force_unit, judged.reason);
   return out;
 }
 

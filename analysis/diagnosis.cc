@@ -1230,13 +1230,46 @@ void check_by_rediagnosis(const ModelData& data, const Current& current, const s
 
 namespace {
 
+// Drift as the holds named it (creep_in_holds), in an accepted effect's
+// shape: its rate (and a creep's speed), the holds' held-out figures, and
+// each hold's slope as the signature.
+AcceptedEffect drift_from_holds(const CreepInHolds& creep, const std::string& force_unit) {
+  AcceptedEffect a;
+  a.effect = Effect::kDrift;
+  const bool is_creep = creep.form == HoldDriftForm::kCreep;
+  a.parameters.push_back(ParamEstimate{is_creep ? "creep_rate" : "reading_drift_rate", force_unit + "/s",
+                                       creep.creep_rate_per_s, creep.creep_rate_std_error, false, true, Effect::kDrift});
+  if (is_creep && std::isfinite(creep.creep_speed_m_per_s)) {
+    a.parameters.push_back(ParamEstimate{"creep_speed", "m/s", creep.creep_speed_m_per_s, creep.creep_speed_std_error,
+                                         false, true, Effect::kDrift});
+  }
+  CandidateTrial& t = a.trial;
+  t.effect = Effect::kDrift;
+  t.fitted = t.passed = true;
+  t.heldout_rms_before = creep.heldout_rms_before;
+  t.heldout_rms_after = creep.heldout_rms_after;
+  t.heldout_gain = creep.heldout_gain;
+  t.block_agreement = creep.block_agreement;
+  t.verdict = creep.verdict;
+  t.parameters = a.parameters;
+  t.signature.applicable = true;
+  t.signature.strength = creep.strength_z;
+  t.signature.summary = "the held force's slope in each hold of minutes:";
+  for (const HoldSlope& h : creep.holds) {
+    t.signature.summary += fmt::sprintf("%s %.3g %s/s at %.3g %s", &h == &creep.holds.front() ? "" : ",", h.slope_per_s,
+                                        force_unit, h.mean_force, force_unit);
+  }
+  return a;
+}
+
 // Drift from the holds of minutes (analysis/creep_in_holds.h), as a creep
 // under a stuck contact or a drift of the force reading: the pass model
 // cannot show a creep, since it holds a stuck contact's force constant and
 // the passes forget the creep, and on a protocol of few long holds the
 // rounds' drift spline has too few passes to follow. Accepted, drift moves
 // to the accepted effects (when the rounds did not accept it); refused, the
-// reason is added to drift's.
+// reason is added to drift's. The stiffness is the final model's sigma0
+// where the holds do not measure it.
 void add_creep_in_holds(const MeasuredSeries& series, const FitResult& final_fit, const DiagnosisOptions& options,
                         Diagnosis& out) {
   const auto drift = std::find_if(out.rejected.begin(), out.rejected.end(),
@@ -1254,39 +1287,13 @@ void add_creep_in_holds(const MeasuredSeries& series, const FitResult& final_fit
   creep_options.min_strength_z = options.min_strength_z;
   CreepInHolds creep = creep_in_holds(series, out.motion, stiffness, stiffness_error, creep_options);
   if (creep.holds.empty()) return;
-  if (!creep.accepted) {
+  if (creep.accepted) {
+    out.accepted.push_back(drift_from_holds(creep, series.force_unit));
+    out.accepted.back().trial.round = static_cast<int>(out.accepted.size()) - 1;
+    out.rejected.erase(drift);
+  } else {
     drift->reason += "; holds of minutes: " + creep.verdict;
-    out.creep = std::move(creep);
-    return;
   }
-  AcceptedEffect a;
-  a.effect = Effect::kDrift;
-  const std::string unit = series.force_unit + "/s";
-  const bool is_creep = creep.form == HoldDriftForm::kCreep;
-  a.parameters.push_back(ParamEstimate{is_creep ? "creep_rate" : "reading_drift_rate", unit, creep.creep_rate_per_s,
-                                       creep.creep_rate_std_error, false, true, Effect::kDrift});
-  if (is_creep && std::isfinite(creep.creep_speed_m_per_s)) {
-    a.parameters.push_back(ParamEstimate{"creep_speed", "m/s", creep.creep_speed_m_per_s, creep.creep_speed_std_error,
-                                         false, true, Effect::kDrift});
-  }
-  a.trial.effect = Effect::kDrift;
-  a.trial.round = static_cast<int>(out.accepted.size());
-  a.trial.fitted = true;
-  a.trial.passed = true;
-  a.trial.heldout_rms_before = creep.heldout_rms_before;
-  a.trial.heldout_rms_after = creep.heldout_rms_after;
-  a.trial.heldout_gain = creep.heldout_gain;
-  a.trial.block_agreement = creep.block_agreement;
-  a.trial.verdict = creep.verdict;
-  a.trial.signature.applicable = true;
-  a.trial.signature.strength = std::fabs(creep.creep_rate_per_s) / creep.creep_rate_std_error;
-  a.trial.signature.summary = "the held force's slope in each hold of minutes:";
-  for (const HoldSlope& h : creep.holds) {
-    a.trial.signature.summary += fmt::sprintf("%s %.3g per s at %.3g", &h == &creep.holds.front() ? "" : ",", h.slope_per_s, h.mean_force);
-  }
-  a.trial.parameters = a.parameters;
-  out.accepted.push_back(std::move(a));
-  out.rejected.erase(drift);
   out.creep = std::move(creep);
 }
 
