@@ -286,6 +286,41 @@ double strength_of(const LineFit& fit, const Eigen::MatrixXd& x, const Eigen::Ve
   return -normal_quantile(0.5 * p);
 }
 
+// The creep speed -rate / k. Where some holds level off (the contact at its
+// friction level, slipping at the creep speed instead of loading), the rate
+// is the mean slope of the others when at least two remain, its error from
+// their scatter and their own errors; else the mean over every hold, then a
+// lower bound (at 1 nm/s on the default instrument six of eight holds level
+// off and the mean gives 0.59-0.68 nm/s).
+void set_speed(CreepInHolds& out) {
+  const double k = out.stiffness_per_m;
+  std::vector<const HoldSlope*> elastic;
+  for (const HoldSlope& h : out.holds) {
+    if (!h.levels_off) elastic.push_back(&h);
+  }
+  out.levelling_holds = static_cast<int>(out.holds.size() - elastic.size());
+  out.speed_holds = static_cast<int>(out.holds.size());
+  double rate = out.creep_rate_per_s, error = out.creep_rate_std_error;
+  if (out.levelling_holds > 0 && elastic.size() >= 2) {
+    const double m = static_cast<double>(elastic.size());
+    double mean = 0, scatter = 0, own = 0;
+    for (const HoldSlope* h : elastic) mean += h->slope_per_s / m;
+    for (const HoldSlope* h : elastic) {
+      scatter += (h->slope_per_s - mean) * (h->slope_per_s - mean) / (m - 1);
+      own += h->slope_std_error * h->slope_std_error / m;
+    }
+    rate = mean;
+    error = std::sqrt((scatter + own) / m);
+    out.speed_holds = static_cast<int>(elastic.size());
+  }
+  if (!(std::isfinite(k) && k > 0)) {
+    out.creep_speed_m_per_s = out.creep_speed_std_error = kNaN;
+    return;
+  }
+  out.creep_speed_m_per_s = -rate / k;
+  out.creep_speed_std_error = std::fabs(out.creep_speed_m_per_s) * std::hypot(error / rate, out.stiffness_std_error / k);
+}
+
 // The report's sentence: the form named, or why none, with the numbers.
 std::string verdict_text(const CreepInHolds& c, const CreepInHoldsOptions& options, const std::string& unit,
                          const std::string& reason) {
@@ -299,11 +334,16 @@ std::string verdict_text(const CreepInHolds& c, const CreepInHoldsOptions& optio
       "%+.2f %%, %.0f %% of the change in improved holds",
       c.creep_rate_per_s, c.creep_rate_std_error, unit, c.holds.size(), options.min_hold_s, trend, c.creep_model,
       c.strength_z, c.drain_per_s, c.drain_std_error, -100 * c.heldout_gain, 100 * c.block_agreement);
-  const std::string bound =
-      c.levelling_holds > 0 ? fmt::sprintf(" (a lower bound: in %d of the holds the held force levels off, the contact "
-                                           "slipping at its friction level)",
-                                           c.levelling_holds)
-                            : "";
+  std::string bound;
+  if (c.levelling_holds > 0 && c.speed_holds < static_cast<int>(c.holds.size())) {
+    bound = fmt::sprintf(" (from the %d holds whose force does not level off; in the other %d the contact reached its "
+                         "friction level and slipped)",
+                         c.speed_holds, c.levelling_holds);
+  } else if (c.levelling_holds > 0) {
+    bound = fmt::sprintf(" (a lower bound: in %d of the holds the held force levels off, the contact slipping at its "
+                         "friction level)",
+                         c.levelling_holds);
+  }
   const std::string speed = std::isfinite(c.creep_speed_m_per_s)
                                 ? fmt::sprintf("; mean creep speed %.3g +- %.3g m/s%s along +x (the sample against the tip, "
                                                "or the position sensor's zero, which the position loop follows), from the "
@@ -353,7 +393,6 @@ CreepInHolds creep_in_holds(const MeasuredSeries& series, const MotionSegmentati
   out.stiffness_source = std::isfinite(settled.value)
                              ? fmt::sprintf("dF/dx as the holds settle, the median of %zu", settled.holds)
                              : "the pass model's sigma0";
-  const double stiffness_per_m = out.stiffness_per_m;
   // The creep's rate constant, or linear in time (a creep speed that wanders
   // over minutes), chosen by leave-one-hold-out prediction; the drain, a rate
   // proportional to the held force, its mimic.
@@ -386,18 +425,12 @@ CreepInHolds creep_in_holds(const MeasuredSeries& series, const MotionSegmentati
   out.strength_z = strength_of(creep, x, y);
   out.drain_per_s = drained.coef[0];
   out.drain_std_error = drained.std_error[0];
-  const bool speed = std::isfinite(stiffness_per_m) && stiffness_per_m > 0;
-  out.creep_speed_m_per_s = speed ? -out.creep_rate_per_s / stiffness_per_m : kNaN;
-  out.creep_speed_std_error = speed ? std::fabs(out.creep_speed_m_per_s) *
-                                          std::hypot(out.creep_rate_std_error / out.creep_rate_per_s,
-                                                     out.stiffness_std_error / stiffness_per_m)
-                                    : kNaN;
+  set_speed(out);
   reading_drift_share(series, motion, long_holds, out);
   leave_one_hold_out(series, motion, options, predicted, out);
   const Judgement judged = judge(out, options, squared_error(predicted, y), squared_error(leave_one_out(drain, y), y));
   out.form = judged.form;
   out.accepted = judged.form != HoldDriftForm::kNone;
-  for (const HoldSlope& h : out.holds) out.levelling_holds += h.levels_off ? 1 : 0;
   out.verdict = verdict_text(out, options, series.force_unit, judged.reason);
   return out;
 }

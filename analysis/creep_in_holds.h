@@ -88,8 +88,12 @@ struct CreepInHolds {
   double stiffness_per_m = 0;   // k, force units per metre
   double stiffness_std_error = 0;
   std::string stiffness_source; // dF/dx as the holds settle, or the pass model's sigma0
-  double creep_speed_m_per_s = 0, creep_speed_std_error = 0;  // -a / k
-  int levelling_holds = 0;  // holds whose force levels off: the speed is then a lower bound
+  // -rate / k: the rate the mean slope of the holds that do not level off
+  // when at least two do and some level off (speed_holds of them), else a
+  // (a lower bound when levelling_holds > 0).
+  double creep_speed_m_per_s = 0, creep_speed_std_error = 0;
+  int levelling_holds = 0;
+  int speed_holds = 0;
   // Leave one hold out, against a constant held force: RMS over the holds'
   // settled samples about each hold's mean (force units), and the gain.
   double heldout_rms_before = 0, heldout_rms_after = 0;

@@ -164,6 +164,7 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
                            {"creep_speed_m_per_s", number(c.creep_speed_m_per_s)},
                            {"creep_speed_std_error", number(c.creep_speed_std_error)},
                            {"levelling_holds", c.levelling_holds},
+                           {"speed_holds", c.speed_holds},
                            {"heldout_rms_before", c.heldout_rms_before},
                            {"heldout_rms_after", c.heldout_rms_after},
                            {"heldout_gain", c.heldout_gain},
