@@ -89,7 +89,7 @@ LineFit least_squares(const Eigen::MatrixXd& x, const Eigen::VectorXd& y) {
 // creep. Not determined (NaN) with too few passes.
 void reading_drift_share(const MeasuredSeries& s, const MotionSegmentation& m, const std::vector<Hold>& long_holds,
                          CreepInHolds& out) {
-  out.reading_share = out.reading_share_std_error = kNaN;
+  out.reading_share = out.reading_share_std_error = out.reading_rate_per_s = out.reading_rate_std_error = kNaN;
   // Passes that slide: a step of a few hundred nm (a step back that unloads
   // the contact before a hold) stays in presliding, where the force is not the
   // friction level.
@@ -133,6 +133,16 @@ void reading_drift_share(const MeasuredSeries& s, const MotionSegmentation& m, c
   if (!fit.ok) return;
   out.reading_share = fit.coef[xu.cols() - 1];
   out.reading_share_std_error = fit.std_error[xu.cols() - 1];
+  // The passes' own drift over time, in the same design: a reading drift's
+  // rate, whatever the holds do.
+  for (Eigen::Index r = 0; r < rows; ++r) {
+    const Pass& p = sliding[static_cast<std::size_t>(r)];
+    xu(r, xu.cols() - 1) = 0.5 * (s.time_s[p.first] + s.time_s[p.last]);
+  }
+  const LineFit in_time = least_squares(xu, y);
+  if (!in_time.ok) return;
+  out.reading_rate_per_s = in_time.coef[xu.cols() - 1];
+  out.reading_rate_std_error = in_time.std_error[xu.cols() - 1];
 }
 
 // The stuck contact's stiffness from the start of the holds: while the
@@ -235,8 +245,8 @@ double squared_error(const Eigen::VectorXd& predicted, const Eigen::VectorXd& y)
   return predicted.allFinite() ? (predicted - y).squaredNorm() : std::numeric_limits<double>::infinity();
 }
 
-// The form the holds' drift takes, or why none: kCreep or kReading with an
-// empty reason when accepted.
+// The form the holds' drift takes, or why none: a form other than kNone,
+// with an empty reason, when accepted.
 struct Judgement {
   HoldDriftForm form = HoldDriftForm::kNone;
   std::string reason;
@@ -261,6 +271,14 @@ Judgement judge(const CreepInHolds& c, const CreepInHoldsOptions& options, doubl
   HoldDriftForm form = HoldDriftForm::kNone;
   if (from_reading < 2.0 && from_creep >= 2.0) form = HoldDriftForm::kReading;
   if (from_creep < 2.0 && from_reading >= 2.0) form = HoldDriftForm::kCreep;
+  if (form == HoldDriftForm::kNone && from_creep >= 2.0 && from_reading >= 2.0 && std::isfinite(c.reading_rate_per_s)) {
+    // Part of it: the passes drift at their own rate, the holds at the
+    // creep's and that rate together.
+    const double creep = c.creep_rate_per_s - c.reading_rate_per_s;
+    const double creep_z = std::fabs(creep) / std::hypot(c.creep_rate_std_error, c.reading_rate_std_error);
+    const double reading_z = std::fabs(c.reading_rate_per_s) / c.reading_rate_std_error;
+    if (creep_z >= options.min_strength_z && reading_z >= options.min_strength_z) form = HoldDriftForm::kCreepAndReading;
+  }
   if (form == HoldDriftForm::kNone) {
     return {form, fmt::sprintf("the passes carry %.2f +- %.2f of the holds' force change, %s", c.reading_share,
                                c.reading_share_std_error,
@@ -291,7 +309,8 @@ double strength_of(const LineFit& fit, const Eigen::MatrixXd& x, const Eigen::Ve
 // is the mean slope of the others when at least two remain, its error from
 // their scatter and their own errors; else the mean over every hold, then a
 // lower bound (at 1 nm/s on the default instrument six of eight holds level
-// off and the mean gives 0.59-0.68 nm/s).
+// off and the mean gives 0.59-0.68 nm/s). With a reading drift too, the
+// passes' drift rate is the reading's part of every hold's slope.
 void set_speed(CreepInHolds& out) {
   const double k = out.stiffness_per_m;
   std::vector<const HoldSlope*> elastic;
@@ -301,6 +320,7 @@ void set_speed(CreepInHolds& out) {
   out.levelling_holds = static_cast<int>(out.holds.size() - elastic.size());
   out.speed_holds = static_cast<int>(out.holds.size());
   double rate = out.creep_rate_per_s, error = out.creep_rate_std_error;
+  const bool both = out.form == HoldDriftForm::kCreepAndReading;
   if (out.levelling_holds > 0 && elastic.size() >= 2) {
     const double m = static_cast<double>(elastic.size());
     double mean = 0, scatter = 0, own = 0;
@@ -313,6 +333,12 @@ void set_speed(CreepInHolds& out) {
     error = std::sqrt((scatter + own) / m);
     out.speed_holds = static_cast<int>(elastic.size());
   }
+  if (both) {  // the creep's part of the holds' slope
+    rate -= out.reading_rate_per_s;
+    error = std::hypot(error, out.reading_rate_std_error);
+  }
+  out.creep_part_per_s = rate;
+  out.creep_part_std_error = error;
   if (!(std::isfinite(k) && k > 0)) {
     out.creep_speed_m_per_s = out.creep_speed_std_error = kNaN;
     return;
@@ -359,6 +385,11 @@ std::string verdict_text(const CreepInHolds& c, const CreepInHoldsOptions& optio
   switch (c.form) {
     case HoldDriftForm::kCreep: return "creep under a stuck contact: " + evidence + speed + passes;
     case HoldDriftForm::kReading: return "a drift of the force reading, in the holds and carried by the passes: " + evidence + passes;
+    case HoldDriftForm::kCreepAndReading:
+      return fmt::sprintf("creep under a stuck contact and a drift of the force reading: %s; the passes drift at %.3g +- "
+                          "%.3g %s/s, the creep's part of the holds' slope is %.3g +- %.3g %s/s%s%s",
+                          evidence, c.reading_rate_per_s, c.reading_rate_std_error, unit, c.creep_part_per_s,
+                          c.creep_part_std_error, unit, speed, passes);
     default: return "the holds' drift is not named: " + reason + " (" + evidence + passes + ")";
   }
 }
@@ -425,12 +456,12 @@ CreepInHolds creep_in_holds(const MeasuredSeries& series, const MotionSegmentati
   out.strength_z = strength_of(creep, x, y);
   out.drain_per_s = drained.coef[0];
   out.drain_std_error = drained.std_error[0];
-  set_speed(out);
   reading_drift_share(series, motion, long_holds, out);
   leave_one_hold_out(series, motion, options, predicted, out);
   const Judgement judged = judge(out, options, squared_error(predicted, y), squared_error(leave_one_out(drain, y), y));
   out.form = judged.form;
   out.accepted = judged.form != HoldDriftForm::kNone;
+  set_speed(out);
   out.verdict = verdict_text(out, options, series.force_unit, judged.reason);
   return out;
 }

@@ -70,9 +70,9 @@ struct HoldSlope {
   bool levels_off = false;
 };
 
-// What the holds' drift is: none, a creep under the stuck contact, or a
-// drift of the force reading (which the passes carry too).
-enum class HoldDriftForm { kNone, kCreep, kReading };
+// What the holds' drift is: none, a creep under the stuck contact, a drift of
+// the force reading (which the passes carry too), or both.
+enum class HoldDriftForm { kNone, kCreep, kReading, kCreepAndReading };
 
 struct CreepInHolds {
   std::vector<HoldSlope> holds;
@@ -85,12 +85,19 @@ struct CreepInHolds {
   // carry (a drift of the force reading: 1; a creep: 0); NaN when too few
   // passes follow the holds.
   double reading_share = 0, reading_share_std_error = 0;
+  // The passes' own drift over time (force units per s; NaN as the share):
+  // with a share between none and all, the holds' slope is a creep's part
+  // plus this rate, and both are named when each stands min_strength_z
+  // standard errors from none.
+  double reading_rate_per_s = 0, reading_rate_std_error = 0;
   double stiffness_per_m = 0;   // k, force units per metre
   double stiffness_std_error = 0;
   std::string stiffness_source; // dF/dx as the holds settle, or the pass model's sigma0
-  // -rate / k: the rate the mean slope of the holds that do not level off
-  // when at least two do and some level off (speed_holds of them), else a
-  // (a lower bound when levelling_holds > 0).
+  // -creep_part / k. creep_part: the mean slope of the holds that do not
+  // level off when at least two do and some level off (speed_holds of them),
+  // else a (a lower bound when levelling_holds > 0); with a reading drift
+  // too, less the passes' drift rate.
+  double creep_part_per_s = 0, creep_part_std_error = 0;  // the rate the speed is taken from
   double creep_speed_m_per_s = 0, creep_speed_std_error = 0;
   int levelling_holds = 0;
   int speed_holds = 0;

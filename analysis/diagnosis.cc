@@ -1231,17 +1231,28 @@ void check_by_rediagnosis(const ModelData& data, const Current& current, const s
 namespace {
 
 // Drift as the holds named it (creep_in_holds), in an accepted effect's
-// shape: its rate (and a creep's speed), the holds' held-out figures, and
-// each hold's slope as the signature.
+// shape: a creep's rate and speed, a reading drift's rate, or both; the
+// holds' held-out figures; each hold's slope as the signature.
 AcceptedEffect drift_from_holds(const CreepInHolds& creep, const std::string& force_unit) {
   AcceptedEffect a;
   a.effect = Effect::kDrift;
-  const bool is_creep = creep.form == HoldDriftForm::kCreep;
-  a.parameters.push_back(ParamEstimate{is_creep ? "creep_rate" : "reading_drift_rate", force_unit + "/s",
-                                       creep.creep_rate_per_s, creep.creep_rate_std_error, false, true, Effect::kDrift});
-  if (is_creep && std::isfinite(creep.creep_speed_m_per_s)) {
+  const std::string rate_unit = force_unit + "/s";
+  const bool creeps = creep.form != HoldDriftForm::kReading;
+  if (creeps) {
+    a.parameters.push_back(ParamEstimate{"creep_rate", rate_unit, creep.creep_part_per_s, creep.creep_part_std_error,
+                                         false, true, Effect::kDrift});
+  }
+  if (creeps && std::isfinite(creep.creep_speed_m_per_s)) {
     a.parameters.push_back(ParamEstimate{"creep_speed", "m/s", creep.creep_speed_m_per_s, creep.creep_speed_std_error,
                                          false, true, Effect::kDrift});
+  }
+  if (creep.form == HoldDriftForm::kReading) {
+    a.parameters.push_back(ParamEstimate{"reading_drift_rate", rate_unit, creep.creep_rate_per_s,
+                                         creep.creep_rate_std_error, false, true, Effect::kDrift});
+  }
+  if (creep.form == HoldDriftForm::kCreepAndReading) {
+    a.parameters.push_back(ParamEstimate{"reading_drift_rate", rate_unit, creep.reading_rate_per_s,
+                                         creep.reading_rate_std_error, false, true, Effect::kDrift});
   }
   CandidateTrial& t = a.trial;
   t.effect = Effect::kDrift;

@@ -141,9 +141,10 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
                        {"levels_off", h.levels_off}});
     }
     auto number = [](double x) { return std::isfinite(x) ? Json(x) : Json(nullptr); };
-    const char* form = c.form == HoldDriftForm::kCreep     ? "creep under a stuck contact"
-                       : c.form == HoldDriftForm::kReading ? "drift of the force reading"
-                                                           : nullptr;
+    const char* form = c.form == HoldDriftForm::kCreep             ? "creep under a stuck contact"
+                       : c.form == HoldDriftForm::kReading         ? "drift of the force reading"
+                       : c.form == HoldDriftForm::kCreepAndReading ? "creep and a drift of the force reading"
+                                                                   : nullptr;
     j["creep_in_holds"] = {{"accepted", c.accepted},
                            {"form", form ? Json(form) : Json(nullptr)},
                            {"verdict", c.verdict},
@@ -158,6 +159,10 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
                            {"strength_z", c.strength_z},
                            {"reading_share", number(c.reading_share)},
                            {"reading_share_std_error", number(c.reading_share_std_error)},
+                           {"reading_rate_per_s", number(c.reading_rate_per_s)},
+                           {"reading_rate_std_error", number(c.reading_rate_std_error)},
+                           {"creep_part_per_s", number(c.creep_part_per_s)},
+                           {"creep_part_std_error", number(c.creep_part_std_error)},
                            {"stiffness_per_m", number(c.stiffness_per_m)},
                            {"stiffness_std_error", c.stiffness_std_error},
                            {"stiffness_source", c.stiffness_source},

@@ -105,6 +105,21 @@ TEST(CreepInHolds, ADriftOfTheForceReadingIsNamedOneNotACreep) {
   EXPECT_TRUE(drift_accepted(d));
 }
 
+// A creep and a drift of the reading together (0.3 nm/s and +0.3 uN/s): the
+// holds slope by the creep's -1 uN/s plus the reading's +0.3, the passes by
+// the reading's alone, so they carry a share of -0.5 of the holds' change.
+// Both are named, each from its own part.
+TEST(CreepInHolds, ACreepAndADriftOfTheReadingTogetherAreBothNamed) {
+  MeasuredSeries s = creep_record("/config/tribod.textproto", sample_creep(0.3e-9));
+  for (std::size_t i = 0; i < s.size(); ++i) s.force_n[i] += 0.3e-6 * s.time_s[i];
+  const Diagnosis d = diagnosed(s, "creep 0.3 nm/s and reading drift 0.3 uN/s");
+  ASSERT_TRUE(d.creep);
+  EXPECT_EQ(d.creep->form, HoldDriftForm::kCreepAndReading) << d.creep->verdict;
+  EXPECT_TRUE(drift_accepted(d));
+  EXPECT_NEAR(d.creep->reading_rate_per_s, 0.3e-6, 0.05e-6);
+  EXPECT_NEAR(d.creep->creep_speed_m_per_s, 0.3e-9, 0.045e-9);
+}
+
 // Plain LuGre (config/instruments/lugre_plain.textproto) does not hold a
 // force at rest: under the position wander the held force relaxes, hold by
 // hold, at up to 0.9 uN/s with alternating signs. No creep.
