@@ -19,6 +19,21 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr const char* kOneRate = "one rate in every hold";
 constexpr const char* kLinearRate = "a rate changing linearly over the holds";
 
+// The first sample of a hold past its settling time (the stop's transient).
+std::size_t first_settled(const MeasuredSeries& s, const Hold& h, const CreepInHoldsOptions& options) {
+  std::size_t i = h.first;
+  while (i < h.last && s.time_s[i] < s.time_s[h.first] + options.settle_s) ++i;
+  return i;
+}
+
+// The mean time of a hold's settled samples, about which its slope is fitted.
+double settled_mean_time_s(const MeasuredSeries& s, const Hold& h, const CreepInHoldsOptions& options) {
+  const std::size_t from = first_settled(s, h, options);
+  double sum = 0;
+  for (std::size_t i = from; i <= h.last; ++i) sum += s.time_s[i];
+  return sum / static_cast<double>(h.last - from + 1);
+}
+
 // The force's slope in one hold after its settling time; duration 0 when the
 // hold is too short or the slope not determined.
 HoldSlope hold_slope(const MeasuredSeries& s, const Hold& h, const CreepInHoldsOptions& options) {
@@ -27,15 +42,10 @@ HoldSlope hold_slope(const MeasuredSeries& s, const Hold& h, const CreepInHoldsO
   out.start_s = start;
   out.duration_s = s.time_s[h.last] - start;
   if (out.duration_s < options.min_hold_s) return HoldSlope{};
+  const std::size_t from = first_settled(s, h, options);
+  const double mean_t = settled_mean_time_s(s, h, options);
   Design d;
-  double mean_t = 0, n = 0;
-  for (std::size_t i = h.first; i <= h.last; ++i) {
-    if (s.time_s[i] >= start + options.settle_s) mean_t += s.time_s[i], n += 1;
-  }
-  mean_t /= n;
-  for (std::size_t i = h.first; i <= h.last; ++i) {
-    if (s.time_s[i] >= start + options.settle_s) d.add_row({1.0, s.time_s[i] - mean_t}, s.force_n[i]);
-  }
+  for (std::size_t i = from; i <= h.last; ++i) d.add_row({1.0, s.time_s[i] - mean_t}, s.force_n[i]);
   const Regression r = d.fit();
   if (!r.ok) return HoldSlope{};
   out.mean_force = r.coef[0];
@@ -47,8 +57,7 @@ HoldSlope hold_slope(const MeasuredSeries& s, const Hold& h, const CreepInHoldsO
   // the 300 uN it holds at 3000 uN). Curvature against the slope.
   Design q;
   const double half = 0.5 * (out.duration_s - options.settle_s);
-  for (std::size_t i = h.first; i <= h.last; ++i) {
-    if (s.time_s[i] < start + options.settle_s) continue;
+  for (std::size_t i = from; i <= h.last; ++i) {
     const double u = (s.time_s[i] - mean_t) / half;
     q.add_row({1.0, u, u * u}, s.force_n[i]);
   }
@@ -161,7 +170,7 @@ Stiffness settling_stiffness(const MeasuredSeries& s, const std::vector<Hold>& l
   for (const Hold& h : long_holds) {
     Design d;
     double low = s.position_m[h.first], high = low;
-    for (std::size_t i = h.first; i <= h.last && s.time_s[i] < s.time_s[h.first] + options.settle_s; ++i) {
+    for (std::size_t i = h.first, end = first_settled(s, h, options); i < end; ++i) {
       d.add_row({1.0, s.position_m[i]}, s.force_n[i]);
       low = std::min(low, s.position_m[i]);
       high = std::max(high, s.position_m[i]);
@@ -187,24 +196,17 @@ Stiffness settling_stiffness(const MeasuredSeries& s, const std::vector<Hold>& l
 
 // Leave one hold out: each hold's slope as predicted without it
 // (predicted[k]), against the pass model's constant held force (slope 0),
-// over each hold's settled samples about its own mean.
-void leave_one_hold_out(const MeasuredSeries& s, const MotionSegmentation& m, const CreepInHoldsOptions& options,
+// over each hold's settled samples about its own mean (the slope fit's
+// intercept, the time axis being centred there).
+void leave_one_hold_out(const MeasuredSeries& s, const std::vector<Hold>& long_holds, const CreepInHoldsOptions& options,
                         const Eigen::VectorXd& predicted, CreepInHolds& out) {
   double before = 0, after = 0, improved = 0, changed = 0, samples = 0;
-  Eigen::Index k = 0;
-  for (const Hold& hold : m.holds) {
-    const double start = s.time_s[hold.first];
-    if (s.time_s[hold.last] - start < options.min_hold_s) continue;
-    const double slope = predicted[k++];
-    double mean_t = 0, mean_f = 0, n = 0;
-    for (std::size_t i = hold.first; i <= hold.last; ++i) {
-      if (s.time_s[i] >= start + options.settle_s) mean_t += s.time_s[i], mean_f += s.force_n[i], n += 1;
-    }
-    mean_t /= n;
-    mean_f /= n;
+  for (std::size_t k = 0; k < long_holds.size(); ++k) {
+    const Hold& hold = long_holds[k];
+    const double slope = predicted[static_cast<Eigen::Index>(k)];
+    const double mean_t = settled_mean_time_s(s, hold, options), mean_f = out.holds[k].mean_force;
     double ss0 = 0, ss1 = 0;
-    for (std::size_t i = hold.first; i <= hold.last; ++i) {
-      if (s.time_s[i] < start + options.settle_s) continue;
+    for (std::size_t i = first_settled(s, hold, options); i <= hold.last; ++i) {
       const double r0 = s.force_n[i] - mean_f;
       const double r1 = r0 - slope * (s.time_s[i] - mean_t);
       ss0 += r0 * r0;
@@ -457,7 +459,7 @@ CreepInHolds creep_in_holds(const MeasuredSeries& series, const MotionSegmentati
   out.drain_per_s = drained.coef[0];
   out.drain_std_error = drained.std_error[0];
   reading_drift_share(series, motion, long_holds, out);
-  leave_one_hold_out(series, motion, options, predicted, out);
+  leave_one_hold_out(series, long_holds, options, predicted, out);
   const Judgement judged = judge(out, options, squared_error(predicted, y), squared_error(leave_one_out(drain, y), y));
   out.form = judged.form;
   out.accepted = judged.form != HoldDriftForm::kNone;

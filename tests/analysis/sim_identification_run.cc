@@ -11,14 +11,11 @@ namespace tribo::testing {
 namespace {
 
 v1::DaemonConfig identification_config_from(const std::string& file, const ConfigEdit& edit) {
-  v1::DaemonConfig config;
-  if (auto error = daemon::load_daemon_config(std::string(TRIBO_SOURCE_DIR) + file, config)) {
-    throw std::runtime_error(*error);
-  }
-  config.mutable_controller()->mutable_lateral_displacement()->set_setpoint_weight_p(1.0);
-  config.mutable_sim()->mutable_tip()->mutable_tilt_offset()->set_enabled(false);
-  if (edit) edit(config);
-  return config;
+  return shipped_config(file, [&](v1::DaemonConfig& config) {
+    config.mutable_controller()->mutable_lateral_displacement()->set_setpoint_weight_p(1.0);
+    config.mutable_sim()->mutable_tip()->mutable_tilt_offset()->set_enabled(false);
+    if (edit) edit(config);
+  });
 }
 
 }  // namespace
