@@ -56,7 +56,7 @@ struct Index {
   int dwell_dfs = -1, dwell_time = -1, dwell_memory = -1, lag = -1, logv = -1, load_exponent = -1;
   int per_cos = -1, per_sin = -1, per_length = -1, asym_levels = -1, asym_viscous = -1;
   int tilt = -1, breakaway = -1, gap = -1;
-  int rs_a = -1, rs_b = -1, rs_dc = -1;
+  int rs_a = -1, rs_b = -1, rs_dc = -1, slip_trend = -1;
   std::vector<int> drift;
 };
 
@@ -89,6 +89,7 @@ Index index_of(const ModelParams& p) {
   k.rs_a = p.index("rs_a");
   k.rs_b = p.index("rs_b");
   k.rs_dc = p.index("rs_dc");
+  k.slip_trend = p.index("slip_trend");
   if (k.fc < 0 || k.fs < 0 || k.vs < 0 || k.sigma0 < 0 || k.sigma1 < 0 || k.fv < 0 || k.offset < 0) {
     throw std::logic_error("friction model: base parameters missing");
   }
@@ -298,6 +299,17 @@ ModelData::ModelData(const MeasuredSeries& s, const MotionSegmentation& m) : ser
     step_velocity[i] = s.velocity_measured ? 0.5 * (drive_velocity[i - 1] + drive_velocity[i])
                                            : (s.position_m[i] - s.position_m[i - 1]) / (s.time_s[i] - s.time_s[i - 1]);
   }
+  // Only where a slip trend may be fitted (one way only): on other records it
+  // would cost eight bytes a sample in every copy of the data for nothing.
+  const auto positive = [](const Pass& p) { return p.direction > 0; };
+  const bool one_way = !m.passes.empty() && (std::all_of(m.passes.begin(), m.passes.end(), positive) ||
+                                              std::none_of(m.passes.begin(), m.passes.end(), positive));
+  if (one_way) {
+    slip_m.assign(n, 0.0);
+    for (std::size_t i = 1; i < n; ++i) {
+      slip_m[i] = slip_m[i - 1] + std::fabs(step_velocity[i]) * (s.time_s[i] - s.time_s[i - 1]);
+    }
+  }
   const double t0 = s.time_s.front(), span = std::max(s.time_s.back() - t0, 1e-30);
   set_drift_intervals(static_cast<int>(m.passes.size()) / 2);
   normalised_time.resize(n);
@@ -378,6 +390,16 @@ std::vector<ParamSpec> effect_parameters(Effect e, const ModelData& d, const Mod
               {"rs_dc", "m", Transform::kLog, 1e-5, false, e}};
   }
   return {};
+}
+
+ModelParams with_slip_trend(const ModelParams& params, const ModelData& d) {
+  if (d.slip_m.empty()) throw std::logic_error("friction model: a slip trend on a record that does not slide one way only");
+  ModelParams p = params;
+  const double slid = std::max(d.slip_m.empty() ? 0.0 : d.slip_m.back(), 1e-12);
+  p.specs.push_back({"slip_trend", level_unit(d, p.structure) + "/m", Transform::kLinear,
+                     0.1 * level_scale(d, p.structure) / slid, false, {}});
+  p.theta.push_back(0.0);
+  return p;
 }
 
 ModelParams with_effect(const ModelParams& params, Effect e, const ModelData& d,
@@ -489,6 +511,8 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
   const T rs_a = rate_state ? val(k.rs_a) : T(0.0), rs_b = rate_state ? val(k.rs_b) : T(0.0);
   const T rs_dc = rate_state ? val(k.rs_dc) : T(1.0);
   const bool slip_law = st.rate_state_slip_law;
+  const bool trend = k.slip_trend >= 0;
+  const T slip_trend = trend ? val(k.slip_trend) : T(0.0);
   T rs_state = !rate_state ? T(0.0) : (slip_law ? slip_law_start(d, rs_dc) : contact_age_start(d, rs_dc));
   std::vector<T> drift_c;
   if (drift) {
@@ -508,6 +532,7 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
     if (rate_state) {
       level = level + rs_a * log((speed + d.speed_floor) / d.speed_ref) + rs_b * log(d.speed_ref * rs_state / rs_dc);
     }
+    if (trend) level = level + slip_trend * d.slip_m[i];
     if (load_scaled) {
       const double normal = std::max(s.normal_force_n[i], 0.0);
       if (normal <= 0) return T(0.0);

@@ -118,6 +118,8 @@ struct ModelData {
   std::vector<double> drive_velocity;  // the measured velocity, zero inside holds
   std::vector<char> at_rest;           // inside a hold (motion segmentation)
   std::vector<double> step_velocity;   // mean velocity over (t[i-1], t[i]); [0] unused
+  std::vector<double> slip_m;          // distance slid since the record began (|step_velocity| dt summed);
+                                       // only for records that slide one way only, else empty
 };
 
 // The base LuGre model (no effects) with rough initial values.
@@ -126,6 +128,12 @@ ModelParams base_params(const ModelData& data, const ModelStructure& structure);
 // The parameters an effect adds, with neutral initial values (the effect
 // switched on but not yet doing much), and its unit-aware names.
 std::vector<ParamSpec> effect_parameters(Effect effect, const ModelData& data, const ModelStructure& structure);
+
+// params with a friction level linear in the distance slid (slip_trend, per
+// metre, starting at zero): the trend that velocity-step analyses remove
+// before reading a and b (Marone 1998, Annu. Rev. Earth Planet. Sci. 26),
+// offered by the contact choice on records that slide one way only.
+ModelParams with_slip_trend(const ModelParams& params, const ModelData& data);
 
 // params extended by effect (its parameters appended, initial theta given or neutral).
 ModelParams with_effect(const ModelParams& params, Effect effect, const ModelData& data,

@@ -126,5 +126,34 @@ TEST(MeasuredRateAndState, VelocityStepLeavesStructureNoCandidateExplains) {
   EXPECT_TRUE(offset_warning);
 }
 
+// Sepiolite velstep3 (0.2 -> 2 um/s) with the contact chosen: a
+// rate-and-state law is kept once the level may trend with the distance slid
+// (before stop 34 its evolution came out opposite to the direct effect and it
+// was refused), and no effect accepted after it may leave the law past its
+// bounds (drift's refit had taken the direct effect to a = -0.049).
+TEST(MeasuredRateAndState, TheSepioliteStepKeepsARateAndStateContactWithinItsBounds) {
+  ColumnMapping c;
+  c.time = "t_s";
+  c.position = "x_m";
+  c.force = "shear_stress_Pa";
+  c.normal = "normal_stress_eff_Pa";
+  c.force_unit = "Pa";
+  MeasuredSeries s = testing::read_or_throw(measured_data("velstep3_TR2_exp013_sepiolite.csv"), c);
+  derive_motion_smoothed(s);
+  DiagnosisOptions options;
+  options.base.load_scaled = true;
+  options.choose_base_contact = true;
+  options.choose_state_from_rest = true;  // as tribo-fit diagnose on a CSV
+  const Diagnosis d = diagnose(s, options);
+  ASSERT_TRUE(d.base_contact);
+  EXPECT_NE(d.base_contact->chosen.find("rate_state"), std::string::npos) << d.base_contact->chosen;
+  EXPECT_NE(d.base_contact->chosen.find("slip_trend"), std::string::npos) << d.base_contact->chosen;
+  EXPECT_LT(d.after.heldout.rms, 0.9 * d.before.heldout.rms);
+  const ModelParams& p = d.final_fit.params;
+  ASSERT_GE(p.index("rs_a"), 0);
+  EXPECT_GT(p.value("rs_a"), 0.0);
+  EXPECT_GT(p.value("rs_b"), -p.value("rs_a"));
+}
+
 }  // namespace
 }  // namespace tribo::analysis
