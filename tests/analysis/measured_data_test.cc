@@ -2,6 +2,7 @@
 // attribution there): EMPS, the banded rotary friction damper with backlash,
 // and a rate-and-state velocity step.
 #include <cmath>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -104,14 +105,20 @@ TEST(MeasuredBackslashDamper, DiagnosisFindsTheDeadZoneAfterReversals) {
   EXPECT_TRUE(d.unexplained);
 }
 
-TEST(MeasuredRateAndState, VelocityStepLeavesStructureNoCandidateExplains) {
+// A velocity-step record of tests/data/measured: shear stress against the
+// effective normal stress, in Pa.
+MeasuredSeries velocity_step_record(const std::string& file) {
   ColumnMapping c;
   c.time = "t_s";
   c.position = "x_m";
   c.force = "shear_stress_Pa";
   c.normal = "normal_stress_eff_Pa";
   c.force_unit = "Pa";
-  MeasuredSeries s = testing::read_or_throw(measured_data("velstep7_BRAVA_expb819_basalt_Giacomel_et_al_2021.csv"), c);
+  return testing::read_or_throw(measured_data(file), c);
+}
+
+TEST(MeasuredRateAndState, VelocityStepLeavesStructureNoCandidateExplains) {
+  MeasuredSeries s = velocity_step_record("velstep7_BRAVA_expb819_basalt_Giacomel_et_al_2021.csv");
   derive_motion(s, 1.0);
   DiagnosisOptions options;
   options.base.load_scaled = true;
@@ -132,13 +139,7 @@ TEST(MeasuredRateAndState, VelocityStepLeavesStructureNoCandidateExplains) {
 // was refused), and no effect accepted after it may leave the law past its
 // bounds (drift's refit had taken the direct effect to a = -0.049).
 TEST(MeasuredRateAndState, TheSepioliteStepKeepsARateAndStateContactWithinItsBounds) {
-  ColumnMapping c;
-  c.time = "t_s";
-  c.position = "x_m";
-  c.force = "shear_stress_Pa";
-  c.normal = "normal_stress_eff_Pa";
-  c.force_unit = "Pa";
-  MeasuredSeries s = testing::read_or_throw(measured_data("velstep3_TR2_exp013_sepiolite.csv"), c);
+  MeasuredSeries s = velocity_step_record("velstep3_TR2_exp013_sepiolite.csv");
   derive_motion_smoothed(s);
   DiagnosisOptions options;
   options.base.load_scaled = true;

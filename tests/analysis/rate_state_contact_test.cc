@@ -50,6 +50,14 @@ MeasuredSeries velocity_steps(const RateStateTruth& p, double v1, double v2, uns
   return s;
 }
 
+// The steps 3 <-> 10 um/s diagnosed with the contact chosen (options: the
+// rest of the diagnosis's options, filled in here).
+Diagnosis diagnose_steps(const RateStateTruth& truth, unsigned seed, DiagnosisOptions& options) {
+  options.base.load_scaled = true;
+  options.choose_base_contact = true;
+  return diagnose(velocity_steps(truth, 3e-6, 10e-6, seed), options);
+}
+
 double value_of(const std::vector<ParamEstimate>& estimates, const std::string& name) {
   for (const auto& p : estimates) {
     if (p.name == name) return p.value;
@@ -68,11 +76,8 @@ TEST(RateStateContact, SpeedStepsKeepARateAndStateContactAndFindItsParameters) {
   const RateStateTruth truth;
   for (unsigned seed : {3u, 17u, 41u}) {
     SCOPED_TRACE("seed " + std::to_string(seed));
-    const MeasuredSeries s = velocity_steps(truth, 3e-6, 10e-6, seed);
     DiagnosisOptions options;
-    options.base.load_scaled = true;
-    options.choose_base_contact = true;
-    const Diagnosis d = diagnose(s, options);
+    const Diagnosis d = diagnose_steps(truth, seed, options);
     ASSERT_TRUE(d.base_contact);
     const BaseContactChoice::Option* contact = nullptr;
     for (const auto& o : d.base_contact->options) {
@@ -104,11 +109,8 @@ TEST(RateStateContact, ATrendInTheDistanceSlidIsKeptApartFromTheEvolution) {
   truth.trend_per_m = 10;
   for (unsigned seed : {3u, 17u, 41u}) {
     SCOPED_TRACE("seed " + std::to_string(seed));
-    const MeasuredSeries s = velocity_steps(truth, 3e-6, 10e-6, seed);
     DiagnosisOptions options;
-    options.base.load_scaled = true;
-    options.choose_base_contact = true;
-    const Diagnosis d = diagnose(s, options);
+    const Diagnosis d = diagnose_steps(truth, seed, options);
     ASSERT_TRUE(d.base_contact);
     const BaseContactChoice::Option *with_trend = nullptr, *without = nullptr;
     for (const auto& o : d.base_contact->options) {
