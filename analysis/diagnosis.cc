@@ -642,9 +642,6 @@ std::string undetermined_strength(const FitResult& fit, Effect effect, double mi
          fmt(" stands %.1f standard errors from no effect (below %.0f): the strength is not determined", best_z, min_z);
 }
 
-// Why a candidate's fit cannot be accepted whatever its held-out gain: its
-// values past their physical bounds, a strength its error does not
-// determine, or (tilt) a rest force it does not explain; empty when none.
 // The contact laws already in the model are refitted with a candidate: past
 // their bounds, the candidate has bought its gain with an impossible contact
 // (sepiolite velstep3: drift took the kept rate-and-state law's direct effect
@@ -658,6 +655,10 @@ std::string contact_law_objection(const ModelData& data, const FitResult& fit, E
   return {};
 }
 
+// Why a candidate's fit cannot be accepted whatever its held-out gain: its
+// values past their physical bounds, a strength its error does not
+// determine, a contact law it refits past its bounds, or (tilt) a rest
+// force it does not explain; empty when none.
 std::string candidate_objection(const ModelData& data, const FitResult& fit, Effect effect,
                                 const std::vector<double>& model, double min_strength_z) {
   std::string objection = out_of_bounds(data, fit, effect);

@@ -301,10 +301,7 @@ ModelData::ModelData(const MeasuredSeries& s, const MotionSegmentation& m) : ser
   }
   // Only where a slip trend may be fitted (one way only): on other records it
   // would cost eight bytes a sample in every copy of the data for nothing.
-  const auto positive = [](const Pass& p) { return p.direction > 0; };
-  const bool one_way = !m.passes.empty() && (std::all_of(m.passes.begin(), m.passes.end(), positive) ||
-                                              std::none_of(m.passes.begin(), m.passes.end(), positive));
-  if (one_way) {
+  if (!m.passes.empty() && !slides_both_ways(m)) {
     slip_m.assign(n, 0.0);
     for (std::size_t i = 1; i < n; ++i) {
       slip_m[i] = slip_m[i - 1] + std::fabs(step_velocity[i]) * (s.time_s[i] - s.time_s[i - 1]);
@@ -395,7 +392,7 @@ std::vector<ParamSpec> effect_parameters(Effect e, const ModelData& d, const Mod
 ModelParams with_slip_trend(const ModelParams& params, const ModelData& d) {
   if (d.slip_m.empty()) throw std::logic_error("friction model: a slip trend on a record that does not slide one way only");
   ModelParams p = params;
-  const double slid = std::max(d.slip_m.empty() ? 0.0 : d.slip_m.back(), 1e-12);
+  const double slid = std::max(d.slip_m.back(), 1e-12);
   p.specs.push_back({"slip_trend", level_unit(d, p.structure) + "/m", Transform::kLinear,
                      0.1 * level_scale(d, p.structure) / slid, false, {}});
   p.theta.push_back(0.0);

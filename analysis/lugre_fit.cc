@@ -154,9 +154,7 @@ LugreFit fit_lugre(const ModelData& d, const ModelStructure& st, const std::vect
   ModelParams start = base_params(d, st);
   // Sliding one way only, a constant offset and the Coulomb level are the
   // same thing: the force channel is taken as zeroed.
-  const bool both_directions =
-      std::any_of(d.motion.passes.begin(), d.motion.passes.end(), [](const Pass& p) { return p.direction > 0; }) &&
-      std::any_of(d.motion.passes.begin(), d.motion.passes.end(), [](const Pass& p) { return p.direction < 0; });
+  const bool both_directions = slides_both_ways(d.motion);
   const LinearStart lin = linear_start(d, st, in_fit, both_directions);
   const std::string fc_name = load ? "mu_c" : "Fc", fs_name = load ? "mu_s" : "Fs";
   struct Levels {

@@ -321,4 +321,10 @@ std::vector<Hold> rest_stretches(const MeasuredSeries& s, const MotionSegmentati
   return out;
 }
 
+bool slides_both_ways(const MotionSegmentation& m) {
+  const auto positive = [](const Pass& p) { return p.direction > 0; };
+  const auto negative = [](const Pass& p) { return p.direction < 0; };
+  return std::any_of(m.passes.begin(), m.passes.end(), positive) && std::any_of(m.passes.begin(), m.passes.end(), negative);
+}
+
 }  // namespace tribo::analysis

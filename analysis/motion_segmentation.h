@@ -73,6 +73,9 @@ struct MotionSegmentation {
 
 MotionSegmentation segment_motion(const MeasuredSeries& series, const SegmentationOptions& options = {});
 
+// Whether the passes go both ways (at least one each way).
+bool slides_both_ways(const MotionSegmentation& m);
+
 // The stretches between passes: the holds and what the segmentation leaves
 // outside both (the load ramps of a protocol that changes the load at rest),
 // as [first, last], each without margin_s at either end (the stop's and the
