@@ -137,5 +137,24 @@ TEST(RateStateContact, ATrendInTheDistanceSlidIsKeptApartFromTheEvolution) {
   }
 }
 
+// A trend that moves the level by more than half of it over the record
+// (300 per metre: +0.6 in mu over 2 mm, on mu0 = 0.6) is no trend on a
+// contact: each contact with it is past its bound, and none is kept.
+TEST(RateStateContact, ATrendOfHalfTheLevelIsPastItsBound) {
+  RateStateTruth truth;
+  truth.trend_per_m = 300;
+  DiagnosisOptions options;
+  const Diagnosis d = diagnose_steps(truth, 3, options);
+  ASSERT_TRUE(d.base_contact);
+  int with_trend = 0;
+  for (const auto& o : d.base_contact->options) {
+    if (o.name.find("slip_trend") == std::string::npos) continue;
+    ++with_trend;
+    EXPECT_NE(o.note.find("slip_trend moves the friction level"), std::string::npos) << o.name << ": " << o.note;
+  }
+  EXPECT_GE(with_trend, 2);
+  EXPECT_EQ(d.base_contact->chosen.find("slip_trend"), std::string::npos) << d.base_contact->chosen;
+}
+
 }  // namespace
 }  // namespace tribo::analysis
