@@ -1390,6 +1390,11 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
                 error_stats(series.force_n, current.model, everything)};
 
   if (options.choose_base_contact) out.base_contact = choose_base_contact(data, options, in_fit, heldout, current);
+  // A velocity-step record diagnosed on LuGre alone: its transient is what
+  // the contact choice fits (the rate-and-state contact, a trend in slip).
+  const bool velocity_steps_on_lugre =
+      !options.choose_base_contact && slides_one_way(data) &&
+      compute_signature(Effect::kRateState, SignatureInput{data, current.fit.params, current.model, current.friction, in_fit}).applicable;
   // The knots are the drift candidate's: chosen before it is fitted, never
   // under a base model that carries a drift already.
   if (std::find(options.candidates.begin(), options.candidates.end(), Effect::kDrift) != options.candidates.end() &&
@@ -1620,6 +1625,11 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
   out.unexplained = describe_unexplained(data, residual, compared, out.noise_floor, out.rejected);
   out.warnings = out.final_fit.warnings;
   if (out.base_contact && !out.base_contact->warning.empty()) out.warnings.push_back(out.base_contact->warning);
+  if (velocity_steps_on_lugre) {
+    out.warnings.push_back("the data slide one way with speed steps: with --base-model choose (base_model \"choose\" in Python) "
+                           "the rate-and-state contact and a friction level trending with the distance slid are fitted as base "
+                           "models and chosen on held-out data");
+  }
   for (auto& w : base_bound_warnings(data, out.final_fit)) {
     if (std::find(out.warnings.begin(), out.warnings.end(), w) == out.warnings.end()) out.warnings.push_back(w);
   }

@@ -131,6 +131,10 @@ TEST(MeasuredRateAndState, VelocityStepLeavesStructureNoCandidateExplains) {
   bool offset_warning = false;
   for (const auto& w : d.base.result.warnings) offset_warning |= w.find("one direction only") != std::string::npos;
   EXPECT_TRUE(offset_warning);
+  // ... and the report says where the transient is fitted.
+  bool choose_hint = false;
+  for (const auto& w : d.warnings) choose_hint |= w.find("--base-model choose") != std::string::npos;
+  EXPECT_TRUE(choose_hint);
 }
 
 // Sepiolite velstep3 (0.2 -> 2 um/s) with the contact chosen: a
