@@ -904,10 +904,6 @@ std::vector<char> without_holds(const ModelData& data, std::vector<char> mask) {
 
 namespace {
 
-// Whether every pass of the record slides the same way (velocity steps):
-// ModelData keeps the distance slid only then.
-bool slides_one_way(const ModelData& data) { return !data.slip_m.empty(); }
-
 // A slip trend that moves the friction level by more than half of it over the
 // record's slip is no trend on a contact but a different contact.
 constexpr double kMaxSlipTrendShare = 0.5;
@@ -1014,7 +1010,7 @@ BaseContactChoice choose_base_contact(const ModelData& data, const DiagnosisOpti
   };
   nest("lugre", true);
   add_rate_state_contact(false, "rate_state_contact");
-  if (slides_one_way(data)) {
+  if (slides_one_way(data.motion)) {
     // Each contact again with a friction level linear in the distance slid,
     // fitted first, as velocity-step analyses remove that trend before
     // reading a and b (Marone 1998): fitted after the laws, from their
@@ -1393,7 +1389,7 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
   // A velocity-step record diagnosed on LuGre alone: its transient is what
   // the contact choice fits (the rate-and-state contact, a trend in slip).
   const bool velocity_steps_on_lugre =
-      !options.choose_base_contact && slides_one_way(data) &&
+      !options.choose_base_contact && slides_one_way(data.motion) &&
       compute_signature(Effect::kRateState, SignatureInput{data, current.fit.params, current.model, current.friction, in_fit}).applicable;
   // The knots are the drift candidate's: chosen before it is fitted, never
   // under a base model that carries a drift already.

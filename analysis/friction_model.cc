@@ -301,7 +301,7 @@ ModelData::ModelData(const MeasuredSeries& s, const MotionSegmentation& m) : ser
   }
   // Only where a slip trend may be fitted (one way only): on other records it
   // would cost eight bytes a sample in every copy of the data for nothing.
-  if (!m.passes.empty() && !slides_both_ways(m)) {
+  if (slides_one_way(m)) {
     slip_m.assign(n, 0.0);
     for (std::size_t i = 1; i < n; ++i) {
       slip_m[i] = slip_m[i - 1] + std::fabs(step_velocity[i]) * (s.time_s[i] - s.time_s[i - 1]);

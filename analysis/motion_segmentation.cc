@@ -327,4 +327,6 @@ bool slides_both_ways(const MotionSegmentation& m) {
   return std::any_of(m.passes.begin(), m.passes.end(), positive) && std::any_of(m.passes.begin(), m.passes.end(), negative);
 }
 
+bool slides_one_way(const MotionSegmentation& m) { return !m.passes.empty() && !slides_both_ways(m); }
+
 }  // namespace tribo::analysis

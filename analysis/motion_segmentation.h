@@ -73,8 +73,10 @@ struct MotionSegmentation {
 
 MotionSegmentation segment_motion(const MeasuredSeries& series, const SegmentationOptions& options = {});
 
-// Whether the passes go both ways (at least one each way).
+// Whether the passes go both ways (at least one each way), or all one way
+// (velocity steps; false without passes).
 bool slides_both_ways(const MotionSegmentation& m);
+bool slides_one_way(const MotionSegmentation& m);
 
 // The stretches between passes: the holds and what the segmentation leaves
 // outside both (the load ramps of a protocol that changes the load at rest),
