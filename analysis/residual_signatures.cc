@@ -807,10 +807,13 @@ Signature rate_state(const SignatureContext& c) {
     }
     // A step: the chunk median speed changes by a factor of 1.5 or more and
     // stays (the next chunk agrees with the new level); the first chunks
-    // (the pass's onset) are not steps.
+    // (the pass's onset) are not steps. A pass that opens the record was
+    // already sliding when it began (no onset in it): its second chunk may
+    // be a step (sepiolite velstep2 steps 2 -> 0.2 um/s 1/40 into the record).
     std::vector<std::size_t> at;
     std::vector<double> ratio;
-    for (std::size_t k = 2; k + 1 < medians.size(); ++k) {
+    const std::size_t first_step_chunk = p.first == 0 ? 1 : 2;
+    for (std::size_t k = first_step_chunk; k + 1 < medians.size(); ++k) {
       const double before = medians[k - 1], after = medians[k], next = medians[k + 1];
       if (!(before > 0 && after > 0)) continue;
       const double r = after / before;
