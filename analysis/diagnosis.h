@@ -100,6 +100,11 @@ struct BaseContactChoice {
     double heldout_rms = 0;   // force units, over the held-out samples
     std::string note;         // why its fit is not physical (a value past a bound), if so
     std::vector<ParamEstimate> parameters;  // its fitted values, base and laws
+    int free_parameters = 0;  // of those, the ones fitted (not held)
+    // Its held-out mean squared error above the chosen contact's, in standard
+    // errors of the difference over the held-out blocks (0 for the chosen;
+    // negative: better, yet not by the gain; infinite with one block).
+    double heldout_excess_se = 0;
   };
   std::vector<Option> options;
   std::string chosen;
@@ -195,6 +200,12 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
 // Why a fitted extension is not the physical effect (a parameter at or past
 // its physical bound, or below what the data resolve), or empty.
 std::string out_of_bounds(const ModelData& data, const FitResult& fit, Effect effect);
+
+// Dwell stiction whose onset peak does not grow with rest over the record's
+// holds (shortest to longest before a pass, min_z standard errors), with the
+// reason; empty when it grows; nullopt when the fit has no covariance for
+// dwell_dFs and dwell_time or no pass follows a hold.
+std::optional<std::string> dwell_growth_objection(const ModelData& data, const FitResult& fit, double min_z);
 
 // The base model's values past physical bounds (base_out_of_bounds,
 // analysis/lugre_fit.h) and an unresolved presliding deflection, as warnings.

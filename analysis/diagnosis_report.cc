@@ -107,7 +107,11 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
   if (d.base_contact) {
     Json options = Json::array();
     for (const auto& o : d.base_contact->options) {
-      Json option = {{"name", o.name}, {"heldout_rms", o.heldout_rms}, {"parameters", parameters_json(o.parameters)}};
+      Json option = {{"name", o.name},
+                     {"heldout_rms", o.heldout_rms},
+                     {"free_parameters", o.free_parameters},
+                     {"heldout_excess_se", std::isfinite(o.heldout_excess_se) ? Json(o.heldout_excess_se) : Json(nullptr)},
+                     {"parameters", parameters_json(o.parameters)}};
       if (!o.note.empty()) option["note"] = o.note;
       options.push_back(std::move(option));
     }
@@ -301,7 +305,9 @@ std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
     line("  contact law chosen on held-out data: %s%s%s", d.base_contact->chosen.c_str(),
          d.base_contact->not_tried.empty() ? "" : "; ", d.base_contact->not_tried.c_str());
     for (const auto& o : d.base_contact->options) {
-      line("    %-34s held-out RMS %.4g%s%s", o.name.c_str(), o.heldout_rms, o.note.empty() ? "" : "; ", o.note.c_str());
+      const std::string excess = o.name == d.base_contact->chosen ? " (chosen)" : fmt::sprintf(" (%+.2f standard errors above the chosen)", o.heldout_excess_se);
+      line("    %-34s held-out RMS %.4g%s, %d free parameters%s%s", o.name.c_str(), o.heldout_rms, excess.c_str(), o.free_parameters,
+           o.note.empty() ? "" : "; ", o.note.c_str());
       std::string laws;
       for (const auto& p : o.parameters) {
         if (p.effect) laws += fmt::sprintf("%s %.4g %s, ", p.name, p.value, p.unit);
