@@ -599,8 +599,8 @@ std::optional<std::string> dwell_growth_objection(const ModelData& data, const F
   if (!std::isfinite(z)) return std::nullopt;
   if (z >= min_z) return std::string();
   return fmt::sprintf("the fitted onset peak grows by %.3g +- %.2g from the shortest hold before a pass (%.3g s) to the longest (%.3g s), "
-                      "%.1f standard errors from no growth (below %.0f): a peak that does not grow with rest is not dwell stiction "
-                      "(contact ageing) but some other onset transient",
+                      "%.1f standard errors from no growth (below %.0f): a peak not shown to grow with rest is not told from "
+                      "some other onset transient, and dwell stiction (contact ageing) is one that grows",
                       rise->value, rise->error, shortest, longest, z, min_z);
 }
 
