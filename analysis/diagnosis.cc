@@ -512,12 +512,6 @@ double longest_hold_s(const ModelData& data) {
   return longest;
 }
 
-// Dwell stiction's strength as the record determines it: the peak its term
-// adds after the longest hold, dwell_dFs T / (T + dwell_time), with the
-// error of that combination. dwell_dFs alone is the term's asymptote, which
-// trades off against dwell_time when the holds do not reach saturation (on
-// the independent generator's dwell file of seed 4, dwell_time 1.3 +- 1.4 s
-// beside holds of up to 8 s). nullopt when the fit has no covariance for the two.
 // The dwell term's rise from a rest of t0 to a rest of t1 (t0 = 0: the peak
 // after t1), dwell_dFs (t1 / (t1 + tau) - t0 / (t0 + tau)), with its
 // standard error from the covariance of dwell_dFs and dwell_time; nullopt
@@ -540,6 +534,12 @@ std::optional<DwellRise> dwell_rise(const FitResult& fit, double t0, double t1) 
   return DwellRise{dfs * (share(t1) - share(t0)), std::sqrt(std::max(g.dot(c * g), 0.0))};
 }
 
+// Dwell stiction's strength as the record determines it: the peak its term
+// adds after the longest hold, dwell_dFs T / (T + dwell_time), with the
+// error of that combination. dwell_dFs alone is the term's asymptote, which
+// trades off against dwell_time when the holds do not reach saturation (on
+// the independent generator's dwell file of seed 4, dwell_time 1.3 +- 1.4 s
+// beside holds of up to 8 s). nullopt when the fit has no covariance for the two.
 std::optional<std::string> dwell_peak_objection(const FitResult& fit, double longest_hold_s, double min_z) {
   const auto rise = dwell_rise(fit, 0.0, longest_hold_s);
   if (!rise) return std::nullopt;
