@@ -1061,8 +1061,14 @@ BaseContactChoice choose_base_contact(const ModelData& data, const DiagnosisOpti
   BaseContactChoice choice;
   const std::vector<double>& force = data.series.force_n;
   std::vector<Current> fitted;
-  fitted.push_back(current);
-  choice.options.push_back({"lugre", rms_over(force, current.model, heldout), contact_objection(data, current.fit), current.fit.estimates});
+  // Each contact fitted, and beside it in choice.options its evidence.
+  const auto add = [&](const std::string& name, Current c) {
+    const auto free = std::count_if(c.fit.estimates.begin(), c.fit.estimates.end(), [](const auto& e) { return !e.fixed; });
+    choice.options.push_back({name, rms_over(force, c.model, heldout), contact_objection(data, c.fit), c.fit.estimates,
+                              static_cast<int>(free)});
+    fitted.push_back(std::move(c));
+  };
+  add("lugre", current);
   // The nested laws, each on top of the last, from `base` (already in fitted).
   const auto nest = [&](const std::string& base_name, bool note_not_tried) {
     std::string name = base_name;
@@ -1075,17 +1081,12 @@ BaseContactChoice choose_base_contact(const ModelData& data, const DiagnosisOpti
         if (note_not_tried) choice.not_tried += (choice.not_tried.empty() ? "" : "; ") + ("+" + law + " not tried: " + sig.summary);
         continue;
       }
-      fitted.push_back(evaluate(data, fit_extension(data, last.fit.params, e, sig, in_fit, options)));
       name += "+" + law;
-      choice.options.push_back({name, rms_over(force, fitted.back().model, heldout), contact_objection(data, fitted.back().fit),
-                                fitted.back().fit.estimates});
+      add(name, evaluate(data, fit_extension(data, last.fit.params, e, sig, in_fit, options)));
     }
   };
   const auto add_rate_state_contact = [&](bool slip_trend, const std::string& name) {
-    if (auto rs = fit_rate_state_contact(data, options, in_fit, current, slip_trend)) {
-      choice.options.push_back({name, rms_over(force, rs->model, heldout), contact_objection(data, rs->fit), rs->fit.estimates});
-      fitted.push_back(std::move(*rs));
-    }
+    if (auto rs = fit_rate_state_contact(data, options, in_fit, current, slip_trend)) add(name, std::move(*rs));
   };
   nest("lugre", true);
   add_rate_state_contact(false, "rate_state_contact");
@@ -1098,9 +1099,7 @@ BaseContactChoice choose_base_contact(const ModelData& data, const DiagnosisOpti
     // Only one way: on a reciprocating record a trend in the distance slid is
     // wear or running-in, which the diagnosis must report as unexplained
     // rather than absorb into the base.
-    fitted.push_back(evaluate(data, fit_model(data, with_slip_trend(current.fit.params, data), in_fit, options.candidate_fit)));
-    choice.options.push_back({"lugre+slip_trend", rms_over(force, fitted.back().model, heldout), contact_objection(data, fitted.back().fit),
-                              fitted.back().fit.estimates});
+    add("lugre+slip_trend", evaluate(data, fit_model(data, with_slip_trend(current.fit.params, data), in_fit, options.candidate_fit)));
     nest("lugre+slip_trend", false);
     add_rate_state_contact(true, "rate_state_contact+slip_trend");
   }
@@ -1123,9 +1122,6 @@ BaseContactChoice choose_base_contact(const ModelData& data, const DiagnosisOpti
   std::size_t best = pool.front();
   for (std::size_t k : pool) {
     if (choice.options[k].heldout_rms <= choice.options[best].heldout_rms * (1.0 - options.min_heldout_gain)) best = k;
-  }
-  for (auto& o : choice.options) {
-    o.free_parameters = static_cast<int>(std::count_if(o.parameters.begin(), o.parameters.end(), [](const auto& e) { return !e.fixed; }));
   }
   choice.chosen = choice.options[best].name;
   const auto chosen_sse = heldout_block_sse(data, fitted[best].model, heldout);
