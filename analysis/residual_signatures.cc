@@ -808,8 +808,9 @@ Signature rate_state(const SignatureContext& c) {
     // A step: the chunk median speed changes by a factor of 1.5 or more and
     // stays (the next chunk agrees with the new level); the first chunks
     // (the pass's onset) are not steps. A pass that opens the record was
-    // already sliding when it began (no onset in it): its second chunk may
-    // be a step (sepiolite velstep2 steps 2 -> 0.2 um/s 1/40 into the record).
+    // already sliding when it began (no onset in it): its first two chunks
+    // are compared too (sepiolite velstep2 steps 2 -> 0.2 um/s near the end
+    // of its first chunk).
     std::vector<std::size_t> at;
     std::vector<double> ratio;
     const std::size_t first_step_chunk = p.first == 0 ? 1 : 2;

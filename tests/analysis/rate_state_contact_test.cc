@@ -5,6 +5,7 @@
 // disturbed at the floors of the shipped basalt record (10 Hz, 0.14 um of
 // position noise, 4e-4 in friction coefficient; docs/identification.md).
 #include <cmath>
+#include <functional>
 #include <iostream>
 #include <random>
 #include <string>
@@ -22,18 +23,19 @@ struct RateStateTruth {
   double trend_per_m = 0;  // friction coefficient gained per metre slid (a gouge's slip hardening)
 };
 
-// Speeds v1 and v2 in turn, 60 s each, five segments: theta of the ageing law
-// (d theta/dt = 1 - V theta/Dc) solved exactly at constant speed, from steady
-// state at v1.
-MeasuredSeries velocity_steps(const RateStateTruth& p, double v1, double v2, unsigned seed) {
-  const double rate_hz = 10, segment_s = 60, normal_pa = 20e6;
+// A one-way record at speed_at(t) for duration_s: theta of the ageing law
+// (d theta/dt = 1 - V theta/Dc) solved exactly over each constant-speed
+// sample interval, from steady state at the first speed.
+MeasuredSeries speed_record(const RateStateTruth& p, const std::function<double(double)>& speed_at, double duration_s,
+                            unsigned seed) {
+  const double rate_hz = 10, normal_pa = 20e6;
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> position_noise(0.0, 0.14e-6), mu_noise(0.0, 4e-4);
   MeasuredSeries s;
-  double theta = p.dc_m / v1, x = 0;
+  double theta = p.dc_m / speed_at(0), x = 0;
   const double dt = 1 / rate_hz;
-  for (int i = 0; i * dt <= 5 * segment_s; ++i) {
-    const double v = static_cast<int>(i * dt / segment_s) % 2 == 0 ? v1 : v2;
+  for (int i = 0; i * dt <= duration_s; ++i) {
+    const double v = speed_at(i * dt);
     if (i > 0) {
       const double steady = p.dc_m / v;
       theta = steady + (theta - steady) * std::exp(-v * dt / p.dc_m);
@@ -48,6 +50,12 @@ MeasuredSeries velocity_steps(const RateStateTruth& p, double v1, double v2, uns
   }
   derive_motion_smoothed(s);
   return s;
+}
+
+// Speeds v1 and v2 in turn, 60 s each, five segments.
+MeasuredSeries velocity_steps(const RateStateTruth& p, double v1, double v2, unsigned seed) {
+  const double segment_s = 60;
+  return speed_record(p, [=](double t) { return static_cast<int>(t / segment_s) % 2 == 0 ? v1 : v2; }, 5 * segment_s, seed);
 }
 
 // The steps 3 <-> 10 um/s diagnosed with the contact chosen (options: the
@@ -168,6 +176,24 @@ TEST(RateStateContact, ATrendOfHalfTheLevelIsPastItsBound) {
   }
   EXPECT_GE(with_trend, 2);
   EXPECT_EQ(d.base_contact->chosen.find("slip_trend"), std::string::npos) << d.base_contact->chosen;
+}
+
+// A record that is already sliding when it begins and steps from 10 to
+// 3 um/s 14 s into its 600 s, near the end of the first of the forty chunks
+// the step search compares (sepiolite velstep2 steps 235 s into 10 200 s, its
+// first chunk ending at 255 s). The search skipped the first two chunks as a
+// pass's onset, so it never compared the first with the second, and the
+// rate-and-state contact was not tried there.
+TEST(RateStateContact, AStepEarlyInARecordThatOpensSlidingIsSeen) {
+  const RateStateTruth truth;
+  DiagnosisOptions options;
+  options.base.load_scaled = true;
+  options.choose_base_contact = true;
+  const Diagnosis d = diagnose(speed_record(truth, [](double t) { return t < 14 ? 10e-6 : 3e-6; }, 600, 3), options);
+  ASSERT_TRUE(d.base_contact);
+  bool contact_tried = false;
+  for (const auto& o : d.base_contact->options) contact_tried |= o.name == "rate_state_contact";
+  EXPECT_TRUE(contact_tried) << d.base_contact->not_tried;
 }
 
 }  // namespace
