@@ -122,6 +122,28 @@ TEST(DiagnosisSynthetic, TheNoiseFloorOfAQuantisedForceIsNotBelowItsSteps) {
   EXPECT_LT(d.noise_floor, 2e-6);
 }
 
+// The candidate fit's iteration cap is for screening: a candidate that
+// passes at it is judged and ranked as converged. A cap of 2 stops drift far
+// short of what it explains; its trial must report the converged model's
+// held-out error, the one accepted, and it must still be named first among
+// the additive terms that can take up part of a drift.
+TEST(DiagnosisSynthetic, ACandidateIsJudgedAsConvergedNotAtTheIterationCap) {
+  testing::SyntheticEffects e;
+  e.drift_n_per_s = 0.2e-6;
+  MeasuredSeries s = testing::synthetic_run(e, 3);
+  derive_motion(s, 0);
+  DiagnosisOptions options;
+  options.base.load_scaled = true;
+  options.candidate_fit = {2, 1e-6};
+  options.candidates = {Effect::kDrift, Effect::kDirectionAsymmetry, Effect::kTiltOffset};
+  options.minimum_detectable = false;
+  const Diagnosis d = diagnose(s, options);
+  ASSERT_FALSE(d.accepted.empty());
+  EXPECT_EQ(d.accepted.front().effect, Effect::kDrift) << accepted_names(d);
+  ASSERT_EQ(d.accepted.size(), 1u) << accepted_names(d);
+  EXPECT_NEAR(d.accepted.front().trial.heldout_rms_after, d.after.heldout.rms, 1e-9 * d.after.heldout.rms);
+}
+
 TEST(DiagnosisSynthetic, IsDeterministic) {
   testing::SyntheticEffects e;
   e.tilt_tan = 0.026;
