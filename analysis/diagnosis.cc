@@ -1544,9 +1544,12 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
     // candidate's model force is dropped there (one array per sample and
     // candidate otherwise).
     std::vector<FitResult> fits(screened.size());
-    std::vector<std::pair<double, double>> heldout_checks(screened.size());  // RMS after, block agreement
-    std::vector<std::string> objections(screened.size());
-    std::vector<char> passed(screened.size());
+    struct Judgement {
+      double heldout_rms = 0, block_agreement = 0;
+      std::string objection;
+      bool passed = false;
+    };
+    std::vector<Judgement> judged(screened.size());
     // The costliest fits start first, so that the round does not end on one
     // long fit while the other cores idle (each job still fills its own slot).
     std::vector<std::size_t> order(screened.size());
@@ -1560,16 +1563,17 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
       const Effect e = screened[j].second;
       // The candidate's model force lives only while it is judged: the polish
       // needs the memory for its Jacobian.
-      const auto judge = [&](const FitResult& fit, std::pair<double, double>& check, std::string& objection) {
+      const auto judge = [&](const FitResult& fit) {
         const std::vector<double> model = simulate(data, fit.params);
-        check = {rms_over(series.force_n, model, heldout), block_agreement(out.motion, heldout, series.force_n, current.model, model)};
-        objection = candidate_objection(data, fit, e, model, options.min_strength_z);
-        const double gain = heldout_before > 0 ? 1.0 - check.first / heldout_before : 0.0;
-        return passes_round_gates(gain, check.second, aicc(fit.rss, fit.n, n, fit.k) - aicc_current, objection, options);
+        Judgement v{rms_over(series.force_n, model, heldout), block_agreement(out.motion, heldout, series.force_n, current.model, model),
+                    candidate_objection(data, fit, e, model, options.min_strength_z)};
+        const double gain = heldout_before > 0 ? 1.0 - v.heldout_rms / heldout_before : 0.0;
+        v.passed = passes_round_gates(gain, v.block_agreement, aicc(fit.rss, fit.n, n, fit.k) - aicc_current, v.objection, options);
+        return v;
       };
       fits[j] = fit_extension(data, current.fit.params, e, screened[j].first, in_fit, options);
-      passed[j] = judge(fits[j], heldout_checks[j], objections[j]);
-      if (!passed[j]) return;
+      judged[j] = judge(fits[j]);
+      if (!judged[j].passed) return;
       // A candidate that passes at the candidate fit's iteration cap is
       // polished to convergence in its own job and judged, and ranked, as
       // converged: the cap is for screening, and candidates stopped at it
@@ -1578,12 +1582,8 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
       // converged; direction_asymmetry, -43 %, had been taken first).
       FitResult polished = fit_model(data, fits[j].params, in_fit, options.lugre.fit);
       if (polished.rss > fits[j].rss || !contact_law_objection(data, polished, e).empty()) return;
-      std::pair<double, double> check;
-      std::string objection;
-      passed[j] = judge(polished, check, objection);
       fits[j] = std::move(polished);
-      heldout_checks[j] = check;
-      objections[j] = std::move(objection);
+      judged[j] = judge(fits[j]);
     });
     const std::size_t first_trial = out.trials.size();
     for (std::size_t j = 0; j < screened.size(); ++j) {
@@ -1597,13 +1597,13 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
       trial.delta_aicc = aicc(fit.rss, fit.n, n, fit.k) - aicc_current;
       trial.delta_aicc_effective = aicc(fit.rss, fit.n, n_eff, fit.k) - aicc_current_eff;
       trial.heldout_rms_before = heldout_before;
-      trial.heldout_rms_after = heldout_checks[j].first;
+      trial.heldout_rms_after = judged[j].heldout_rms;
       trial.heldout_gain = heldout_before > 0 ? 1.0 - trial.heldout_rms_after / heldout_before : 0.0;
-      trial.block_agreement = heldout_checks[j].second;
+      trial.block_agreement = judged[j].block_agreement;
       trial.parameters = parameters_of(fit, e);
       trial.warnings = fit.warnings;
-      const std::string& objection = objections[j];
-      trial.passed = passed[j] != 0;
+      const std::string& objection = judged[j].objection;
+      trial.passed = judged[j].passed;
       trial.verdict = fmt("held-out RMS %+.2f %%, %.0f %% of its held-out change in improved passes, dAICc = %.1f (%.1f with n_eff)",
                           -100 * trial.heldout_gain, 100 * trial.block_agreement, trial.delta_aicc, trial.delta_aicc_effective);
       if (!objection.empty()) trial.verdict += "; " + objection;
