@@ -197,20 +197,6 @@ struct Diagnosis {
 // series must have velocity and acceleration (derive_motion()).
 Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options = {});
 
-// Why a fitted extension is not the physical effect (a parameter at or past
-// its physical bound, or below what the data resolve), or empty.
-std::string out_of_bounds(const ModelData& data, const FitResult& fit, Effect effect);
-
-// Dwell stiction whose onset peak does not grow with rest over the record's
-// holds (shortest to longest before a pass, min_z standard errors), with the
-// reason; empty when it grows; nullopt when the fit has no covariance for
-// dwell_dFs and dwell_time or no pass follows a hold.
-std::optional<std::string> dwell_growth_objection(const ModelData& data, const FitResult& fit, double min_z);
-
-// The base model's values past physical bounds (base_out_of_bounds,
-// analysis/lugre_fit.h) and an unresolved presliding deflection, as warnings.
-std::vector<std::string> base_bound_warnings(const ModelData& data, const FitResult& fit);
-
 ErrorStats error_stats(const std::vector<double>& measured, const std::vector<double>& model,
                        const std::vector<char>& mask);
 

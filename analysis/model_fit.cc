@@ -522,4 +522,12 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
   return result;
 }
 
+std::vector<ParamEstimate> parameters_of(const FitResult& fit, Effect effect) {
+  std::vector<ParamEstimate> out;
+  for (const auto& e : fit.estimates) {
+    if (e.effect == effect) out.push_back(e);
+  }
+  return out;
+}
+
 }  // namespace tribo::analysis

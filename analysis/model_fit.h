@@ -62,6 +62,9 @@ struct FitResult {
 FitResult fit_model(const ModelData& data, const ModelParams& initial, const std::vector<char>& in_fit,
                     const FitOptions& options = {});
 
+// The estimates of one extension's parameters, in the fit's order.
+std::vector<ParamEstimate> parameters_of(const FitResult& fit, Effect effect);
+
 // d model / d theta for the given parameter columns at the given rows (time
 // order), by forward-mode autodiff; model (optional) receives the model force
 // at every sample.

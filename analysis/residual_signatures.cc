@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <numbers>
 
+#include "analysis/message_format.h"
 #include "analysis/regression.h"
 
 namespace tribo::analysis {
@@ -18,11 +19,6 @@ namespace {
 // decided on held-out data. A t of 2 (with autocorrelation-inflated errors)
 // is enough to try.
 constexpr double kScreenT = 2.0;
-
-// printf-style messages (the formats name their units), without a fixed buffer.
-std::string fmt(const char* format, double a, double b = 0, double c = 0, double d = 0) {
-  return fmt::sprintf(format, a, b, c, d);
-}
 
 double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
