@@ -28,22 +28,6 @@ std::vector<char> invert(const std::vector<char>& mask) {
   return out;
 }
 
-double rms_over(const std::vector<double>& measured, const std::vector<double>& model, const std::vector<char>& mask) {
-  return error_stats(measured, model, mask).rms;
-}
-
-struct Current {
-  FitResult fit;
-  std::vector<double> model, friction;
-};
-
-Current evaluate(const ModelData& data, FitResult fit) {
-  Current c;
-  c.model = simulate(data, fit.params, &c.friction);
-  c.fit = std::move(fit);
-  return c;
-}
-
 // Per held-out block: did the candidate lower the block's squared error? Each
 // block votes with the candidate's squared change of the model force there:
 // where the candidate changes nothing its error moves at random, and an
@@ -219,27 +203,6 @@ std::vector<ConditionError> by_condition(const MeasuredSeries& s, const MotionSe
 
 }  // namespace
 
-ErrorStats error_stats(const std::vector<double>& measured, const std::vector<double>& model, const std::vector<char>& mask) {
-  ErrorStats e;
-  double sse = 0, ss = 0, sum = 0;
-  for (std::size_t i = 0; i < measured.size(); ++i) {
-    if (!mask[i]) continue;
-    const double err = measured[i] - model[i];
-    sse += err * err;
-    ss += measured[i] * measured[i];
-    sum += measured[i];
-    e.max_abs = std::max(e.max_abs, std::fabs(err));
-    ++e.n;
-  }
-  if (e.n == 0) return e;
-  const double n = static_cast<double>(e.n);
-  e.rms = std::sqrt(sse / n);
-  const double var = ss / n - (sum / n) * (sum / n);
-  e.nrmse = var > 0 ? e.rms / std::sqrt(var) : 0.0;
-  e.relative = ss > 0 ? std::sqrt(sse / ss) : 0.0;
-  return e;
-}
-
 namespace {
 
 std::vector<char> without_holds(const ModelData& data, std::vector<char> mask) {
@@ -247,188 +210,6 @@ std::vector<char> without_holds(const ModelData& data, std::vector<char> mask) {
     if (data.at_rest[i]) mask[i] = 0;
   }
   return mask;
-}
-
-// A slip trend that moves the friction level by more than half of it over the
-// record's slip is no trend on a contact but a different contact.
-constexpr double kMaxSlipTrendShare = 0.5;
-
-// Why a contact's fit is not physical: the base model's values past their
-// bounds and each added law's (empty when it is).
-std::string contact_objection(const ModelData& data, const FitResult& fit) {
-  std::string objection;
-  const auto add = [&](const std::string& o) {
-    if (!o.empty()) objection += (objection.empty() ? "" : "; ") + o;
-  };
-  add(base_objection(data, fit));
-  for (Effect law : fit.params.structure.effects) add(out_of_bounds(data, fit, law));
-  if (fit.params.index("slip_trend") >= 0) {
-    const bool mu = fit.params.index("mu_c") >= 0;
-    const double level = fit.params.value(mu ? "mu_c" : "Fc");
-    const double change = fit.params.value("slip_trend") * data.slip_m.back();
-    if (std::fabs(change) > kMaxSlipTrendShare * level) {
-      add(fmt("slip_trend moves the friction level by %.3g over the record's %.3g m of slip, more than %.0f %% of the level %.3g",
-              change, data.slip_m.back(), 100 * kMaxSlipTrendShare, level));
-    }
-  }
-  return objection;
-}
-
-// The rate-and-state contact in place of LuGre's Stribeck curve, viscous
-// term and bristle damping (Dieterich 1979; Ruina 1983; Marone 1998): the
-// level mu0 + a ln(V/V*) + b ln(V* theta/Dc), LuGre's bristle as the
-// contact's stiffness. A velocity-step record of rock or gouge friction
-// (Giacomel et al. 2021) shows the direct effect as a jump the Stribeck
-// curve and viscous friction would take up with the opposite sign if left
-// free (a fitted a < 0): here they are off (the Stribeck drop moved below
-// any sliding speed, Fv and sigma1 at zero) and the jump is the direct
-// effect's. Tried when rate_state's signature applies (a speed step);
-// slip_trend: with a level linear in the distance slid (with_slip_trend).
-std::optional<Current> fit_rate_state_contact(const ModelData& data, const DiagnosisOptions& options,
-                                              const std::vector<char>& in_fit, const Current& lugre, bool slip_trend) {
-  const SignatureInput lugre_input{data, lugre.fit.params, lugre.model, lugre.friction, in_fit};
-  if (!compute_signature(Effect::kRateState, lugre_input).applicable) return std::nullopt;
-  ModelParams flat = lugre.fit.params;
-  const bool mu = flat.index("mu_c") >= 0;
-  flat.set_value(mu ? "mu_s" : "Fs", flat.value(mu ? "mu_c" : "Fc"));
-  flat.set_value("vs", 1e-6 * data.speed_floor);
-  flat.set_value("Fv", 0.0);
-  flat.set_value("sigma1", 1e-6 * flat.value("sigma1"));
-  // Start from a contact stiff at the record's resolution: a presliding
-  // length of 1 % of the slip between samples at the median speed.
-  const auto& t = data.series.time_s;
-  const double interval_s = t.size() > 1 ? (t.back() - t.front()) / static_cast<double>(t.size() - 1) : 1.0;
-  flat.set_value("sigma0", data.force_scale / (0.01 * data.speed_ref * interval_s));
-  for (auto& spec : flat.specs) {
-    if (spec.name == "mu_s" || spec.name == "Fs" || spec.name == "vs" || spec.name == "Fv" || spec.name == "sigma1") {
-      spec.fixed = true;
-    }
-  }
-  // With slip_trend the level's trend is fitted with the level, before the
-  // transient's signature is read from what is left.
-  if (slip_trend) flat = with_slip_trend(flat, data);
-  // The transient's signature on the flat contact's residual: on LuGre's, the
-  // bristle damping has taken it up already.
-  const Current level = evaluate(data, fit_model(data, flat, in_fit, options.candidate_fit));
-  const SignatureInput input{data, level.fit.params, level.model, level.friction, in_fit};
-  const Signature sig = compute_signature(Effect::kRateState, input);
-  if (!sig.applicable) return std::nullopt;
-  return evaluate(data, fit_extension(data, level.fit.params, Effect::kRateState, sig, in_fit, options.candidate_fit));
-}
-
-// Per held-out block (MotionSegmentation::block_of: a pass, or a time chunk
-// of a one-pass record), the model's sum of squared errors.
-std::map<int, double> heldout_block_sse(const ModelData& data, const std::vector<double>& model, const std::vector<char>& heldout) {
-  std::map<int, double> sse;
-  const auto& force = data.series.force_n;
-  for (std::size_t i = 0; i < force.size(); ++i) {
-    if (heldout[i]) sse[data.motion.block_of[i]] += (force[i] - model[i]) * (force[i] - model[i]);
-  }
-  return sse;
-}
-
-// How far a contact's held-out mean squared error lies above another's, in
-// standard errors of that difference, the held-out blocks taken as the
-// independent units (the residual is correlated within a block). Infinite
-// with fewer than two blocks: no error to judge by.
-double excess_in_standard_errors(const std::map<int, double>& sse, const std::map<int, double>& reference) {
-  std::vector<double> d;
-  for (const auto& [block, e] : sse) d.push_back(e - reference.at(block));
-  const double b = static_cast<double>(d.size());
-  if (d.size() < 2) return std::numeric_limits<double>::infinity();
-  double mean = 0;
-  for (double x : d) mean += x / b;
-  double var = 0;
-  for (double x : d) var += (x - mean) * (x - mean) / (b - 1);
-  const double se_of_sum = std::sqrt(b * var);
-  return se_of_sum > 0 ? mean * b / se_of_sum : (mean > 0 ? std::numeric_limits<double>::infinity() : 0.0);
-}
-
-// The nested contact laws, each fitted on top of the last as its extension
-// from the residual signature's starting values. Among the contacts whose
-// fits are physical (contact_objection), a richer one is kept when it lowers
-// the held-out RMS by options.min_heldout_gain; plain LuGre is judged by the
-// same bounds, so when no contact is physical the held-out error alone
-// decides, with a warning (DiagnosisOptions::choose_base_contact).
-BaseContactChoice choose_base_contact(const ModelData& data, const DiagnosisOptions& options, const std::vector<char>& in_fit,
-                                      const std::vector<char>& heldout, Current& current) {
-  BaseContactChoice choice;
-  const std::vector<double>& force = data.series.force_n;
-  std::vector<Current> fitted;
-  // Each contact fitted, and beside it in choice.options its evidence.
-  const auto add = [&](const std::string& name, Current c) {
-    const auto free = std::count_if(c.fit.estimates.begin(), c.fit.estimates.end(), [](const auto& e) { return !e.fixed; });
-    choice.options.push_back({name, rms_over(force, c.model, heldout), contact_objection(data, c.fit), c.fit.estimates,
-                              static_cast<int>(free)});
-    fitted.push_back(std::move(c));
-  };
-  add("lugre", current);
-  // The nested laws, each on top of the last, from `base` (already in fitted).
-  const auto nest = [&](const std::string& base_name, bool note_not_tried) {
-    std::string name = base_name;
-    for (Effect e : {Effect::kPreslidingHysteresis, Effect::kRateState}) {
-      const Current& last = fitted.back();
-      const SignatureInput input{data, last.fit.params, last.model, last.friction, in_fit};
-      const Signature sig = compute_signature(e, input);
-      const std::string law = e == Effect::kPreslidingHysteresis ? "elasto_plastic" : "rate_state";
-      if (!sig.applicable) {
-        if (note_not_tried) choice.not_tried += (choice.not_tried.empty() ? "" : "; ") + ("+" + law + " not tried: " + sig.summary);
-        continue;
-      }
-      name += "+" + law;
-      add(name, evaluate(data, fit_extension(data, last.fit.params, e, sig, in_fit, options.candidate_fit)));
-    }
-  };
-  const auto add_rate_state_contact = [&](bool slip_trend, const std::string& name) {
-    if (auto rs = fit_rate_state_contact(data, options, in_fit, current, slip_trend)) add(name, std::move(*rs));
-  };
-  nest("lugre", true);
-  add_rate_state_contact(false, "rate_state_contact");
-  if (slides_one_way(data.motion)) {
-    // Each contact again with a friction level linear in the distance slid,
-    // fitted first, as velocity-step analyses remove that trend before
-    // reading a and b (Marone 1998): fitted after the laws, from their
-    // values, it was taken up by them (on steps with a trend the
-    // rate-and-state contact went to b = -0.31, Dc = 16 mm, and stayed there).
-    // Only one way: on a reciprocating record a trend in the distance slid is
-    // wear or running-in, which the diagnosis must report as unexplained
-    // rather than absorb into the base.
-    add("lugre+slip_trend", evaluate(data, fit_model(data, with_slip_trend(current.fit.params, data), in_fit, options.candidate_fit)));
-    nest("lugre+slip_trend", false);
-    add_rate_state_contact(true, "rate_state_contact+slip_trend");
-  }
-  // A contact replaces LuGre only if it is physical and predicts the held-out
-  // passes no worse than LuGre, which the base keeps, physical or not, when
-  // the contact is not chosen. On the default instrument's clean
-  // identification runs LuGre and the elasto-plastic fits can all be past
-  // their bounds while the rate-and-state contact is not: taken alone, it was
-  // chosen at 33-43 uN of held-out RMS beside LuGre's 22 and the
-  // elasto-plastic law's 6-10, and the final error rose to 12-15 % (from 7 %).
-  std::vector<std::size_t> pool;
-  for (std::size_t k = 0; k < choice.options.size(); ++k) {
-    if (choice.options[k].note.empty() && choice.options[k].heldout_rms <= choice.options[0].heldout_rms) pool.push_back(k);
-  }
-  if (pool.empty()) {
-    for (std::size_t k = 0; k < choice.options.size(); ++k) pool.push_back(k);
-    choice.warning = "every contact law tried is at or past a physical bound, or predicts the held-out passes worse "
-                     "than LuGre (see base_model.contact_choice); the one kept is chosen on held-out error alone";
-  }
-  std::size_t best = pool.front();
-  for (std::size_t k : pool) {
-    if (choice.options[k].heldout_rms <= choice.options[best].heldout_rms * (1.0 - options.min_heldout_gain)) best = k;
-  }
-  choice.chosen = choice.options[best].name;
-  const auto chosen_sse = heldout_block_sse(data, fitted[best].model, heldout);
-  for (std::size_t k = 0; k < choice.options.size(); ++k) {
-    if (k != best) choice.options[k].heldout_excess_se = excess_in_standard_errors(heldout_block_sse(data, fitted[k].model, heldout), chosen_sse);
-  }
-  Current kept = std::move(fitted[best]);
-  if (best > 0) {
-    FitResult polished = fit_model(data, kept.fit.params, in_fit, options.lugre.fit);
-    if (polished.rss <= kept.fit.rss) kept = evaluate(data, std::move(polished));
-  }
-  current = std::move(kept);
-  return choice;
 }
 
 }  // namespace
@@ -521,7 +302,7 @@ bool took_opposite_sign(const CandidateTrial& trial, double min_heldout_gain) {
 
 // The record's force with the effect added at strength s along its figure's
 // axis, in the model's own form on the final model.
-std::vector<double> force_with_effect(const ModelData& data, const Current& current, Effect effect, double s) {
+std::vector<double> force_with_effect(const ModelData& data, const EvaluatedFit& current, Effect effect, double s) {
   std::vector<double> force(*data.fitted_force);
   const std::vector<double> with_effect_n = simulate(data, with_strength(current.fit.params, effect, data, s));
   for (std::size_t i = 0; i < force.size(); ++i) force[i] += with_effect_n[i] - current.model[i];
@@ -549,7 +330,7 @@ std::vector<double> force_with_effect(const ModelData& data, const Current& curr
 // scales of its own (dwell stiction), the refit finds other scales, and its
 // strength at those is no share of the one injected (0.55 in the median,
 // -1.4 to 4.3 over 101 files).
-void check_by_injection(const ModelData& data, const Current& current, const std::vector<char>& in_fit,
+void check_by_injection(const ModelData& data, const EvaluatedFit& current, const std::vector<char>& in_fit,
                         const DiagnosisOptions& options, const CandidateTrial& trial, DetectableStrength& figure) {
   if (!strength_is_linear(trial.effect) || trial.parameters.size() != 1 || !repartitions_with_stribeck(trial.effect)) return;
   if (!std::isfinite(figure.value) || !(figure.value > 0)) return;
@@ -613,12 +394,12 @@ void raise_to_resolution(const ModelData& data, Effect effect, DetectableStrengt
 // model's own form on the final model, the final model (without it) refitted
 // to that record, as the base fit takes up what it can mimic, then the
 // candidate's signature, score test, fit and gates as in a round.
-bool accepted_when_injected(const ModelData& data, const Current& current, const std::vector<char>& in_fit,
+bool accepted_when_injected(const ModelData& data, const EvaluatedFit& current, const std::vector<char>& in_fit,
                             const std::vector<char>& heldout, const DiagnosisOptions& options, Effect effect, double s) {
   const std::vector<double> injected = force_with_effect(data, current, effect, s);
   ModelData record = data;
   record.fitted_force = &injected;
-  const Current refit = evaluate(record, fit_model(record, current.fit.params, in_fit, options.lugre.fit));
+  const EvaluatedFit refit = evaluate_fit(record, fit_model(record, current.fit.params, in_fit, options.lugre.fit));
   const SignatureInput input{record, refit.fit.params, refit.model, refit.friction, in_fit};
   Signature sig = compute_signature(effect, SignatureContext(input));
   if (!sig.applicable) return false;
@@ -637,7 +418,7 @@ bool accepted_when_injected(const ModelData& data, const Current& current, const
 // The minimum detectable strength checked by rediagnosis
 // (accepted_when_injected) at itself, then at two and four times it: the
 // first strength found is the figure; none found, no figure.
-void check_by_rediagnosis(const ModelData& data, const Current& current, const std::vector<char>& in_fit,
+void check_by_rediagnosis(const ModelData& data, const EvaluatedFit& current, const std::vector<char>& in_fit,
                           const std::vector<char>& heldout, const DiagnosisOptions& options, Effect effect,
                           DetectableStrength& figure) {
   if (!rediagnosed(effect) || !std::isfinite(figure.value) || !(figure.value > 0)) return;
@@ -753,7 +534,7 @@ struct RoundInputs {
 // and cut to options.max_candidates_per_round. The reasons of those left out
 // go to status. The current model's friction part served the signatures
 // only, and is released here.
-std::vector<std::pair<Signature, Effect>> screen_candidates(const RoundInputs& in, Current& current,
+std::vector<std::pair<Signature, Effect>> screen_candidates(const RoundInputs& in, EvaluatedFit& current,
                                                             std::map<Effect, RejectedEffect>& status) {
   const ModelData& data = in.data;
   const DiagnosisOptions& options = in.options;
@@ -807,7 +588,7 @@ std::vector<std::pair<Signature, Effect>> screen_candidates(const RoundInputs& i
 // each, the costliest first) and appends their trials to out.trials. Returns
 // the index in out.trials of the passing trial with the largest held-out
 // gain, and moves its fit (polished to convergence) to winner.
-std::optional<std::size_t> fit_round(const RoundInputs& in, const Current& current,
+std::optional<std::size_t> fit_round(const RoundInputs& in, const EvaluatedFit& current,
                                      const std::vector<std::pair<Signature, Effect>>& screened, int round, Diagnosis& out,
                                      FitResult& winner) {
   const ModelData& data = in.data;
@@ -915,7 +696,7 @@ void record_round_status(const Diagnosis& out, std::size_t first_trial, std::opt
 // The minimum detectable strength of each effect not accepted, on the final
 // model (analysis/detectability.h), raised to the record's resolution and to
 // the candidate's own fitted error, checked by injection, or withheld.
-void add_minimum_detectable(const RoundInputs& in, const Current& current, Diagnosis& out) {
+void add_minimum_detectable(const RoundInputs& in, const EvaluatedFit& current, Diagnosis& out) {
   const ModelData& data = in.data;
   const DiagnosisOptions& options = in.options;
   const std::vector<char>& in_fit = in.in_fit;
@@ -964,7 +745,7 @@ void add_minimum_detectable(const RoundInputs& in, const Current& current, Diagn
 // is gone: each check holds a refit of the final model and a copy of the
 // force, and the basis beside them raised the diagnosis' peak heap from 204
 // to 369 bytes a sample (tests/analysis/fit_memory_test.cc).
-void check_minimum_detectable_by_rediagnosis(const RoundInputs& in, const Current& current, Diagnosis& out) {
+void check_minimum_detectable_by_rediagnosis(const RoundInputs& in, const EvaluatedFit& current, Diagnosis& out) {
   parallel_for(out.rejected.size(), in.options.threads, [&](std::size_t j) {
     RejectedEffect& r = out.rejected[j];
     if (r.minimum_detectable) check_by_rediagnosis(in.data, current, in.in_fit, in.heldout, in.options, r.effect, *r.minimum_detectable);
@@ -973,7 +754,7 @@ void check_minimum_detectable_by_rediagnosis(const RoundInputs& in, const Curren
 
 // The final residual's white-noise floor and the structure it keeps
 // (unexplained), and the report's warnings.
-void add_residual_and_warnings(const RoundInputs& in, const Current& current, bool velocity_steps_on_lugre, Diagnosis& out) {
+void add_residual_and_warnings(const RoundInputs& in, const EvaluatedFit& current, bool velocity_steps_on_lugre, Diagnosis& out) {
   const ModelData& data = in.data;
   const MeasuredSeries& series = in.series;
   const std::vector<char>& in_fit = in.in_fit;
@@ -1018,12 +799,12 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
     heldout = without_holds(data, heldout);
   }
   for (auto& w : base_bound_warnings(data, out.base.result)) out.base.result.warnings.push_back(w);
-  Current current = evaluate(data, out.base.result);
+  EvaluatedFit current = evaluate_fit(data, out.base.result);
   out.model_before = current.model;
   out.before = {error_stats(series.force_n, current.model, in_fit), error_stats(series.force_n, current.model, heldout),
                 error_stats(series.force_n, current.model, everything)};
 
-  if (options.choose_base_contact) out.base_contact = choose_base_contact(data, options, in_fit, heldout, current);
+  if (options.choose_base_contact) out.base_contact = choose_base_contact(data, {options.candidate_fit, options.lugre.fit, options.min_heldout_gain}, in_fit, heldout, current);
   // A velocity-step record diagnosed on LuGre alone: its transient is what
   // the contact choice fits (the rate-and-state contact, a trend in slip).
   const bool velocity_steps_on_lugre =
@@ -1055,7 +836,7 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
     // The accepted model as polished to convergence (in its job), so that the
     // next round's candidates are not credited with what more iterations
     // alone give.
-    current = evaluate(data, std::move(winner_fit));
+    current = evaluate_fit(data, std::move(winner_fit));
     out.accepted.push_back({winner.effect, {}, winner});
     status.erase(winner.effect);
   }

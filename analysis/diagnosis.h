@@ -32,10 +32,12 @@
 #include <string>
 #include <vector>
 
+#include "analysis/contact_choice.h"
 #include "analysis/creep_in_holds.h"
 #include "analysis/detectability.h"
 #include "analysis/drift_knot_choice.h"
 #include "analysis/effect.h"
+#include "analysis/evaluated_fit.h"
 #include "analysis/friction_model.h"
 #include "analysis/lugre_fit.h"
 #include "analysis/measured_series.h"
@@ -90,28 +92,6 @@ struct DiagnosisOptions {
   const MeasuredSeries* alternative_motion = nullptr;
 };
 
-// The contact laws tried as the base model and the one kept.
-struct BaseContactChoice {
-  struct Option {
-    // "lugre", "lugre+elasto_plastic", "lugre+elasto_plastic+rate_state" (nested;
-    // "lugre+rate_state" when presliding is not resolved), "rate_state_contact"
-    // (rate-and-state in place of the Stribeck curve; velocity-step records)
-    std::string name;
-    double heldout_rms = 0;   // force units, over the held-out samples
-    std::string note;         // why its fit is not physical (a value past a bound), if so
-    std::vector<ParamEstimate> parameters;  // its fitted values, base and laws
-    int free_parameters = 0;  // of those, the ones fitted (not held)
-    // Its held-out mean squared error above the chosen contact's, in standard
-    // errors of the difference over the held-out blocks (0 for the chosen;
-    // negative: better, yet not by the gain; infinite with one block).
-    double heldout_excess_se = 0;
-  };
-  std::vector<Option> options;
-  std::string chosen;
-  std::string not_tried;      // why a richer law was not tried, if so ("; "-separated)
-  std::string warning;        // when no contact tried was physical
-};
-
 // The evidence for the state each pass starts from, when it was chosen.
 // Where each pass starts, chosen on the final models' held-out pass RMS
 // (diagnosis.cc, diagnose_both_pass_starts). Force units, over held-out
@@ -123,14 +103,6 @@ struct PassStartChoice {
   double final_heldout_rms_state_from_rest = 0;
   bool state_from_rest = false;                 // the choice
   std::string objection;                        // the other start's final base past its physical bounds (information)
-};
-
-struct ErrorStats {
-  std::size_t n = 0;
-  double rms = 0;
-  double nrmse = 0;     // rms / standard deviation of the measured force
-  double max_abs = 0;
-  double relative = 0;  // ||measured - model|| / ||measured|| (the EMPS benchmark's figure)
 };
 
 struct ModelErrors {
@@ -197,7 +169,5 @@ struct Diagnosis {
 // series must have velocity and acceleration (derive_motion()).
 Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options = {});
 
-ErrorStats error_stats(const std::vector<double>& measured, const std::vector<double>& model,
-                       const std::vector<char>& mask);
 
 }  // namespace tribo::analysis

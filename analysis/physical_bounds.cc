@@ -12,8 +12,6 @@
 
 namespace tribo::analysis {
 
-// The smallest length these data resolve: the position's resolution or its
-// noise floor, whichever is larger (never zero).
 double resolved_length_m(const MeasuredSeries& s) {
   return std::max({s.position_resolution_m, s.position_noise_m, 1e-15});
 }
