@@ -427,10 +427,10 @@ void add_creep_in_holds(const MeasuredSeries& series, const FitResult& final_fit
   out.creep = std::move(creep);
 }
 
-// What a round's candidates are judged against: the record, its model
-// data, the options, and the samples fitted and held out.
+// What a round's candidates are judged against: the record's model data
+// (the series and its segmentation), the options, and the samples fitted
+// and held out.
 struct RoundInputs {
-  const MeasuredSeries& series;
   const ModelData& data;
   const DiagnosisOptions& options;
   const std::vector<char>& in_fit;
@@ -500,7 +500,7 @@ std::optional<std::size_t> fit_round(const RoundInputs& in, const EvaluatedFit& 
                                      const std::vector<std::pair<Signature, Effect>>& screened, int round, Diagnosis& out,
                                      FitResult& winner) {
   const ModelData& data = in.data;
-  const MeasuredSeries& series = in.series;
+  const MeasuredSeries& series = in.data.series;
   const DiagnosisOptions& options = in.options;
   const std::vector<char>& in_fit = in.in_fit;
   const std::vector<char>& heldout = in.heldout;
@@ -664,7 +664,7 @@ void check_minimum_detectable_by_rediagnosis(const RoundInputs& in, const Evalua
 // (unexplained), and the report's warnings.
 void add_residual_and_warnings(const RoundInputs& in, const EvaluatedFit& current, bool velocity_steps_on_lugre, Diagnosis& out) {
   const ModelData& data = in.data;
-  const MeasuredSeries& series = in.series;
+  const MeasuredSeries& series = in.data.series;
   const std::vector<char>& in_fit = in.in_fit;
   const std::vector<char>& heldout = in.heldout;
   std::vector<double> residual(series.size());
@@ -732,7 +732,7 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
     if (!current.fit.params.structure.has(e)) status[e] = {e, "not examined", std::nullopt, 0.0, std::nullopt};
   }
 
-  const RoundInputs in{series, data, options, in_fit, heldout};
+  const RoundInputs in{data, options, in_fit, heldout};
   for (int round = 0; round < options.max_rounds; ++round) {
     const std::vector<std::pair<Signature, Effect>> screened = screen_candidates(in, current, status);
     const std::size_t first_trial = out.trials.size();
