@@ -112,12 +112,6 @@ double excess_in_standard_errors(const std::map<int, double>& sse, const std::ma
 
 }  // namespace
 
-// The nested contact laws, each fitted on top of the last as its extension
-// from the residual signature's starting values. Among the contacts whose
-// fits are physical (contact_objection), a richer one is kept when it lowers
-// the held-out RMS by options.min_heldout_gain; plain LuGre is judged by the
-// same bounds, so when no contact is physical the held-out error alone
-// decides, with a warning (DiagnosisOptions::choose_base_contact).
 BaseContactChoice choose_base_contact(const ModelData& data, const ContactChoiceOptions& options, const std::vector<char>& in_fit,
                                       const std::vector<char>& heldout, EvaluatedFit& current) {
   BaseContactChoice choice;

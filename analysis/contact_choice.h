@@ -17,7 +17,8 @@ struct BaseContactChoice {
   struct Option {
     // "lugre", "lugre+elasto_plastic", "lugre+elasto_plastic+rate_state" (nested;
     // "lugre+rate_state" when presliding is not resolved), "rate_state_contact"
-    // (rate-and-state in place of the Stribeck curve; velocity-step records)
+    // (rate-and-state in place of the Stribeck curve; velocity-step records),
+    // and on one-way records each again with "slip_trend" (docs/tribo_fit.md)
     std::string name;
     double heldout_rms = 0;   // force units, over the held-out samples
     std::string note;         // why its fit is not physical (a value past a bound), if so

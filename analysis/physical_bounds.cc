@@ -432,8 +432,6 @@ std::vector<std::string> base_bound_warnings(const ModelData& data, const FitRes
   return out;
 }
 
-// The base model's values past their physical bounds, in one line (empty
-// when there are none).
 std::string base_objection(const ModelData& data, const FitResult& fit) {
   std::string out;
   for (const std::string& w : base_out_of_bounds(data, fit)) out += (out.empty() ? "" : "; ") + w;
