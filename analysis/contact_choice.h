@@ -43,11 +43,14 @@ struct ContactChoiceOptions {
 
 // The nested contact laws, each fitted on top of the last as its extension
 // from the residual signature's starting values. Among the contacts whose
-// fits are physical (contact_objection), a richer one is kept when it lowers
-// the held-out RMS by options.min_heldout_gain; plain LuGre is judged by the
-// same bounds, so when no contact is physical the held-out error alone
-// decides, with a warning (DiagnosisOptions::choose_base_contact). current
-// is the LuGre base fit on entry and the kept contact's fit on return.
+// fits are physical (the base's bounds and each added law's) and predict the
+// held-out data no worse than LuGre, taken from LuGre and then by free
+// parameters, fewest first, one is kept over the last kept when it lowers the
+// held-out RMS by options.min_heldout_gain. When none is physical, the bounds
+// are let go (never those that make a fit not the law it names: a
+// rate-and-state law with a <= 0 or b <= -a, a slip trend of half the level), with a warning
+// (DiagnosisOptions::choose_base_contact). current is the LuGre base fit on
+// entry and the kept contact's fit on return.
 BaseContactChoice choose_base_contact(const ModelData& data, const ContactChoiceOptions& options, const std::vector<char>& in_fit,
                                       const std::vector<char>& heldout, EvaluatedFit& current);
 

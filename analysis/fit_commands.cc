@@ -68,8 +68,8 @@ DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r)
   } else {
     // The two estimates are independent: one per core.
     parallel_for(alternative ? 2 : 1, 0, [&](std::size_t k) {
-      if (k == 0) derive_motion_smoothed(series, r.loop_force);
-      else derive_motion_smoothed(*alternative, !r.loop_force);
+      if (k == 0) derive_motion_smoothed(series, r.loop_force, r.velocity_jumps);
+      else derive_motion_smoothed(*alternative, !r.loop_force, r.velocity_jumps);
     });
   }
   if (alternative && alternative->loop_taps == 0) alternative.reset();

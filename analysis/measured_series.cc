@@ -58,13 +58,15 @@ void derive_motion(MeasuredSeries& s, double smoothing_s) {
   }
 }
 
-void derive_motion_smoothed(MeasuredSeries& s, bool loop_force) {
+void derive_motion_smoothed(MeasuredSeries& s, bool loop_force, bool velocity_jumps) {
   if (!s.velocity_m_per_s.empty() && !s.acceleration_m_per_s2.empty()) {
     derive_motion(s, 0);
     return;
   }
   const MotionEstimate m =
-      s.reference_m.empty() ? estimate_motion(s.time_s, s.position_m) : estimate_motion_with_reference(s.time_s, s.position_m, s.reference_m, loop_force ? s.force_n : std::vector<double>{});
+      s.reference_m.empty() ? estimate_motion(s.time_s, s.position_m, velocity_jumps)
+                            : estimate_motion_with_reference(s.time_s, s.position_m, s.reference_m,
+                                                             loop_force ? s.force_n : std::vector<double>{}, velocity_jumps);
   s.loop_taps = m.loop_taps;
   s.loop_variance_explained = m.loop_variance_explained;
   s.loop_force_taps = m.loop_force_taps;
@@ -72,6 +74,7 @@ void derive_motion_smoothed(MeasuredSeries& s, bool loop_force) {
   s.position_noise_m = m.position_noise_m;
   s.position_resolution_m = m.position_resolution_m;
   s.velocity_noise_m_per_s = m.velocity_std_m_per_s;
+  s.velocity_jumps = static_cast<int>(m.velocity_jumps.size());
   s.motion_estimator = s.velocity_m_per_s.empty() ? m.estimator : "measured velocity, acceleration " + m.estimator;
   if (s.velocity_m_per_s.empty()) {
     s.velocity_m_per_s = m.velocity_m_per_s;
@@ -104,6 +107,7 @@ MeasuredSeries slice(const MeasuredSeries& s, std::size_t first, std::size_t las
   out.position_noise_m = s.position_noise_m;
   out.position_resolution_m = s.position_resolution_m;
   out.velocity_noise_m_per_s = s.velocity_noise_m_per_s;
+  out.velocity_jumps = s.velocity_jumps;
   out.loop_taps = s.loop_taps;
   out.loop_variance_explained = s.loop_variance_explained;
   out.loop_force_taps = s.loop_force_taps;

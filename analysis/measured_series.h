@@ -33,6 +33,7 @@ struct MeasuredSeries {
   double position_noise_m = 0;        // white position noise (RMS), from third differences
   double position_resolution_m = 0;   // smallest position step (0: none seen)
   double velocity_noise_m_per_s = 0;  // the estimator's velocity standard deviation (median)
+  int velocity_jumps = 0;             // where the smoother let the velocity jump (speed steps, break-aways)
   int loop_taps = 0;                  // motion from the reference: taps of the fitted loop response (0: not used)
   double loop_variance_explained = 0;
   int loop_force_taps = 0;                 // ... and of the force's (0: not used)
@@ -55,7 +56,7 @@ void derive_motion(MeasuredSeries& series, double smoothing_s);
 // too (the record's own stays in measured_position_m): the model's bristle
 // is driven by position increments, and raw increments carry the full
 // position noise (10 nm at 500 Hz is 5 um/s).
-void derive_motion_smoothed(MeasuredSeries& series, bool loop_force = false);
+void derive_motion_smoothed(MeasuredSeries& series, bool loop_force = false, bool velocity_jumps = false);
 
 // The samples [first, last) as a new series (for slicing long recordings).
 MeasuredSeries slice(const MeasuredSeries& series, std::size_t first, std::size_t last);

@@ -22,6 +22,9 @@ struct MotionEstimate {
   double position_resolution_m = 0;  // smallest step of the position record (0: none seen)
   double jerk_intensity = 0;         // q of the motion model (m^2/s^5), maximum likelihood
   double velocity_std_m_per_s = 0;   // median smoothed velocity standard deviation
+  // Samples i where the velocity was let jump from sample i - 1's (speed
+  // steps, break-aways): found by a likelihood-ratio test (motion_estimate.cc).
+  std::vector<std::size_t> velocity_jumps;
   int loop_taps = 0;                 // with a reference: taps of the fitted loop response (0: none)
   int loop_force_taps = 0;           // with a reference and a force: taps of the force's response
   double loop_force_response_m_per_n = 0;  // the force taps' sum: position per newton of measured force
@@ -36,7 +39,13 @@ double third_difference_noise(const std::vector<double>& y);
 // Smallest nonzero step between consecutive values (quantisation), or 0.
 double resolution_of(const std::vector<double>& y);
 
-MotionEstimate estimate_motion(const std::vector<double>& time_s, const std::vector<double>& position_m);
+// velocity_jumps: the velocity may also jump between two samples, where a
+// generalised likelihood-ratio test finds it did (a drive that steps its
+// speed within a sample interval: velocity-step tests); estimator
+// "rts_constant_acceleration_with_velocity_jumps". Off, a step is followed
+// by a jerk raised for the whole record.
+MotionEstimate estimate_motion(const std::vector<double>& time_s, const std::vector<double>& position_m,
+                               bool velocity_jumps = false);
 
 // With the commanded position: the closed loop's response to the reference
 // (a linear impulse response over 0.2 s, fitted to the record by least
@@ -49,6 +58,6 @@ MotionEstimate estimate_motion(const std::vector<double>& time_s, const std::vec
 // position's variance, or the sampling is not uniform.
 MotionEstimate estimate_motion_with_reference(const std::vector<double>& time_s, const std::vector<double>& position_m,
                                               const std::vector<double>& reference_m,
-                                              const std::vector<double>& force_n = {});
+                                              const std::vector<double>& force_n = {}, bool velocity_jumps = false);
 
 }  // namespace tribo::analysis

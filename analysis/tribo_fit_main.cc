@@ -158,6 +158,7 @@ int diagnose_command(const DiagnoseArgs& a) {
   request.smooth_s = a.smooth;
   request.central_differences = a.motion_estimator == "central";
   request.loop_force = a.motion_estimator == "rts_loop_force";
+  request.velocity_jumps = a.motion_estimator == "rts_jumps";
   request.tribo_run = std::filesystem::is_directory(input);
   request.choose_base_contact = a.base_model == "choose";
   request.command_line = a.command_line;
@@ -312,8 +313,10 @@ int main(int argc, char** argv) {
   diag->add_option("--motion-estimator", d.motion_estimator,
                    "rts: Rauch-Tung-Striebel smoother, noise from the record (default); central: central differences; "
                    "rts_loop_force: rts, with --reference, and the loop's model also driven by the measured force "
-                   "(a servo that yields to friction; docs/identification.md)")
-      ->check(CLI::IsMember({"rts", "central", "rts_loop_force"}))->capture_default_str();
+                   "(a servo that yields to friction); rts_jumps: rts, the velocity also let jump where a likelihood-ratio "
+                   "test finds it did (a drive that steps its speed within a sample: velocity-step tests; "
+                   "docs/identification.md)")
+      ->check(CLI::IsMember({"rts", "central", "rts_loop_force", "rts_jumps"}))->capture_default_str();
   diag->add_option("--effects", d.effects, "comma-separated candidates (default: all)");
   diag->add_option("--base-model", d.base_model,
                    "lugre: the LuGre base (default); choose: LuGre, + elasto-plastic presliding, + rate-and-state, "

@@ -3,7 +3,9 @@
 // not by tribo's simulator nor by the analysis model: a rigid contact whose
 // friction follows Dieterich's law, integrated in closed form, sampled and
 // disturbed at the floors of the shipped basalt record (10 Hz, 0.14 um of
-// position noise, 4e-4 in friction coefficient; docs/identification.md).
+// position noise, 4e-4 in friction coefficient; docs/identification.md),
+// the motion estimated with velocity jumps, as for a drive that steps its
+// speed.
 #include <cmath>
 #include <functional>
 #include <iostream>
@@ -48,7 +50,7 @@ MeasuredSeries speed_record(const RateStateTruth& p, const std::function<double(
     s.normal_force_n.push_back(normal_pa);
     s.force_n.push_back((mu + mu_noise(rng)) * normal_pa);
   }
-  derive_motion_smoothed(s);
+  derive_motion_smoothed(s, false, true);  // a drive that steps its speed: velocity jumps
   return s;
 }
 
@@ -74,12 +76,15 @@ double value_of(const std::vector<ParamEstimate>& estimates, const std::string& 
 }
 
 // Steps up and down (3 <-> 10 um/s, about the basalt record's), so that
-// fitted and held-out chunks both hold steps: a rate-and-state contact is kept
-// over plain LuGre, and the rate-and-state contact's fit (in place of the
-// Stribeck curve) finds a, b and Dc. Which of the two rate-and-state
-// contacts is kept is the held-out error's call: LuGre's Stribeck curve and
-// damping with a rate-and-state term also take up the motion estimate's
-// error at each step (docs/identification.md).
+// fitted and held-out chunks both hold steps: the rate-and-state contact is
+// kept over plain LuGre and over LuGre with a rate-and-state term, and its fit
+// (in place of the Stribeck curve) finds a, b and Dc. Until stop 38 LuGre
+// with the term was kept on seeds 3 and 41 (4 % lower held-out RMS), its
+// Stribeck curve and damping taking up the motion estimate's error at steps
+// the smoother rounded off; with the steps found as velocity jumps
+// (--motion-estimator rts_jumps), and contacts with fewer parameters tried
+// first, the two predict alike, and the simpler is kept
+// (docs/identification.md).
 TEST(RateStateContact, SpeedStepsKeepARateAndStateContactAndFindItsParameters) {
   const RateStateTruth truth;
   for (unsigned seed : {3u, 17u, 41u}) {
@@ -92,8 +97,7 @@ TEST(RateStateContact, SpeedStepsKeepARateAndStateContactAndFindItsParameters) {
       std::cout << "    contact " << o.name << ": held-out RMS " << o.heldout_rms << " " << o.note << "\n";
       if (o.name == "rate_state_contact") contact = &o;
     }
-    EXPECT_NE(d.base_contact->chosen, "lugre");
-    EXPECT_NE(d.base_contact->chosen.find("rate_state"), std::string::npos);
+    EXPECT_EQ(d.base_contact->chosen, "rate_state_contact");
     EXPECT_LT(d.after.heldout.rms, (1 - options.min_heldout_gain) * d.before.heldout.rms);
     ASSERT_NE(contact, nullptr);
     EXPECT_TRUE(contact->note.empty()) << contact->note;
@@ -101,10 +105,12 @@ TEST(RateStateContact, SpeedStepsKeepARateAndStateContactAndFindItsParameters) {
     const double dc = value_of(contact->parameters, "rs_dc");
     std::cout << "[rate-state contact] seed " << seed << ": a " << a << " b " << b << " Dc " << dc << " m, kept "
               << d.base_contact->chosen << "\n";
-    EXPECT_NEAR(a, truth.a, 0.2 * truth.a);
-    EXPECT_NEAR(b, truth.b, 0.2 * truth.b);
-    EXPECT_GT(dc, truth.dc_m / 1.5);
-    EXPECT_LT(dc, truth.dc_m * 1.5);
+    // Found within 1.4 % (a), 2.8 % (b) and 1.5 % (Dc) on the three seeds;
+    // within 4.5, 5.6 and 5.5 % with the steps smoothed over (stop 37).
+    EXPECT_NEAR(a, truth.a, 0.03 * truth.a);
+    EXPECT_NEAR(b, truth.b, 0.05 * truth.b);
+    EXPECT_GT(dc, truth.dc_m / 1.05);
+    EXPECT_LT(dc, truth.dc_m * 1.05);
   }
 }
 

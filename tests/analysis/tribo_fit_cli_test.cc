@@ -78,6 +78,22 @@ TEST(TriboFitCli, DiagnoseJsonCarriesTheContractFields) {
   EXPECT_EQ(o.text.front(), '{');
 }
 
+// --motion-estimator rts_jumps reaches the smoother: the basalt step is found
+// as a velocity jump and the report names the estimator and the count.
+TEST(TriboFitCli, VelocityJumpsAreAskedForAndReported) {
+  const std::string args = "diagnose " + testing::measured_data("velstep7_BRAVA_expb819_basalt_Giacomel_et_al_2021.csv") +
+                           " --time t_s --position x_m --force shear_stress_Pa --normal normal_stress_eff_Pa"
+                           " --force-unit Pa --effects drift --json";
+  const Output with = run(args + " --motion-estimator rts_jumps");
+  ASSERT_EQ(with.exit_code, 0) << with.text;
+  EXPECT_NE(with.text.find("\"motion_estimator\": \"rts_constant_acceleration_with_velocity_jumps\""), std::string::npos);
+  EXPECT_EQ(with.text.find("\"velocity_jumps\": 0,"), std::string::npos);
+  const Output without = run(args);
+  ASSERT_EQ(without.exit_code, 0) << without.text;
+  EXPECT_NE(without.text.find("\"motion_estimator\": \"rts_constant_acceleration\""), std::string::npos);
+  EXPECT_NE(without.text.find("\"velocity_jumps\": 0,"), std::string::npos);
+}
+
 TEST(TriboFitCli, StribeckDiagnoseJsonCarriesTheContractFields) {
   const Output o = run("stribeck " + testing::measured_data("emps_plateaus.csv") + " --x v_m_s --y friction_n --diagnose --json");
   ASSERT_EQ(o.exit_code, 0) << o.text;
