@@ -6,6 +6,7 @@
 # DATA_DIR is the directory holding emps/, brfd/ and ratestate/. Files used:
 #   emps/emps_train_DATA_EMPS.csv
 #   brfd/0.5Hz30lbtension1.5amplitude.csv
+#   ratestate/velstep4_BRAVA_expb819_basalt_Giacomel_et_al_2021.csv
 #   ratestate/velstep7_BRAVA_expb819_basalt_Giacomel_et_al_2021.csv
 #   ratestate/velstep2_TR2_exp013_sepiolite.csv
 # Writes docs/figures/*.png and keeps each diagnosis (JSON and CSV) in
@@ -42,6 +43,9 @@ cp "$work/brfd/hysteresis.png" "$figures/brfd_hysteresis.png"
 run ratestate_basalt "Velocity step 100 -> 300 um/s, basalt (Giacomel et al. 2021)" 11747 11748.5 -- \
   "$data/ratestate/velstep7_BRAVA_expb819_basalt_Giacomel_et_al_2021.csv" --time t_s --position x_m \
   --force shear_stress_Pa --normal normal_stress_eff_Pa --force-unit Pa --smooth 1
+run ratestate_basalt_contact "Velocity step 3 -> 10 um/s, basalt (Giacomel et al. 2021), steps as velocity jumps" 11670 11700 -- \
+  "$data/ratestate/velstep4_BRAVA_expb819_basalt_Giacomel_et_al_2021.csv" --time t_s --position x_m \
+  --force shear_stress_Pa --normal normal_stress_eff_Pa --force-unit Pa --base-model choose --motion-estimator rts_jumps
 run ratestate_sepiolite "Velocity step, sepiolite gouge (Giacomel et al.)" 11000 13000 -- \
   "$data/ratestate/velstep2_TR2_exp013_sepiolite.csv" --time t_s --position x_m \
   --force shear_stress_Pa --normal normal_stress_eff_Pa --force-unit Pa --smooth 1

@@ -80,16 +80,19 @@ def plot_before_after(d, report, out, title, zoom):
     k, unit = scaled(d["force"], report["input"]["force_unit"])
     f, before, after = k * d["force"], k * d["model_before"], k * d["model_after"]
     effects = ", ".join(e["name"] for e in report["accepted_effects"]) or "none"
+    # With --base-model choose the model after is the contact kept, with the effects.
+    contact = report.get("base_model", {}).get("contact_choice", {}).get("chosen", "lugre")
+    after_label = (f"contact {contact}, " if contact != "lugre" else "") + f"with {effects} (after)"
     eb, ea = report["error_before"]["heldout"], report["error_after"]["heldout"]
     fig, axes = plt.subplots(3, 1, figsize=(11, 9), constrained_layout=True)
     for ax in axes[:2]:
         shade_heldout(ax, t, d["heldout"])
     axes[0].plot(t, f, color="k", lw=0.6, label="measured")
     axes[0].plot(t, before, color="tab:blue", lw=0.8, label="LuGre (before)")
-    axes[0].plot(t, after, color="tab:red", lw=0.8, ls="--", label=f"with {effects} (after)")
+    axes[0].plot(t, after, color="tab:red", lw=0.8, ls="--", label=after_label)
     axes[0].set_ylabel(f"force ({unit})")
     axes[0].legend(loc="upper right", fontsize=8)
-    axes[0].set_title(wrap(f"{title}: accepted {effects}. Held-out RMS {k * eb['rms']:.4g} -> {k * ea['rms']:.4g} {unit} "
+    axes[0].set_title(wrap(f"{title}: {'contact ' + contact + ', ' if contact != 'lugre' else ''}accepted {effects}. Held-out RMS {k * eb['rms']:.4g} -> {k * ea['rms']:.4g} {unit} "
                            f"(relative {100 * eb['relative']:.2f} % -> {100 * ea['relative']:.2f} %); held-out passes shaded"),
                       fontsize=11)
     axes[1].plot(t, f - before, color="tab:blue", lw=0.5, label="residual before")
