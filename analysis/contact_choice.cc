@@ -31,15 +31,6 @@ std::string slip_trend_objection(const ModelData& data, const FitResult& fit) {
              change, data.slip_m.back(), 100 * kMaxSlipTrendShare, level);
 }
 
-// Whether a contact's rate-and-state law is one: a positive direct effect and
-// an evolution that does not undo it (a <= 0 or b <= -a is "not rate-and-state
-// friction", out_of_bounds).
-bool names_its_laws(const ModelParams& p) {
-  if (p.index("rs_a") < 0) return true;
-  const double a = p.value("rs_a"), b = p.value("rs_b");
-  return a > 0 && b > -a;
-}
-
 // Why a contact's fit is not physical: the base model's values past their
 // bounds, each added law's, and the slip trend's (empty when it is).
 std::string contact_objection(const ModelData& data, const FitResult& fit) {
@@ -136,7 +127,9 @@ BaseContactChoice choose_base_contact(const ModelData& data, const ContactChoice
     const auto free = std::count_if(c.fit.estimates.begin(), c.fit.estimates.end(), [](const auto& e) { return !e.fixed; });
     choice.options.push_back({name, rms_over(force, c.model, heldout), contact_objection(data, c.fit), c.fit.estimates,
                               static_cast<int>(free)});
-    the_laws_it_names.push_back(names_its_laws(c.fit.params) && slip_trend_objection(data, c.fit).empty());
+    const ModelParams& p = c.fit.params;
+    const bool rate_state_is_one = p.index("rs_a") < 0 || rate_state_sign_objection(p.value("rs_a"), p.value("rs_b")).empty();
+    the_laws_it_names.push_back(rate_state_is_one && slip_trend_objection(data, c.fit).empty());
     fitted.push_back(std::move(c));
   };
   add("lugre", current);
@@ -186,11 +179,11 @@ BaseContactChoice choose_base_contact(const ModelData& data, const ContactChoice
     if (choice.options[k].note.empty() && choice.options[k].heldout_rms <= choice.options[0].heldout_rms) pool.push_back(k);
   }
   // With none, the bounds are let go, but not those that say the fit is not
-  // the law it names (names_its_laws) or a trend of half the level (another
-  // contact, not a trend on this one). A law at a bound of what the data
-  // determine may still be the law: on the default instrument the
-  // elasto-plastic law's breakaway ratio fits 0.983-1.0, past 0.98, and it is
-  // the contact.
+  // the law it names (rate_state_sign_objection) or a trend of half the
+  // level (another contact, not a trend on this one). A law at a bound of
+  // what the data determine may still be the law: on the default instrument
+  // the elasto-plastic law's breakaway ratio fits 0.983-1.0, past 0.98, and
+  // it is the contact.
   if (pool.empty()) {
     for (std::size_t k = 0; k < choice.options.size(); ++k) {
       if (the_laws_it_names[k]) pool.push_back(k);

@@ -48,9 +48,9 @@ struct ContactChoiceOptions {
 // parameters, fewest first, one is kept over the last kept when it lowers the
 // held-out RMS by options.min_heldout_gain. When none is physical, the bounds
 // are let go (never those that make a fit not the law it names: a
-// rate-and-state law with a <= 0 or b <= -a, a slip trend of half the level), with a warning
-// (DiagnosisOptions::choose_base_contact). current is the LuGre base fit on
-// entry and the kept contact's fit on return.
+// rate-and-state law with a <= 0 or b <= -a, a slip trend of half the
+// level), with a warning (DiagnosisOptions::choose_base_contact). current is
+// the LuGre base fit on entry and the kept contact's fit on return.
 BaseContactChoice choose_base_contact(const ModelData& data, const ContactChoiceOptions& options, const std::vector<char>& in_fit,
                                       const std::vector<char>& heldout, EvaluatedFit& current);
 

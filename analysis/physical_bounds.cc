@@ -88,6 +88,12 @@ std::string tilt_rest_objection(const ModelData& data, const std::vector<double>
 
 }  // namespace
 
+std::string rate_state_sign_objection(double a, double b) {
+  if (a <= 0) return fmt("fitted rs_a %.3g <= 0: no positive direct effect, not rate-and-state friction", a);
+  if (b <= -a) return fmt("fitted rs_b %.3g <= -rs_a (%.3g): an evolution opposite to the direct effect is past the physical bound", b, -a);
+  return {};
+}
+
 // Why a fitted extension is not the physical effect it is named after, or
 // empty: each parameter against its physical bounds and against what the
 // data can resolve (a fit at or past a bound is a rejection, with the
@@ -176,8 +182,7 @@ std::string out_of_bounds(const ModelData& data, const FitResult& fit, Effect ef
     }
     case Effect::kRateState: {
       const double a = p.value("rs_a"), b = p.value("rs_b"), dc = p.value("rs_dc");
-      if (a <= 0) return fmt("fitted rs_a %.3g <= 0: no positive direct effect, not rate-and-state friction", a);
-      if (b <= -a) return fmt("fitted rs_b %.3g <= -rs_a (%.3g): an evolution opposite to the direct effect is past the physical bound", b, -a);
+      if (std::string sign = rate_state_sign_objection(a, b); !sign.empty()) return sign;
       if (a > 0.5 * level || b > 0.5 * level) {
         return fmt("fitted rs_a %.3g, rs_b %.3g: above half the friction level %.3g, past the physical bound", a, b, level);
       }

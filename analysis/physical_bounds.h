@@ -26,6 +26,12 @@ double resolved_length_m(const MeasuredSeries& s);
 // its physical bound, or below what the data resolve), or empty.
 std::string out_of_bounds(const ModelData& data, const FitResult& fit, Effect effect);
 
+// Why a rate-and-state law with direct effect a and evolution b is not
+// rate-and-state friction (a <= 0, or b <= -a: an evolution that undoes the
+// direct effect), or empty. Part of out_of_bounds; the contact choice keeps
+// no such law even when no contact is within its bounds.
+std::string rate_state_sign_objection(double a, double b);
+
 // An extension's strength parameters fewer than min_z standard errors from
 // the value with the effect off (jointly, by a Wald test, where it has
 // several), with the reason; empty when the strength is determined.
