@@ -89,17 +89,6 @@ bool stribeck_may_be_bent(const ModelData& data, const ModelParams& current) {
   return current.index("vs") >= 0 && current.value("vs") < pass_speed_range(data).first;
 }
 
-// Whether current's Stribeck curve rises from the static level to the
-// Coulomb one: a friction that strengthens with speed, taken up by the base.
-// Not for a curve held flat (the rate-and-state contact fixes mu_s = mu_c).
-bool stribeck_rises(const ModelParams& current) {
-  const bool mu = current.index("mu_s") >= 0;
-  const int s = current.index(mu ? "mu_s" : "Fs"), c = current.index(mu ? "mu_c" : "Fc"), vs = current.index("vs");
-  if (s < 0 || c < 0 || vs < 0 || current.index("Fv") < 0) return false;
-  if (current.specs[static_cast<std::size_t>(s)].fixed || current.specs[static_cast<std::size_t>(vs)].fixed) return false;
-  return current.value(mu ? "mu_s" : "Fs") < current.value(mu ? "mu_c" : "Fc");
-}
-
 // current's rising Stribeck curve moved into the log-velocity term: the
 // coefficient that rises as much between the slowest and the fastest pass,
 // the Coulomb level at the median speed, and the default Stribeck shape
@@ -166,6 +155,14 @@ FitResult fit_extension_once(const ModelData& data, const ModelParams& current, 
 }
 
 }  // namespace
+
+bool stribeck_rises(const ModelParams& current) {
+  const bool mu = current.index("mu_s") >= 0;
+  const int s = current.index(mu ? "mu_s" : "Fs"), c = current.index(mu ? "mu_c" : "Fc"), vs = current.index("vs");
+  if (s < 0 || c < 0 || vs < 0 || current.index("Fv") < 0) return false;
+  if (current.specs[static_cast<std::size_t>(s)].fixed || current.specs[static_cast<std::size_t>(vs)].fixed) return false;
+  return current.value(mu ? "mu_s" : "Fs") < current.value(mu ? "mu_c" : "Fc");
+}
 
 // Score (Lagrange-multiplier) test of an extension: regresses the present
 // residual on the extension's sensitivities at its initial values, with

@@ -24,6 +24,11 @@ double score_test(const ModelData& data, const ModelParams& current, const std::
 FitResult fit_extension(const ModelData& data, const ModelParams& current, Effect effect, const Signature& sig,
                         const std::vector<char>& in_fit, const FitOptions& candidate_fit);
 
+// Whether current's Stribeck curve rises from the static level to the
+// Coulomb one: a friction that strengthens with speed, taken up by the base.
+// Not for a curve held flat (the rate-and-state contact fixes mu_s = mu_c).
+bool stribeck_rises(const ModelParams& current);
+
 // Whether the extension's fit re-partitions with the Stribeck curve's
 // velocity scale: a velocity dependence the base curve took up can move into
 // it, or out of it.
