@@ -250,7 +250,7 @@ MotionEstimate estimate_motion(const std::vector<double>& t, const std::vector<d
   // its size is the data's, not drawn towards none.
   VelocityJumps jumps;
   jumps.at.assign(n, 0);
-  for (std::size_t i = 1; i < n; ++i) {
+  for (std::size_t i = 1; i < n && velocity_jumps; ++i) {
     const double v = 100 * std::fabs(y[i] - y[i - 1]) / std::max(t[i] - t[i - 1], 1e-12);
     jumps.variance = std::max(jumps.variance, v * v);
   }
