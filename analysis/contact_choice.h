@@ -5,6 +5,7 @@
 // linear in the distance slid; the one kept and the evidence for each.
 #pragma once
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -41,16 +42,35 @@ struct ContactChoiceOptions {
   double min_heldout_gain = 0;    // a richer contact must lower the held-out RMS by this share (DiagnosisOptions')
 };
 
+// What the choice among contacts goes by, per contact (LuGre first).
+struct ContactEvidence {
+  std::string name;
+  double heldout_rms = 0;
+  bool physical = true;        // no value past a bound
+  bool names_its_law = true;   // not a rate-and-state law with a <= 0 or b <= -a, nor a trend of half the level
+  int free_parameters = 0;
+  std::map<int, double> block_sse;  // held-out sum of squared errors per held-out block
+};
+
+struct ContactPick {
+  std::size_t index = 0;  // into the evidence
+  std::string warning;    // when LuGre is past a bound and the pick is not one that predicts no worse
+};
+
+// The rule of choose_base_contact below, on the evidence alone: among the
+// physical contacts predicting no worse than LuGre, LuGre then by free
+// parameters, fewest first, each kept over the last when it lowers the
+// held-out RMS by min_heldout_gain. With none, and LuGre past a bound, the
+// physical contacts within one standard error (over the held-out blocks) of
+// the best-predicting one; with none still, every contact that names its law.
+ContactPick pick_contact(const std::vector<ContactEvidence>& evidence, double min_heldout_gain);
+
 // The nested contact laws, each fitted on top of the last as its extension
-// from the residual signature's starting values. Among the contacts whose
-// fits are physical (the base's bounds and each added law's) and predict the
-// held-out data no worse than LuGre, taken from LuGre and then by free
-// parameters, fewest first, one is kept over the last kept when it lowers the
-// held-out RMS by options.min_heldout_gain. When none is physical, the bounds
-// are let go (never those that make a fit not the law it names: a
-// rate-and-state law with a <= 0 or b <= -a, a slip trend of half the
-// level), with a warning (DiagnosisOptions::choose_base_contact). current is
-// the LuGre base fit on entry and the kept contact's fit on return.
+// from the residual signature's starting values, and the rate-and-state
+// contact; one kept by pick_contact (its bounds: the base's and each added
+// law's), with a warning when the rule had to go past "physical and no worse
+// than LuGre" (DiagnosisOptions::choose_base_contact). current is the LuGre
+// base fit on entry and the kept contact's fit on return.
 BaseContactChoice choose_base_contact(const ModelData& data, const ContactChoiceOptions& options, const std::vector<char>& in_fit,
                                       const std::vector<char>& heldout, EvaluatedFit& current);
 

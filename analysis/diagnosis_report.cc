@@ -84,6 +84,7 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
                 {"position_resolution_m", s.position_resolution_m},
                 {"velocity_noise_m_per_s", s.velocity_noise_m_per_s},
                 {"velocity_jumps", s.velocity_jumps},
+                {"velocity_jumps_force_did_not_follow", s.velocity_jumps_force_did_not_follow},
                 {"loop_taps", s.loop_taps},
                 {"loop_variance_explained", s.loop_variance_explained},
                 {"loop_force_taps", s.loop_force_taps},
@@ -286,7 +287,8 @@ std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
        s.velocity_measured ? "measured" : "derived", s.motion_estimator.c_str(), s.position_noise_m,
        s.position_resolution_m, s.velocity_noise_m_per_s);
   if (s.motion_estimator.find("with_velocity_jumps") != std::string::npos) {
-    line("  the velocity let jump at %d samples (a likelihood-ratio test at 1 %% over the record)", s.velocity_jumps);
+    line("  the velocity let jump at %d samples (a likelihood-ratio test at 1 %% over the record; %d more the force did not follow, not taken)",
+         s.velocity_jumps, s.velocity_jumps_force_did_not_follow);
   }
   if (s.loop_taps > 0) {
     line("  reference through the fitted loop response (%d taps; explains %.6f of the position's variance)", s.loop_taps,

@@ -64,9 +64,9 @@ void derive_motion_smoothed(MeasuredSeries& s, bool loop_force, bool velocity_ju
     return;
   }
   const MotionEstimate m =
-      s.reference_m.empty() ? estimate_motion(s.time_s, s.position_m, velocity_jumps)
+      s.reference_m.empty() ? estimate_motion(s.time_s, s.position_m, velocity_jumps, s.force_n)
                             : estimate_motion_with_reference(s.time_s, s.position_m, s.reference_m,
-                                                             loop_force ? s.force_n : std::vector<double>{}, velocity_jumps);
+                                                             loop_force ? s.force_n : std::vector<double>{}, velocity_jumps, s.force_n);
   s.loop_taps = m.loop_taps;
   s.loop_variance_explained = m.loop_variance_explained;
   s.loop_force_taps = m.loop_force_taps;
@@ -75,6 +75,7 @@ void derive_motion_smoothed(MeasuredSeries& s, bool loop_force, bool velocity_ju
   s.position_resolution_m = m.position_resolution_m;
   s.velocity_noise_m_per_s = m.velocity_std_m_per_s;
   s.velocity_jumps = static_cast<int>(m.velocity_jumps.size());
+  s.velocity_jumps_force_did_not_follow = m.velocity_jumps_force_did_not_follow;
   s.motion_estimator = s.velocity_m_per_s.empty() ? m.estimator : "measured velocity, acceleration " + m.estimator;
   if (s.velocity_m_per_s.empty()) {
     s.velocity_m_per_s = m.velocity_m_per_s;
@@ -108,6 +109,7 @@ MeasuredSeries slice(const MeasuredSeries& s, std::size_t first, std::size_t las
   out.position_resolution_m = s.position_resolution_m;
   out.velocity_noise_m_per_s = s.velocity_noise_m_per_s;
   out.velocity_jumps = s.velocity_jumps;
+  out.velocity_jumps_force_did_not_follow = s.velocity_jumps_force_did_not_follow;
   out.loop_taps = s.loop_taps;
   out.loop_variance_explained = s.loop_variance_explained;
   out.loop_force_taps = s.loop_force_taps;

@@ -34,6 +34,7 @@ struct MeasuredSeries {
   double position_resolution_m = 0;   // smallest position step (0: none seen)
   double velocity_noise_m_per_s = 0;  // the estimator's velocity standard deviation (median)
   int velocity_jumps = 0;             // where the smoother let the velocity jump (speed steps, break-aways)
+  int velocity_jumps_force_did_not_follow = 0;  // jumps the test found that the force did not follow (not taken)
   int loop_taps = 0;                  // motion from the reference: taps of the fitted loop response (0: not used)
   double loop_variance_explained = 0;
   int loop_force_taps = 0;                 // ... and of the force's (0: not used)

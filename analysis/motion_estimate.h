@@ -25,6 +25,8 @@ struct MotionEstimate {
   // Samples i where the velocity was let jump from sample i - 1's (speed
   // steps, break-aways): found by a likelihood-ratio test (motion_estimate.cc).
   std::vector<std::size_t> velocity_jumps;
+  // Jumps the test found that the force did not follow, not taken (with a force).
+  int velocity_jumps_force_did_not_follow = 0;
   int loop_taps = 0;                 // with a reference: taps of the fitted loop response (0: none)
   int loop_force_taps = 0;           // with a reference and a force: taps of the force's response
   double loop_force_response_m_per_n = 0;  // the force taps' sum: position per newton of measured force
@@ -43,9 +45,12 @@ double resolution_of(const std::vector<double>& y);
 // generalised likelihood-ratio test finds it did (a drive that steps its
 // speed within a sample interval: velocity-step tests); estimator
 // "rts_constant_acceleration_with_velocity_jumps". Off, a step is followed
-// by a jerk raised for the whole record.
+// by a jerk raised for the whole record. With the measured force (same
+// samples), a jump is taken only where the force follows it: moves with it,
+// the same sign, clear of its noise (a contact's direct effect); a jump the
+// force does not see is the drive's position record, not the contact's slip.
 MotionEstimate estimate_motion(const std::vector<double>& time_s, const std::vector<double>& position_m,
-                               bool velocity_jumps = false);
+                               bool velocity_jumps = false, const std::vector<double>& force_n = {});
 
 // With the commanded position: the closed loop's response to the reference
 // (a linear impulse response over 0.2 s, fitted to the record by least
@@ -58,6 +63,7 @@ MotionEstimate estimate_motion(const std::vector<double>& time_s, const std::vec
 // position's variance, or the sampling is not uniform.
 MotionEstimate estimate_motion_with_reference(const std::vector<double>& time_s, const std::vector<double>& position_m,
                                               const std::vector<double>& reference_m,
-                                              const std::vector<double>& force_n = {}, bool velocity_jumps = false);
+                                              const std::vector<double>& force_n = {}, bool velocity_jumps = false,
+                                              const std::vector<double>& force_for_jumps = {});
 
 }  // namespace tribo::analysis
