@@ -160,5 +160,38 @@ TEST(MeasuredRateAndState, TheSepioliteStepKeepsARateAndStateContactWithinItsBou
   EXPECT_GT(p.value("rs_b"), -p.value("rs_a"));
 }
 
+// Basalt velstep4 (3 -> 10 um/s) with the speed steps as velocity jumps and
+// the contact chosen: of the jumps the likelihood-ratio test finds, the
+// force follows only the step (the position record's surges 4-6 s later,
+// 10 -> 14 -> 10 um/s, leave the friction where it was), and the
+// rate-and-state contact with a slip trend is kept with a and b within the
+// literature's 0.005-0.02 (Marone 1998; basalt near a - b = 0, Giacomel et
+// al. 2021), each determined, and D_c within 1-100 um.
+TEST(MeasuredRateAndState, TheBasaltStepWithVelocityJumpsKeepsTheRateAndStateContact) {
+  MeasuredSeries s = velocity_step_record("velstep4_BRAVA_expb819_basalt_Giacomel_et_al_2021.csv");
+  derive_motion_smoothed(s, false, true);
+  EXPECT_EQ(s.velocity_jumps, 1);
+  EXPECT_GE(s.velocity_jumps_force_did_not_follow, 1);
+  DiagnosisOptions options;
+  options.base.load_scaled = true;
+  options.choose_base_contact = true;
+  options.choose_state_from_rest = true;  // as tribo-fit diagnose on a CSV
+  const Diagnosis d = diagnose(s, options);
+  ASSERT_TRUE(d.base_contact);
+  EXPECT_EQ(d.base_contact->chosen, "rate_state_contact+slip_trend");
+  for (const auto& e : d.final_fit.estimates) {
+    if (e.name == "rs_a" || e.name == "rs_b") {
+      EXPECT_GT(e.value, 0.005) << e.name;
+      EXPECT_LT(e.value, 0.02) << e.name;
+      EXPECT_GT(e.value, 3 * e.std_error) << e.name;
+    }
+    if (e.name == "rs_dc") {
+      EXPECT_GT(e.value, 1e-6);
+      EXPECT_LT(e.value, 100e-6);
+    }
+  }
+  EXPECT_LT(d.after.heldout.rms, 0.9 * d.before.heldout.rms);
+}
+
 }  // namespace
 }  // namespace tribo::analysis
