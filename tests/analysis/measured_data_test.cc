@@ -137,6 +137,15 @@ TEST(MeasuredRateAndState, VelocityStepLeavesStructureNoCandidateExplains) {
   EXPECT_TRUE(choose_hint);
 }
 
+// As tribo-fit diagnose on a CSV with --base-model choose.
+Diagnosis diagnose_with_contact_chosen(const MeasuredSeries& s) {
+  DiagnosisOptions options;
+  options.base.load_scaled = true;
+  options.choose_base_contact = true;
+  options.choose_state_from_rest = true;
+  return diagnose(s, options);
+}
+
 // Sepiolite velstep3 (0.2 -> 2 um/s) with the contact chosen: a
 // rate-and-state law is kept once the level may trend with the distance slid
 // (before stop 34 its evolution came out opposite to the direct effect and it
@@ -145,11 +154,7 @@ TEST(MeasuredRateAndState, VelocityStepLeavesStructureNoCandidateExplains) {
 TEST(MeasuredRateAndState, TheSepioliteStepKeepsARateAndStateContactWithinItsBounds) {
   MeasuredSeries s = velocity_step_record("velstep3_TR2_exp013_sepiolite.csv");
   derive_motion_smoothed(s);
-  DiagnosisOptions options;
-  options.base.load_scaled = true;
-  options.choose_base_contact = true;
-  options.choose_state_from_rest = true;  // as tribo-fit diagnose on a CSV
-  const Diagnosis d = diagnose(s, options);
+  const Diagnosis d = diagnose_with_contact_chosen(s);
   ASSERT_TRUE(d.base_contact);
   EXPECT_NE(d.base_contact->chosen.find("rate_state"), std::string::npos) << d.base_contact->chosen;
   EXPECT_NE(d.base_contact->chosen.find("slip_trend"), std::string::npos) << d.base_contact->chosen;
@@ -172,11 +177,7 @@ TEST(MeasuredRateAndState, TheBasaltStepWithVelocityJumpsKeepsTheRateAndStateCon
   derive_motion_smoothed(s, false, true);
   EXPECT_EQ(s.velocity_jumps, 1);
   EXPECT_GE(s.velocity_jumps_force_did_not_follow, 1);
-  DiagnosisOptions options;
-  options.base.load_scaled = true;
-  options.choose_base_contact = true;
-  options.choose_state_from_rest = true;  // as tribo-fit diagnose on a CSV
-  const Diagnosis d = diagnose(s, options);
+  const Diagnosis d = diagnose_with_contact_chosen(s);
   ASSERT_TRUE(d.base_contact);
   EXPECT_EQ(d.base_contact->chosen, "rate_state_contact+slip_trend");
   for (const auto& e : d.final_fit.estimates) {
