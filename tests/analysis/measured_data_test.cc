@@ -180,7 +180,9 @@ TEST(MeasuredRateAndState, TheBasaltStepWithVelocityJumpsKeepsTheRateAndStateCon
   const Diagnosis d = diagnose_with_contact_chosen(s);
   ASSERT_TRUE(d.base_contact);
   EXPECT_EQ(d.base_contact->chosen, "rate_state_contact+slip_trend");
+  int seen = 0;
   for (const auto& e : d.final_fit.estimates) {
+    seen += e.name == "rs_a" || e.name == "rs_b" || e.name == "rs_dc";
     if (e.name == "rs_a" || e.name == "rs_b") {
       EXPECT_GT(e.value, 0.005) << e.name;
       EXPECT_LT(e.value, 0.02) << e.name;
@@ -191,6 +193,7 @@ TEST(MeasuredRateAndState, TheBasaltStepWithVelocityJumpsKeepsTheRateAndStateCon
       EXPECT_LT(e.value, 100e-6);
     }
   }
+  EXPECT_EQ(seen, 3);
   EXPECT_LT(d.after.heldout.rms, 0.9 * d.before.heldout.rms);
 }
 
