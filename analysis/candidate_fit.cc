@@ -48,24 +48,6 @@ std::vector<std::string> coupled_base_parameters(Effect effect) {
   }
 }
 
-// current with the Stribeck curve's shape (static level, Stribeck velocity,
-// viscous and bristle damping) back at the base model's default start: a
-// level that drifts in time or follows the load (drift, tilt) is taken up in
-// the base fit by a Stribeck curve bent out of shape (vs below the slowest
-// pass, a static level several times the Coulomb one, negative viscous
-// friction), a basin the extension's fit does not leave from there.
-ModelParams with_default_stribeck(const ModelData& data, const ModelParams& current) {
-  const ModelParams defaults = base_params(data, current.structure);
-  ModelParams p = current;
-  for (const char* name : {"mu_s", "Fs", "vs", "sigma1", "Fv"}) {
-    const int k = p.index(name), j = defaults.index(name);
-    if (k < 0 || j < 0) continue;
-    p.specs[static_cast<std::size_t>(k)].scale = defaults.specs[static_cast<std::size_t>(j)].scale;
-    p.theta[static_cast<std::size_t>(k)] = defaults.theta[static_cast<std::size_t>(j)];
-  }
-  return p;
-}
-
 // Whether current's Stribeck curve may have been bent out of shape by such a
 // level: its values past the base's physical bounds, or its Stribeck
 // velocity below the slowest pass, where no sliding sample holds the static
@@ -155,6 +137,24 @@ FitResult fit_extension_once(const ModelData& data, const ModelParams& current, 
 }
 
 }  // namespace
+
+// current with the Stribeck curve's shape (static level, Stribeck velocity,
+// viscous and bristle damping) back at the base model's default start: a
+// level that drifts in time or follows the load (drift, tilt) is taken up in
+// the base fit by a Stribeck curve bent out of shape (vs below the slowest
+// pass, a static level several times the Coulomb one, negative viscous
+// friction), a basin the extension's fit does not leave from there.
+ModelParams with_default_stribeck(const ModelData& data, const ModelParams& current) {
+  const ModelParams defaults = base_params(data, current.structure);
+  ModelParams p = current;
+  for (const char* name : {"mu_s", "Fs", "vs", "sigma1", "Fv"}) {
+    const int k = p.index(name), j = defaults.index(name);
+    if (k < 0 || j < 0) continue;
+    p.specs[static_cast<std::size_t>(k)].scale = defaults.specs[static_cast<std::size_t>(j)].scale;
+    p.theta[static_cast<std::size_t>(k)] = defaults.theta[static_cast<std::size_t>(j)];
+  }
+  return p;
+}
 
 bool stribeck_rises(const ModelParams& current) {
   const bool mu = current.index("mu_s") >= 0;

@@ -29,6 +29,10 @@ FitResult fit_extension(const ModelData& data, const ModelParams& current, Effec
 // Not for a curve held flat (the rate-and-state contact fixes mu_s = mu_c).
 bool stribeck_rises(const ModelParams& current);
 
+// current with the Stribeck curve's shape (static level, Stribeck velocity,
+// viscous and bristle damping) back at the base model's default start.
+ModelParams with_default_stribeck(const ModelData& data, const ModelParams& current);
+
 // Whether the extension's fit re-partitions with the Stribeck curve's
 // velocity scale: a velocity dependence the base curve took up can move into
 // it, or out of it.
