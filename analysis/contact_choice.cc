@@ -91,24 +91,23 @@ std::optional<EvaluatedFit> fit_rate_state_contact(const ModelData& data, const 
 }
 
 // A law fitted on top of the contact fitted last. Started only from that
-// fit's values, the rate-and-state law on the default sim plant stays where
-// the elasto-plastic fit left it: that fit, without the law, takes the
-// rate-and-state transient after each reversal into its elastic range and
-// runs its breakaway ratio to 1 (past the bound), with a static level of
-// 1e16 over a Stribeck velocity of nm/s (LuGre's too), and a and b then fit
-// 1e-4 (the sim's 0.022 and 0.019; docs/identification.md, "The nested
-// contact fit restarted"). So when that fit is past a bound, the law is also
-// fitted from a second start, the Stribeck curve back at the base model's
-// default and the breakaway ratio at its neutral start, and the lower in-fit
-// residual is kept.
+// fit's values, it stays where that fit was left when the fit is past a
+// bound. On the default sim plant LuGre's fit, and the elasto-plastic one on
+// top of it, take the rate-and-state transient after each reversal into a
+// contact that cannot slip while slow: a static level of 1e16 over a Stribeck
+// velocity of nm/s, and the breakaway ratio at 1; the rate-and-state law on
+// top then fits a and b of 1e-4 (the sim's 0.022 and 0.019;
+// docs/identification.md, "The nested contact fit restarted"). So when the
+// last fit is past a bound, the law is also fitted from a second start, the
+// Stribeck curve back at the base model's default and a breakaway ratio at
+// its neutral start, and the lower in-fit residual is kept.
 FitResult fit_nested_law(const ModelData& data, const FitResult& last, Effect law, const Signature& sig,
                          const std::vector<char>& in_fit, const FitOptions& fit_options) {
   FitResult from_last = fit_extension(data, last.params, law, sig, in_fit, fit_options);
-  const int breakaway = last.params.index("breakaway_ratio");
-  if (law != Effect::kRateState || breakaway < 0) return from_last;
-  if (base_objection(data, last).empty() && out_of_bounds(data, last, Effect::kPreslidingHysteresis).empty()) return from_last;
+  if (contact_objection(data, last).empty()) return from_last;
   ModelParams restart = with_default_stribeck(data, last.params);
-  restart.theta[static_cast<std::size_t>(breakaway)] = 0.0;  // with_effect's neutral start
+  const int breakaway = restart.index("breakaway_ratio");
+  if (breakaway >= 0) restart.theta[static_cast<std::size_t>(breakaway)] = 0.0;  // with_effect's neutral start
   FitResult from_restart = fit_extension(data, restart, law, sig, in_fit, fit_options);
   return from_restart.rss < from_last.rss ? std::move(from_restart) : std::move(from_last);
 }
