@@ -138,12 +138,12 @@ FitResult fit_extension_once(const ModelData& data, const ModelParams& current, 
 
 }  // namespace
 
-// current with the Stribeck curve's shape (static level, Stribeck velocity,
-// viscous and bristle damping) back at the base model's default start: a
-// level that drifts in time or follows the load (drift, tilt) is taken up in
-// the base fit by a Stribeck curve bent out of shape (vs below the slowest
-// pass, a static level several times the Coulomb one, negative viscous
-// friction), a basin the extension's fit does not leave from there.
+// A second start for fits whose base is bent: a level that drifts in time or
+// follows the load (drift, tilt) is taken up in the base fit by a Stribeck
+// curve bent out of shape (vs below the slowest pass, a static level several
+// times the Coulomb one, negative viscous friction), a basin the extension's
+// fit does not leave from there (also the nested contact laws,
+// contact_choice.cc).
 ModelParams with_default_stribeck(const ModelData& data, const ModelParams& current) {
   const ModelParams defaults = base_params(data, current.structure);
   ModelParams p = current;
