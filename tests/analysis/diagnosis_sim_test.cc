@@ -300,6 +300,19 @@ TEST(DiagnosisSim, TheContactLawIsChosenOnHeldOutData) {
   EXPECT_TRUE(plain.accepted.empty()) << accepted_names(plain);
 }
 
+// The default instrument's clean identification run at 5 uN of lateral force
+// noise, as the contact-choice reliability map runs and diagnoses it.
+DiagnoseOutcome diagnose_clean_default_run_with_contact_choice(std::uint64_t seed) {
+  const MeasuredSeries s = testing::simulated_identification_record(
+      testing::default_instrument_identification_config(
+          [](v1::DaemonConfig& c) { c.mutable_sim()->mutable_sensors()->set_lateral_force_noise_n(5e-6); }),
+      seed);
+  DiagnoseRequest request;
+  request.tribo_run = true;
+  request.choose_base_contact = true;
+  return diagnose_series(s, request);
+}
+
 // A contact law replaces LuGre only if it is physical and predicts the
 // held-out passes no worse than LuGre. On the default instrument's clean run
 // (seed 4, lateral force noise 5 uN, as the contact-choice reliability map
@@ -308,14 +321,7 @@ TEST(DiagnosisSim, TheContactLawIsChosenOnHeldOutData) {
 // at 43 uN of held-out RMS beside LuGre's 22, and the final held-out NRMSE
 // rose to 0.146 from LuGre's 0.073.
 TEST(DiagnosisSim, AContactThatPredictsWorseThanLugreIsNotChosen) {
-  const MeasuredSeries s = testing::simulated_identification_record(
-      testing::default_instrument_identification_config(
-          [](v1::DaemonConfig& c) { c.mutable_sim()->mutable_sensors()->set_lateral_force_noise_n(5e-6); }),
-      4);
-  DiagnoseRequest request;
-  request.tribo_run = true;
-  request.choose_base_contact = true;
-  const DiagnoseOutcome outcome = diagnose_series(s, request);
+  const DiagnoseOutcome outcome = diagnose_clean_default_run_with_contact_choice(4);
   ASSERT_TRUE(outcome.error.empty()) << outcome.error;
   const Diagnosis& d = outcome.diagnosis;
   report("default instrument, clean, seed 4, contact chosen", d);
@@ -337,14 +343,7 @@ TEST(DiagnosisSim, AContactThatPredictsWorseThanLugreIsNotChosen) {
 // passes better than the contact fitted before it.
 TEST(DiagnosisSim, TheNestedRateStateContactIsPhysicalOnTheDefaultInstrument) {
   for (std::uint64_t seed : {1, 2}) {
-    const MeasuredSeries s = testing::simulated_identification_record(
-        testing::default_instrument_identification_config(
-            [](v1::DaemonConfig& c) { c.mutable_sim()->mutable_sensors()->set_lateral_force_noise_n(5e-6); }),
-        seed);
-    DiagnoseRequest request;
-    request.tribo_run = true;
-    request.choose_base_contact = true;
-    const DiagnoseOutcome outcome = diagnose_series(s, request);
+    const DiagnoseOutcome outcome = diagnose_clean_default_run_with_contact_choice(seed);
     ASSERT_TRUE(outcome.error.empty()) << outcome.error;
     const Diagnosis& d = outcome.diagnosis;
     report("default instrument, clean, contact chosen, seed " + std::to_string(seed), d);
