@@ -8,6 +8,7 @@
 
 #include "analysis/candidate_fit.h"
 #include "analysis/message_format.h"
+#include "analysis/parallel_for.h"
 #include "analysis/physical_bounds.h"
 #include "analysis/residual_signatures.h"
 
@@ -101,15 +102,21 @@ std::optional<EvaluatedFit> fit_rate_state_contact(const ModelData& data, const 
 // last fit is past a bound, the law is also fitted from a second start, the
 // Stribeck curve back at the base model's default and a breakaway ratio at
 // its neutral start, and the lower in-fit residual is kept.
+// The two starts are fitted at once.
 FitResult fit_nested_law(const ModelData& data, const FitResult& last, Effect law, const Signature& sig,
-                         const std::vector<char>& in_fit, const FitOptions& fit_options) {
-  FitResult from_last = fit_extension(data, last.params, law, sig, in_fit, fit_options);
-  if (contact_objection(data, last).empty()) return from_last;
-  ModelParams restart = with_default_stribeck(data, last.params);
-  const int breakaway = restart.index("breakaway_ratio");
-  if (breakaway >= 0) restart.theta[static_cast<std::size_t>(breakaway)] = 0.0;  // with_effect's neutral start
-  FitResult from_restart = fit_extension(data, restart, law, sig, in_fit, fit_options);
-  return from_restart.rss < from_last.rss ? std::move(from_restart) : std::move(from_last);
+                         const std::vector<char>& in_fit, const ContactChoiceOptions& options) {
+  std::vector<ModelParams> starts{last.params};
+  if (!contact_objection(data, last).empty()) {
+    ModelParams restart = with_default_stribeck(data, last.params);
+    const int breakaway = restart.index("breakaway_ratio");
+    if (breakaway >= 0) restart.theta[static_cast<std::size_t>(breakaway)] = 0.0;  // with_effect's neutral start
+    starts.push_back(std::move(restart));
+  }
+  std::vector<FitResult> fits(starts.size());
+  parallel_for(starts.size(), options.threads,
+               [&](std::size_t j) { fits[j] = fit_extension(data, starts[j], law, sig, in_fit, options.candidate_fit); });
+  const auto best = std::min_element(fits.begin(), fits.end(), [](const FitResult& a, const FitResult& b) { return a.rss < b.rss; });
+  return std::move(*best);
 }
 
 // Per held-out block (MotionSegmentation::block_of: a pass, or a time chunk
@@ -235,7 +242,7 @@ BaseContactChoice choose_base_contact(const ModelData& data, const ContactChoice
         continue;
       }
       name += "+" + law;
-      add(name, evaluate_fit(data, fit_nested_law(data, last.fit, e, sig, in_fit, options.candidate_fit)));
+      add(name, evaluate_fit(data, fit_nested_law(data, last.fit, e, sig, in_fit, options)));
     }
   };
   const auto add_rate_state_contact = [&](bool slip_trend, const std::string& name) {

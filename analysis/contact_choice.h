@@ -40,6 +40,7 @@ struct ContactChoiceOptions {
   FitOptions candidate_fit;       // each law's fit on top of the last (capped)
   FitOptions polish;              // the kept contact's fit to convergence
   double min_heldout_gain = 0;    // a richer contact must lower the held-out RMS by this share (DiagnosisOptions')
+  unsigned threads = 0;           // fits made at once (0: one per core); the result does not depend on it
 };
 
 // What the choice among contacts goes by, per contact (LuGre first).

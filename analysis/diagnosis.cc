@@ -729,7 +729,10 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
   out.before = {error_stats(series.force_n, current.model, in_fit), error_stats(series.force_n, current.model, heldout),
                 error_stats(series.force_n, current.model, everything)};
 
-  if (options.choose_base_contact) out.base_contact = choose_base_contact(data, {options.candidate_fit, options.lugre.fit, options.min_heldout_gain}, in_fit, heldout, current);
+  if (options.choose_base_contact) {
+    const ContactChoiceOptions contact{options.candidate_fit, options.lugre.fit, options.min_heldout_gain, options.threads};
+    out.base_contact = choose_base_contact(data, contact, in_fit, heldout, current);
+  }
   // A velocity-step record diagnosed on LuGre alone: its transient is what
   // the contact choice fits (the rate-and-state contact, a trend in slip).
   const bool velocity_steps_on_lugre =
