@@ -8,6 +8,7 @@
 #   brfd/0.5Hz30lbtension1.5amplitude.csv
 #   ratestate/velstep4_BRAVA_expb819_basalt_Giacomel_et_al_2021.csv
 #   ratestate/velstep7_BRAVA_expb819_basalt_Giacomel_et_al_2021.csv
+#   ratestate/velstep1_TR2_exp013_sepiolite.csv
 #   ratestate/velstep2_TR2_exp013_sepiolite.csv
 # Writes docs/figures/*.png and keeps each diagnosis (JSON and CSV) in
 # build/docs-figures/<case>/.
@@ -46,6 +47,9 @@ run ratestate_basalt "Velocity step 100 -> 300 um/s, basalt (Giacomel et al. 202
 run ratestate_basalt_contact "Velocity step 3 -> 10 um/s, basalt (Giacomel et al. 2021), steps as velocity jumps" 11670 11700 -- \
   "$data/ratestate/velstep4_BRAVA_expb819_basalt_Giacomel_et_al_2021.csv" --time t_s --position x_m \
   --force shear_stress_Pa --normal normal_stress_eff_Pa --force-unit Pa --base-model choose --motion-estimator rts_jumps
+run ratestate_sepiolite_contact "Velocity step 0.2 -> 2 um/s, sepiolite gouge (Giacomel et al.), contact chosen" 10100 10800 -- \
+  "$data/ratestate/velstep1_TR2_exp013_sepiolite.csv" --time t_s --position x_m \
+  --force shear_stress_Pa --normal normal_stress_eff_Pa --force-unit Pa --base-model choose
 run ratestate_sepiolite "Velocity step, sepiolite gouge (Giacomel et al.)" 11000 13000 -- \
   "$data/ratestate/velstep2_TR2_exp013_sepiolite.csv" --time t_s --position x_m \
   --force shear_stress_Pa --normal normal_stress_eff_Pa --force-unit Pa --smooth 1
