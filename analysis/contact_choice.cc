@@ -36,19 +36,6 @@ std::string slip_trend_objection(const ModelData& data, const FitResult& fit) {
              change, data.slip_m.back(), 100 * kMaxSlipTrendShare, level);
 }
 
-// Why a contact's fit is not physical: the base model's values past their
-// bounds, each added law's, and the slip trend's (empty when it is).
-std::string contact_objection(const ModelData& data, const FitResult& fit) {
-  std::string objection;
-  const auto add = [&](const std::string& o) {
-    if (!o.empty()) objection += (objection.empty() ? "" : "; ") + o;
-  };
-  add(base_objection(data, fit));
-  for (Effect law : fit.params.structure.effects) add(out_of_bounds(data, fit, law));
-  add(slip_trend_objection(data, fit));
-  return objection;
-}
-
 // Of one contact fitted from several starts (null: a start that gave no
 // fit), the best within its bounds: the lowest in-fit residual among those
 // contact_objection passes, or among all when none does. On the map's runs
@@ -188,6 +175,17 @@ double excess_in_standard_errors(const std::map<int, double>& sse, const std::ma
 }
 
 }  // namespace
+
+std::string contact_objection(const ModelData& data, const FitResult& fit) {
+  std::string objection;
+  const auto add = [&](const std::string& o) {
+    if (!o.empty()) objection += (objection.empty() ? "" : "; ") + o;
+  };
+  add(base_objection(data, fit));
+  for (Effect law : fit.params.structure.effects) add(out_of_bounds(data, fit, law));
+  add(slip_trend_objection(data, fit));
+  return objection;
+}
 
 ContactPick pick_contact(const std::vector<ContactEvidence>& c, double min_heldout_gain) {
   ContactPick pick;

@@ -58,6 +58,11 @@ struct ContactPick {
   std::string warning;    // when LuGre is past a bound and the pick is not one that predicts no worse
 };
 
+// Why a contact's fit is not physical: the base model's values past their
+// bounds, each added law's, and a slip trend of more than half the level
+// over the record's slip (empty when it is physical).
+std::string contact_objection(const ModelData& data, const FitResult& fit);
+
 // The rule of choose_base_contact below, on the evidence alone: among the
 // physical contacts predicting no worse than LuGre, LuGre then by free
 // parameters, fewest first, each kept over the last when it lowers the

@@ -613,12 +613,7 @@ std::optional<BaseValley> base_valley_of_winner(const RoundInputs& in, const Eva
   }
   FitResult refit = fit_model(data, start, in.in_fit, in.options.lugre.fit);
   if (!(refit.rss < current.fit.rss)) return std::nullopt;
-  const auto past_bounds = [&](const FitResult& f) {
-    bool past = !base_objection(data, f).empty();
-    for (Effect law : f.params.structure.effects) past = past || !out_of_bounds(data, f, law).empty();
-    return past;
-  };
-  if (past_bounds(refit) && !past_bounds(current.fit)) return std::nullopt;
+  if (!contact_objection(data, refit).empty() && contact_objection(data, current.fit).empty()) return std::nullopt;
   BaseValley valley{evaluate_fit(data, std::move(refit))};
   valley.heldout_rms = rms_over(data.series.force_n, valley.fit.model, in.heldout);
   valley.winner_heldout_rms = rms_over(data.series.force_n, simulate(data, winner.params), in.heldout);
