@@ -601,11 +601,12 @@ std::optional<std::size_t> fit_round(const RoundInputs& in, const EvaluatedFit& 
 // 2.7 uN.
 struct BaseValley {
   EvaluatedFit fit;
-  double heldout_rms = 0;         // the refitted current model's
-  double winner_heldout_rms = 0;  // the winner's, for the report
+  double heldout_rms = 0;  // the refitted current model's
 };
 
-std::optional<BaseValley> base_valley_of_winner(const RoundInputs& in, const EvaluatedFit& current, const FitResult& winner) {
+// winner_heldout_rms: the round's own figure for the winner (CandidateTrial).
+std::optional<BaseValley> base_valley_of_winner(const RoundInputs& in, const EvaluatedFit& current, const FitResult& winner,
+                                                double winner_heldout_rms) {
   const ModelData& data = in.data;
   ModelParams start = current.fit.params;
   for (const ParamSpec& spec : start.specs) {
@@ -616,8 +617,7 @@ std::optional<BaseValley> base_valley_of_winner(const RoundInputs& in, const Eva
   if (!contact_objection(data, refit).empty() && contact_objection(data, current.fit).empty()) return std::nullopt;
   BaseValley valley{evaluate_fit(data, std::move(refit))};
   valley.heldout_rms = rms_over(data.series.force_n, valley.fit.model, in.heldout);
-  valley.winner_heldout_rms = rms_over(data.series.force_n, simulate(data, winner.params), in.heldout);
-  if (valley.heldout_rms > 0 && 1.0 - valley.winner_heldout_rms / valley.heldout_rms >= in.options.min_heldout_gain) return std::nullopt;
+  if (valley.heldout_rms > 0 && 1.0 - winner_heldout_rms / valley.heldout_rms >= in.options.min_heldout_gain) return std::nullopt;
   return valley;
 }
 
@@ -794,12 +794,12 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
     const std::optional<std::size_t> best = fit_round(in, current, screened, round, out, winner_fit);
     record_round_status(out, first_trial, best, status);
     if (!best) break;
-    if (std::optional<BaseValley> valley = base_valley_of_winner(in, current, winner_fit)) {
+    if (std::optional<BaseValley> valley = base_valley_of_winner(in, current, winner_fit, out.trials[*best].heldout_rms_after)) {
       const CandidateTrial& trial = out.trials[*best];
       const std::string note = fmt::sprintf(
           "%s's held-out gain was the model's own: refitted from its values without it, the model predicts the held-out "
           "passes at %.4g against %.4g with it, a gain below %.0f %% (in-fit residual sum of squares %.4g -> %.4g)",
-          effect_name(trial.effect), valley->heldout_rms, valley->winner_heldout_rms, 100 * options.min_heldout_gain,
+          effect_name(trial.effect), valley->heldout_rms, trial.heldout_rms_after, 100 * options.min_heldout_gain,
           current.fit.rss, valley->fit.fit.rss);
       status[trial.effect].reason = "refused: " + note;
       refits_in_place_of_effects.push_back(fmt::sprintf("round %d: %s; the model goes on from that refit", round + 1, note));
