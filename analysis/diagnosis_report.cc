@@ -13,6 +13,15 @@ namespace tribo::analysis {
 
 namespace {
 
+// An option's held-out error beside the chosen contact's, in standard errors
+// of the difference over the held-out blocks. Below the chosen: better, yet
+// past a bound or not better by the gain a richer contact must show.
+std::string contact_excess_text(bool chosen, double excess_se) {
+  if (chosen) return " (chosen)";
+  if (!std::isfinite(excess_se)) return " (one held-out block: no standard error against the chosen)";
+  return fmt::sprintf(" (%.2f standard errors %s the chosen)", std::fabs(excess_se), excess_se < 0 ? "below" : "above");
+}
+
 using Json = nlohmann::ordered_json;
 
 Json parameters_json(const std::vector<ParamEstimate>& params) {
@@ -311,7 +320,7 @@ std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
     line("  contact law chosen on held-out data: %s%s%s", d.base_contact->chosen.c_str(),
          d.base_contact->not_tried.empty() ? "" : "; ", d.base_contact->not_tried.c_str());
     for (const auto& o : d.base_contact->options) {
-      const std::string excess = o.name == d.base_contact->chosen ? " (chosen)" : fmt::sprintf(" (%+.2f standard errors above the chosen)", o.heldout_excess_se);
+      const std::string excess = contact_excess_text(o.name == d.base_contact->chosen, o.heldout_excess_se);
       line("    %-34s held-out RMS %.4g%s, %d free parameters%s%s", o.name.c_str(), o.heldout_rms, excess.c_str(), o.free_parameters,
            o.note.empty() ? "" : "; ", o.note.c_str());
       std::string laws;
