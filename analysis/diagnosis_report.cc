@@ -325,7 +325,11 @@ std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
            o.note.empty() ? "" : "; ", o.note.c_str());
       std::string laws;
       for (const auto& p : o.parameters) {
-        if (p.effect) laws += fmt::sprintf("%s %.4g %s, ", p.name, p.value, p.unit);
+        if (!p.effect) continue;
+        // With its error, so that a law kept on its held-out error shows how
+        // well the record determines it beside the others tried.
+        laws += std::isfinite(p.std_error) && !p.fixed ? fmt::sprintf("%s %.4g +- %.2g %s, ", p.name, p.value, p.std_error, p.unit)
+                                                      : fmt::sprintf("%s %.4g %s, ", p.name, p.value, p.unit);
       }
       if (!laws.empty()) line("      %s", laws.substr(0, laws.size() - 2).c_str());
     }
