@@ -8,8 +8,6 @@
 #include <gtest/gtest.h>
 
 #include "analysis/contact_choice.h"
-#include "analysis/diagnosis.h"
-#include "analysis/diagnosis_report.h"
 
 namespace tribo::analysis {
 namespace {
@@ -72,29 +70,6 @@ TEST(ContactChoice, FewerParametersFirstAndARicherOneMustEarnThem) {
   const std::vector<ContactEvidence> richer_better{contact("lugre", 100, 0, true, 6), contact("lugre+rate_state", 85, 0, true, 9),
                                                    contact("rate_state_contact", 96, 0, true, 5)};
   EXPECT_EQ(pick_contact(richer_better, 0.02).index, 1u);
-}
-
-// The text report sets each contact tried beside the chosen one: an option
-// that predicts better (past a bound, or not by the gain) is said to lie
-// below it, never "-2.20 standard errors above"; its laws' values come
-// with their errors.
-TEST(ContactChoiceReport, EachOptionIsSaidToLieAboveOrBelowTheChosen) {
-  MeasuredSeries s;
-  Diagnosis d;
-  d.base_contact = BaseContactChoice{};
-  d.base_contact->chosen = "lugre";
-  d.base_contact->options = {{"lugre", 1.0, "", {}, 6, 0.0},
-                             {"lugre+elasto_plastic", 0.9, "fitted breakaway_ratio 0.995 is at a bound", {}, 7, -2.2},
-                             {"rate_state_contact", 1.2, "", {{"rs_a", "1", 0.0116, 0.0011, false, true, Effect::kRateState}}, 5, 1.5},
-                             {"lugre+rate_state", 1.1, "", {}, 9, INFINITY}};
-  const std::string text = diagnosis_text(s, d);
-  EXPECT_NE(text.find("held-out RMS 1 (chosen)"), std::string::npos) << text;
-  EXPECT_NE(text.find("(2.20 standard errors below the chosen)"), std::string::npos) << text;
-  EXPECT_NE(text.find("(1.50 standard errors above the chosen)"), std::string::npos) << text;
-  EXPECT_NE(text.find("(one held-out block: no standard error against the chosen)"), std::string::npos) << text;
-  EXPECT_EQ(text.find("-2.20"), std::string::npos) << text;
-  // A contact's laws with their errors.
-  EXPECT_NE(text.find("rs_a 0.0116 +- 0.0011 1"), std::string::npos) << text;
 }
 
 }  // namespace
