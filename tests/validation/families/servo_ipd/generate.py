@@ -41,7 +41,7 @@ EFFECTS = [
 # affects, is 3-10x the 10 µN force noise at these values (README.md, "Effects").
 DEFAULT_STRENGTH = {
     "none": 0.0,
-    "dwell_stiction": 0.35,
+    "dwell_stiction": 0.6,
     "frictional_lag": 0.03,
     "velocity_strengthening": 0.06,
     "load_dependence": 0.4e-3,
@@ -57,7 +57,7 @@ DEFAULT_STRENGTH = {
 
 STRENGTH_UNIT = {
     "none": "none",
-    "dwell_stiction": "fraction of Fs gained after an infinitely long rest (A)",
+    "dwell_stiction": "fraction of the levels gained after an infinitely long rest (A)",
     "frictional_lag": "s (pure delay of the speed seen by the Stribeck curve)",
     "velocity_strengthening": "fraction of Fc per unit of asinh(|v|/v_a) (c)",
     "load_dependence": "N (Derjaguin adhesion load N_adh)",
@@ -219,14 +219,15 @@ def loop_noise_response(loop, contact):
 MIN_LOOP_DAMPING = 0.1
 MAX_LOOP_FORCE_NOISE_N = 8e-6
 MAX_DITHER_OVER_VS = 0.3
+MAX_DITHER_M_PER_S = 0.5e-6      # half the slowest commanded speed
 
 
 def draw_loop(rng, contact_rng):
     """Gains of Table 5.1's order, redrawn (with the contact) until the linearised loop's
     modes are damped (ζ >= 0.1) in every contact state, the force noise the loop makes of the
     position noise is at most 8 µN (of Table 3.2's 10 µN) and the tip's speed dither from it
-    is at most 0.3 vs (so that the Stribeck curve is not smeared by it). Returns
-    (loop, contact)."""
+    is at most 0.3 vs and 0.5 µm/s (so that it neither smears the Stribeck curve nor reverses
+    the slowest strokes, where LuGre would lose friction to it). Returns (loop, contact)."""
     for attempt in range(1, 5000):
         mass = rng.uniform(0.8e-3, 1.2e-3)
         ks = rng.uniform(90.0, 120.0)
@@ -257,7 +258,8 @@ def draw_loop(rng, contact_rng):
             continue
         noise_n, dither = loop_noise_response(loop, contact)
         if (noise_n <= MAX_LOOP_FORCE_NOISE_N
-                and dither <= MAX_DITHER_OVER_VS * contact["vs_m_per_s"]):
+                and dither <= MAX_DITHER_OVER_VS * contact["vs_m_per_s"]
+                and dither <= MAX_DITHER_M_PER_S):
             loop["min_mode_damping_ratio_in_contact"] = z_contact
             loop["min_mode_damping_ratio_no_contact"] = z_free
             loop["loop_force_noise_n"] = noise_n
@@ -290,7 +292,7 @@ def _draw_protocol(rng):
     # at least a factor 3 between the extremes, so the load law is seen
     while loads.max() / loads.min() < 3.0:
         loads = np.exp(rng.uniform(math.log(0.5e-3), math.log(10e-3), n_loads))
-    speed_levels = np.array([0.3e-6, 1e-6, 3e-6, 8e-6, 20e-6])
+    speed_levels = np.array([1e-6, 2.5e-6, 6e-6, 12e-6, 20e-6])
     tr, xr = [0.0], [0.0]          # setpoint breakpoints
     tn, nn = [0.0], [loads[0]]     # load breakpoints
     strokes = []                   # (t_start, t_end, direction)
@@ -316,7 +318,7 @@ def _draw_protocol(rng):
             nn.append(loads[b])
             hold(1.5)
         length = rng.uniform(3e-6, 12e-6)
-        n_strokes = 5
+        n_strokes = 6
         speeds = rng.permutation(speed_levels)
         speeds = np.concatenate([speeds, rng.choice(speed_levels, n_strokes - len(speeds))])
         speeds = np.minimum(speeds * np.exp(rng.uniform(-0.15, 0.15, n_strokes)), 22e-6)
@@ -328,7 +330,7 @@ def _draw_protocol(rng):
             if rng.uniform() < 0.45:
                 # speed step at a point 35-65 % along the stroke
                 factor = float(rng.choice([1 / 3.0, 3.0, 1 / 10.0, 10.0]))
-                v1 = min(max(v0 * factor, 0.2e-6), 22e-6)
+                v1 = min(max(v0 * factor, 0.9e-6), 22e-6)
                 frac = rng.uniform(0.35, 0.65)
                 x_mid = x + direction * frac * length
                 t += frac * length / v0
@@ -351,16 +353,16 @@ def _draw_protocol(rng):
                 nn.append(loads[b] * f)
                 loads[b] *= f
                 ramp_in_slide = (t_start, t, f)
-            if rng.uniform() < 0.4:
+            if rng.uniform() < 0.5:
                 hold(math.exp(rng.uniform(math.log(0.5), math.log(30.0))))
     hold(2.0)
     tn.append(t)
     nn.append(loads[-1])
     speeds_used = sorted({round(v * 1e6, 3) for v in speed_levels})
     desc = {
-        "description": ("reciprocating strokes at 3 loads (5 strokes each, length 3-12 µm per "
-                        "load), speeds near 0.3, 1, 3, 8, 20 µm/s, speed steps within some "
-                        "strokes, holds of 0.5-30 s after 40 % of the strokes, load "
+        "description": ("reciprocating strokes at 3 loads (6 strokes each, length 3-12 µm per "
+                        "load), speeds near 1, 2.5, 6, 12, 20 µm/s, speed steps within some "
+                        "strokes, holds of 0.5-30 s after half of the strokes, load "
                         "ramps of 1 s at rest between loads and one load ramp of +-30 % "
                         "during a stroke"),
         "duration_s": t,
@@ -386,8 +388,8 @@ def _draw_protocol(rng):
 def effect_parameters(effect, strength, rng, duration_s):
     p = {}
     if effect == "dwell_stiction":
-        p = {"gain_A": strength, "time_constant_gamma_s": 2.0, "renewal_slip_L_m": 0.5e-6,
-             "rest_slip_rate_m_per_s": 0.05e-6}
+        p = {"gain_A": strength, "time_constant_gamma_s": 2.0, "renewal_slip_L_m": 1.0e-6,
+             "rest_slip_rate_m_per_s": 0.05e-6, "rest_filter_s": 0.02}
     elif effect == "frictional_lag":
         p = {"delay_s": strength}
     elif effect == "velocity_strengthening":
@@ -409,7 +411,7 @@ def effect_parameters(effect, strength, rng, duration_s):
     elif effect == "presliding_hysteresis":
         p = {"elastic_limit_r": strength}
     elif effect == "backlash":
-        p = {"play_width_m": strength, "drag_ratio_q": 0.1}
+        p = {"play_width_m": strength, "drag_ratio_q": 0.1, "joint_damping_n_s_per_m": 2.0}
     elif effect == "rate_state":
         p = {"a": strength, "b": 1.5 * strength, "v0_m_per_s": 5e-6, "dc_m": 0.5e-6,
              "vr_m_per_s": 0.02e-6, "state_law": "slip (Ruina 1983)"}
@@ -468,7 +470,8 @@ def simulate(loop, contact, protocol, effect, eff, noise_rng, noise=True, subste
     if code == E_DWELL:
         dw_A, dw_g, dw_L, dw_w = (eff["gain_A"], eff["time_constant_gamma_s"],
                                   eff["renewal_slip_L_m"], eff["rest_slip_rate_m_per_s"])
-    tr_rest, s_slip = 0.0, 0.0
+        dw_b = 1.0 - math.exp(-h / eff["rest_filter_s"])
+    tr_rest, s_slip, w_f = 0.0, 0.0, 0.0
     if code == E_LAG:
         nd = max(1, int(round(eff["delay_s"] / h)))
         vbuf = [0.0] * nd
@@ -488,6 +491,7 @@ def simulate(loop, contact, protocol, effect, eff, noise_rng, noise=True, subste
     if code == E_BL:
         bl_half = 0.5 * eff["play_width_m"]
         bl_q = eff["drag_ratio_q"]
+        bl_c = eff["joint_damping_n_s_per_m"]
     d_bl, sdir = 0.0, 0
     theta = 0.0
     if code == E_RS:
@@ -573,9 +577,11 @@ def simulate(loop, contact, protocol, effect, eff, noise_rng, noise=True, subste
             if code == E_ASYM:
                 fc_j = Fc * (1.0 + asa * tanh(vm * asv))
             elif code == E_DWELL:
-                fade = 1.0 - s_slip / dw_L
+                fade = 1.0 - fabs(s_slip) / dw_L
                 if fade > 0.0:
-                    fs_j = Fs * (1.0 + dw_A * tr_rest / (tr_rest + dw_g) * fade)
+                    dwm = 1.0 + dw_A * tr_rest / (tr_rest + dw_g) * fade
+                    fc_j = Fc * dwm
+                    fs_j = Fs * dwm
             if code == E_LAG:
                 avs = fabs(vbuf[ib])
             else:
@@ -599,9 +605,11 @@ def simulate(loop, contact, protocol, effect, eff, noise_rng, noise=True, subste
             fa = u + (fa - u) * Ea
 
             if code == E_BL and sdir != 0:
-                # the holder slides in its clamp at the drag force; the contact stands still
-                rhs = mh * v + fa_avg - ks * x - ks * h4 * v - sdir * bl_q * Fc + fx
-                v1 = rhs / (mh + ks * h4)
+                # the holder slides in its clamp against a drag q Fc + c_j v; the contact
+                # stands still
+                rhs = (mh * v + fa_avg - ks * x - ks * h4 * v - sdir * bl_q * Fc - 0.5 * bl_c * v
+                       + fx)
+                v1 = rhs / (mh + ks * h4 + 0.5 * bl_c)
                 d_bl += h2 * (v + v1)
                 x += h2 * (v + v1)
                 v_prev = v
@@ -654,14 +662,17 @@ def simulate(loop, contact, protocol, effect, eff, noise_rng, noise=True, subste
 
             # --- slow states of the effects ---
             if code == E_DWELL:
-                w = fabs(v - zdot)
-                if w < dw_w:
+                # slip of the interface (LuGre: v - dz/dt); the dither's back-and-forth slip
+                # is averaged out: rest is judged on the slip rate low-passed over 20 ms and
+                # renewal on the net slip
+                w = v - zdot
+                w_f += dw_b * (w - w_f)
+                if fabs(w_f) < dw_w:
                     tr_rest += h
-                else:
-                    s_slip += w * h
-                    if s_slip >= dw_L:
-                        tr_rest = 0.0       # the contact renewed: its age starts again
-                        s_slip = 0.0
+                s_slip += w * h
+                if fabs(s_slip) >= dw_L:
+                    tr_rest = 0.0       # the contact renewed: its age starts again
+                    s_slip = 0.0
             elif code == E_LAG:
                 vbuf[ib] = v
                 ib += 1
