@@ -3,6 +3,7 @@
 
   check.py loop SEEDS              loop draws, stability, lag, break-away, record noise (clean)
   check.py contributions SEEDS     each effect's contribution to the recorded force
+  check.py steady SEEDS            steady sliding friction against the law's F_ss(v) (clean)
   check.py convergence SEED        integration error against a finer substep
   check.py plot EFFECT SEED DIR    a figure of the record (with the clean record of the seed)
 
@@ -134,6 +135,37 @@ def _simple_protocol(load_n):
             "load": np.array([load_n, load_n]), "strokes": [], "duration_s": t[-1]}
 
 
+def cmd_steady(seeds):
+    """Mean true friction over the second half of each constant-speed segment of >= 0.5 s,
+    against the LuGre steady state F_ss(v) = Fc + (Fs - Fc) exp(-(v/vs)^2) + Fv v at the
+    commanded speed and the load: what the dither and any chatter do to the sliding level."""
+    by_speed = {}
+    for s in seeds:
+        b, rec = g.run("none", s, traces=True)
+        c, rate = b["contact"], b["rate_hz"]
+        vr = _ref_speed(rec)
+        i = 0
+        while i < len(vr):
+            j = i
+            while j < len(vr) and abs(vr[j] - vr[i]) <= 1e-6 * abs(vr[i]) + 1e-15:
+                j += 1
+            v0 = abs(vr[i])
+            if v0 > 0 and (j - i) >= 0.5 * rate:
+                k = slice(i + (j - i) // 2, j)
+                n = rec["normal"][k].mean()
+                fss = (c["mu_c"] * n + (c["mu_s"] - c["mu_c"]) * n
+                       * np.exp(-(v0 / c["vs_m_per_s"]) ** 2) + c["fv_n_s_per_m"] * v0)
+                ratio = np.abs(rec["friction_true"][k]).mean() / fss
+                level = min((1, 2.5, 6, 12, 20), key=lambda L: abs(np.log(v0 * 1e6 / L)))
+                by_speed.setdefault(level, []).append(ratio)
+            i = j
+    for level in sorted(by_speed):
+        r = np.array(by_speed[level])
+        print("speed ~%4.1f µm/s: %3d segments, friction / F_ss median %.3f, 10-90 %% "
+              "%.3f-%.3f" % (level, len(r), np.median(r), np.percentile(r, 10),
+                             np.percentile(r, 90)))
+
+
 def cmd_convergence(seed, effect="none"):
     """Integration error against a substep of 6.25 µs: noise-free on a simple protocol at
     1 and 8 mN with the seed's loop and contact (where the motion is not chaotic), and on
@@ -206,6 +238,8 @@ def main():
         cmd_loop(_seeds(sys.argv[2]))
     elif cmd == "contributions":
         cmd_contributions(_seeds(sys.argv[2]), sys.argv[3].split(",") if len(sys.argv) > 3 else None)
+    elif cmd == "steady":
+        cmd_steady(_seeds(sys.argv[2]))
     elif cmd == "convergence":
         cmd_convergence(int(sys.argv[2]), sys.argv[3] if len(sys.argv) > 3 else "none")
     elif cmd == "plot":
