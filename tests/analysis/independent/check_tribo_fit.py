@@ -33,13 +33,15 @@ pass votes in the block agreement with the candidate's change there).
 Velocity strengthening at three times the default, fitted and not accepted on
 seed 7, has a minimum detectable strength above the injected one, set by injection
 and recovery (the linearised figure was below it), and it
-is named first on seeds 8 and 9 since the holds are held; on seed 4, fitted
+is named first on seed 8; on seed 9 the final model keeps a static spike
+(mu_s 3.2e16), does not describe the record and names nothing; on seed 4, fitted
 with the opposite sign, no figure calls the missed strength identifiable; on seed 10,
 whose fit leaves the static level at 1e-4, it is named first (its strength
-bound is taken against the friction level). Where the final base is past
-its bounds (drift seed 2) no velocity-dependent figure is given. At six times the default, on
-seed 3, whose base fit takes the rise into a rising Stribeck curve, it is
-named first (fitted a second time from that rise moved into the log term);
+bound is taken against the friction level). Where the final model is past
+its bounds (drift seed 2) it does not describe the record: nothing is named,
+and no minimum detectable figure is given. At six times the default, on
+seed 3, whose base fit takes the rise into a rising Stribeck curve, the final
+model keeps a static spike (mu_s 3.2e8) and names nothing;
 on seed 8, missed with a final curve that still rises, no figure calls the
 missed strength identifiable.
 
@@ -85,6 +87,21 @@ def check_first(tribo_fit, work, effect, seed, failures, strength=None):
     if accepted[:1] != [effect]:
         failures.append(f"{effect} seed {seed}: accepted {accepted}, {effect} not first")
     print(f"{effect}, seed {seed}: accepted {accepted}")
+
+
+def check_not_describing(tribo_fit, work, effect, seed, failures, strength=None):
+    """The final model of this file is past its bounds (a static level more than
+    5 times the Coulomb level): the report says it does not describe the record,
+    names nothing, and lists the injected effect as rejected with that reason."""
+    report = diagnose(tribo_fit, work, effect, seed, strength=strength)
+    accepted = [a["name"] for a in report["accepted_effects"]]
+    reasons = report["base_model"]["not_describing_reasons"]
+    mine = next((r for r in report["rejected_effects"] if r["name"] == effect), {})
+    if report["base_model"]["describes_record"] or accepted or not any("more than 5 times" in r for r in reasons) \
+            or "does not describe the record" not in mine.get("reason", ""):
+        failures.append(f"{effect} seed {seed}: describes_record {report['base_model']['describes_record']}, "
+                        f"accepted {accepted}, reasons {reasons}")
+    print(f"{effect}, seed {seed}: accepted {accepted}; not describing: {'; '.join(reasons)[:100]}")
 
 
 def check_no_overclaim(tribo_fit, work, seed, c, failures):
@@ -256,7 +273,10 @@ def main():
     # then raised by injection and recovery, seed 9's withheld past the
     # bounds; those paths are checked on seed 7 above and drift seed 2.
     check_first(tribo_fit, work, "velocity_strengthening", 8, failures, strength=0.09)
-    check_first(tribo_fit, work, "velocity_strengthening", 9, failures, strength=0.09)
+    # Seed 9: the rounds take it, on a final model whose static level is a
+    # spike (mu_s 3.2e16): the report says the model does not describe the
+    # record and names nothing.
+    check_not_describing(tribo_fit, work, "velocity_strengthening", 9, failures, strength=0.09)
     # Seed 4: fitted with the opposite sign (-0.0018) at -16.6 % held-out, and
     # refused; its figure, 0.0024 by injection and recovery, called the missed
     # 0.0106 identifiable. A trial that takes the velocity dependence the
@@ -271,8 +291,10 @@ def main():
     # At six times the default (c = 0.18) the base fit takes the rise into a
     # Stribeck curve that rises (seed 3: mu_s 0.082 below mu_c 0.117), and
     # the candidate fitted from there found 0.005 +- 0.005 of the injected
-    # 0.015. The rise moved into the log term is its second start.
-    check_first(tribo_fit, work, "velocity_strengthening", 3, failures, strength=0.18)
+    # 0.015. The rise moved into the log term is its second start; the final
+    # model keeps a static spike (mu_s 3.2e8): it does not describe the
+    # record, and nothing is named.
+    check_not_describing(tribo_fit, work, "velocity_strengthening", 3, failures, strength=0.18)
     # Seed 8 at six times is missed: its final model's curve still rises
     # (mu_s 0.113 below mu_c 0.162), and its figure, 0.0012 by injection and
     # recovery, called the missed 0.0168 identifiable. A final model whose
