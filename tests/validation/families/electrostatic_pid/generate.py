@@ -48,23 +48,23 @@ IN_VOCABULARY = {e: not e.startswith("oov_") for e in EFFECTS}
 # times the 10 µN force noise where it acts (README.md, "Effects").
 DEFAULT_STRENGTH = {
     "none": 0.0,
-    "dwell_stiction": 0.25,
-    "frictional_lag": 0.025,
-    "velocity_strengthening": 0.06,
+    "dwell_stiction": 0.8,
+    "frictional_lag": 0.05,
+    "velocity_strengthening": 0.12,
     "load_dependence": 50.0,
-    "position_periodic": 0.012,
-    "direction_asymmetry": 0.12,
+    "position_periodic": 0.015,
+    "direction_asymmetry": 0.15,
     "tilt_offset": 1.0,
     "drift": 80.0,
     "presliding_hysteresis": 0.4,
     "backlash": 0.25,
-    "rate_state": 0.04,
-    "oov_humidity_cycle": 0.15,
+    "rate_state": 0.12,
+    "oov_humidity_cycle": 0.2,
 }
 
 STRENGTH_UNIT = {
     "none": "none",
-    "dwell_stiction": "beta: relative change of the static level per unit of (age/1 s)^p - 1",
+    "dwell_stiction": "beta: Fs_eff = max(Fc, Fs (1 + beta ((age / 1 s)^0.3 - 1)))",
     "frictional_lag": "s (pure delay of the speed seen by the Stribeck level)",
     "velocity_strengthening": "c: added level c*Fc*asinh(|v|/v_a), dimensionless",
     "load_dependence": "µN (adhesive friction term tau*A at 1 mN; A follows Hertz, N^(2/3))",
@@ -97,7 +97,7 @@ MIN_GAIN_MARGIN = 2.5
 MIN_PHASE_MARGIN_DEG = 35.0
 KD_DAMPING_RANGE = (0.6, 1.2)   # kd = 2 zeta sqrt(m (kp + k)) - c, zeta drawn here
 DERIVATIVE_FILTER_HZ = (300.0, 1000.0)
-DEMODULATOR_HZ = (300.0, 1000.0)
+DEMODULATOR_HZ = (300.0, 600.0)
 
 
 def _stable_salt(text):
@@ -240,6 +240,15 @@ def loop_robustness(plant, loop, contact):
     return gm, pm
 
 
+def loop_acceptable(plant, loop, contact):
+    """(accepted, pole damping, gain margin, phase margin) of a drawn loop."""
+    damping = loop_damping(plant, loop, contact)
+    if damping < MIN_LOOP_DAMPING:
+        return False, damping, 0.0, 0.0
+    gm, pm = loop_robustness(plant, loop, contact)
+    return gm >= MIN_GAIN_MARGIN and pm >= MIN_PHASE_MARGIN_DEG, damping, gm, pm
+
+
 def draw_controller_rate(rng, rate_hz):
     allowed = [f for f in CONTROLLER_RATES_HZ if f % rate_hz == 0 and f >= rate_hz]
     return int(allowed[rng.integers(len(allowed))])
@@ -276,11 +285,8 @@ def draw_plant_and_loop(rng, contact, fc):
             "drive_limit_n": DRIVE_LIMIT_N,
             "draw_attempts": attempt,
         }
-        damping = loop_damping(plant, loop, contact)
-        if damping < MIN_LOOP_DAMPING:
-            continue
-        gm, pm = loop_robustness(plant, loop, contact)
-        if gm >= MIN_GAIN_MARGIN and pm >= MIN_PHASE_MARGIN_DEG:
+        ok, damping, gm, pm = loop_acceptable(plant, loop, contact)
+        if ok:
             loop["min_pole_damping_ratio"] = damping
             loop["gain_margin"] = gm
             loop["phase_margin_deg"] = pm
@@ -484,13 +490,13 @@ def position_noise(rng, count, fc):
     """Sensor noise on the position at the controller ticks: a white part band-limited by
     the demodulator's low-pass and a 1/f-like part (four first-order Gauss-Markov
     processes with corners a decade apart, equal variance)."""
-    white_rms = float(rng.uniform(1.5e-9, 3e-9))
+    white_rms = float(rng.uniform(1e-9, 2e-9))
     coloured_rms = math.sqrt(POSITION_NOISE_M ** 2 - white_rms ** 2)
     demod_hz = float(min(rng.uniform(*DEMODULATOR_HZ), fc / 4.0))
     a = math.exp(-2 * math.pi * demod_hz / fc)
     w = lfilter([1 - a], [1, -a], rng.standard_normal(count))
     w *= white_rms / math.sqrt((1 - a) / (1 + a))
-    corners = [0.03, 0.3, 3.0, 30.0]
+    corners = [0.01, 0.1, 1.0, 10.0]
     coloured = np.zeros(count)
     for fcn in corners:
         ac = math.exp(-2 * math.pi * fcn / fc)
@@ -551,7 +557,7 @@ def draw_effect(effect, seed, strength):
     if effect == "rate_state":
         return {"a": s, "b": s * float(rng.uniform(0.5, 0.8)),
                 "law": "slip (Ruina)", "v_star_m_per_s": 5e-6,
-                "dc_m": float(rng.uniform(0.2e-6, 0.6e-6)), "v_floor_m_per_s": 0.2e-6}
+                "dc_m": float(rng.uniform(1e-6, 3e-6)), "v_floor_m_per_s": 0.2e-6}
     if effect == "oov_humidity_cycle":
         return {"amplitude": s, "period_s": float(rng.uniform(40.0, 90.0)),
                 "phase_rad": float(rng.uniform(0, 2 * math.pi))}
@@ -627,6 +633,10 @@ def simulate(plant, contact, loop, x_ref, n_true, x_noise, effect, ep, decimatio
         beta, p_age, th_ref, d_age = (ep["beta"], ep["age_exponent_p"], ep["age_reference_s"],
                                       ep["slip_memory_m"])
         age = ep["initial_age_s"]
+        # the age follows the net slip over 20 ms windows: the loop's nanometre jitter
+        # (µm/s at the tick scale) is not slip that renews the contact
+        age_ticks = max(1, int(round(0.02 * fc)))
+        age_x0 = 0.0
     if e_lag:
         lag_ticks = max(1, int(round(ep["delay_s"] * fc)))
         vbuf = [0.0] * (lag_ticks + 1)
@@ -716,7 +726,7 @@ def simulate(plant, contact, loop, x_ref, n_true, x_noise, effect, ep, decimatio
         nl = n_l[i]
         x_tick = x
         if e_dwell:
-            fsl = fcl + (fsl - fcl) * max(1.0 + beta * ((age / th_ref) ** p_age - 1.0), 0.0)
+            fsl = max(fcl, fsl * (1.0 + beta * ((age / th_ref) ** p_age - 1.0)))
         if e_lag:
             vdel = vbuf[i % (lag_ticks + 1)]
             svd = exp(-abs(vdel) / vs)
@@ -747,7 +757,8 @@ def simulate(plant, contact, loop, x_ref, n_true, x_noise, effect, ep, decimatio
             if e_rip:
                 fd -= nl * (a1 * sin(q1 * x + ph1) + a2 * sin(2 * q1 * x + ph2))
             if e_tilt and nl > 0.0:
-                fr = -fl / nl
+                # friction ratio bounded: near zero load a held bristle makes fl/N meaningless
+                fr = min(max(-fl / nl, -0.5), 0.5)
                 fd -= nl * (fr - tt) * fr * tt / (1.0 + fr * tt)
             if e_ms:
                 fms = 0.0
@@ -838,13 +849,15 @@ def simulate(plant, contact, loop, x_ref, n_true, x_noise, effect, ep, decimatio
                     nxi = xi[ie] + dx
                     lim = ms_disp[ie]
                     xi[ie] = lim if nxi > lim else (-lim if nxi < -lim else nxi)
-        if e_dwell:
-            sp = abs(x - x_tick) / tc
+        if e_dwell and (i + 1) % age_ticks == 0:
+            tw = age_ticks * tc
+            sp = abs(x - age_x0) / tw
+            age_x0 = x
             if sp > 0.0:
                 ass = d_age / sp
-                age = ass + (age - ass) * exp(-sp * tc / d_age)
+                age = ass + (age - ass) * exp(-sp * tw / d_age)
             else:
-                age += tc
+                age += tw
         if e_lag:
             vbuf[(i + lag_ticks) % (lag_ticks + 1)] = (x - x_tick) / tc
     return {
