@@ -254,20 +254,23 @@ class ScorecardSweep(unittest.TestCase):
             runs = pd.read_csv(os.path.join(out, "results.csv"), float_precision="round_trip")
             self.assertEqual(sorted(runs[path]), [0.0218378, 0.03])
             self.assertTrue((runs["status"] == "ok").all())
-            self.assertTrue(runs["scorecard_rows"].eq(37).all())  # Table 5.1: 32 rows, 4 overshoot, 1 eq. 28
+            # Table 5.1: 5 rows (Fs both ways, ts, ds, dl) x 8, 3 overshoots, 2 accelerations, 1 eq. 28, 4 trends
+            self.assertTrue(runs["scorecard_rows"].eq(50).all())
             self.assertTrue(runs["scorecard_goals"].eq(24).all())  # Fs, ts, dl of eight conditions
             table = pd.read_csv(os.path.join(out, "scorecard.csv"), float_precision="round_trip")
             self.assertEqual(list(table.columns),
                              ["key", "seed", "variant", path, "source", "observation", "unit", "dissertation",
                               "simulated", "error", "error_in_points", "goal", "within_goal"])
-            self.assertEqual(len(table), 2 * 37)
+            self.assertEqual(len(table), 2 * 50)
             # The default config's row is the binary's own scorecard, figure for figure.
             own = scorecard_json("--config", os.path.join(ARGS.source_dir, "config/tribod.textproto"),
                                  "--group", "table_5_1", "--quick", "--seed", "1")["rows"]
             default = table[table[path] == 0.0218378]
             self.assertEqual(list(default["observation"]), [r["observation"] for r in own])
             self.assertEqual(list(default["simulated"]), [r["simulated"] for r in own])
-            self.assertEqual(list(default["dissertation"]), [r["dissertation"] for r in own])
+            # A row the dissertation gives no number for is null in JSON, empty (NaN) in the CSV.
+            self.assertEqual([None if pd.isna(x) else x for x in default["dissertation"]],
+                             [r["dissertation"] for r in own])
             # The other row reruns exactly from its recorded config and seed.
             other = runs[runs[path] == 0.03].iloc[0]
             rerun = scorecard_json("--config", os.path.join(out, other["run_folder"], "config.textproto"),
