@@ -2,7 +2,8 @@
 """The tribo Python package as a scientist meets it: one channel vocabulary
 across CSV, descriptor and Python; a run folder read into numpy / pandas with
 units; the run figure (200 dpi, legends beside the data, friction and µ);
-the example notebook executed; `pip install` into a venv, offline.
+`pip install` into a venv, offline, leaving the checkout as it was; the
+example notebook executed on the venv's kernel, as docs/python.md says.
 
     /usr/bin/python3 tests/python/test_package.py --build-dir build --source-dir .
 (PYTHONPATH must hold client/python and build/python.)"""
@@ -112,45 +113,84 @@ class RunFolder(unittest.TestCase):
         self.assertLess(steady, 0.2)
 
 
-class Notebook(unittest.TestCase):
-    def test_example_notebook_executes(self):
-        with tempfile.TemporaryDirectory() as tmp:
-            notebook = os.path.join(tmp, "simulated_scratch.ipynb")
-            shutil.copy(os.path.join(ARGS.source_dir, "client/python/examples/simulated_scratch.ipynb"), notebook)
-            env = dict(os.environ, TRIBO_SOURCE_DIR=ARGS.source_dir)
-            env["PYTHONPATH"] = os.pathsep.join(os.path.abspath(p) for p in env.get("PYTHONPATH", "").split(os.pathsep) if p)
-            result = subprocess.run([sys.executable, "-m", "nbconvert", "--to", "notebook", "--execute",
-                                     "--ExecutePreprocessor.timeout=120", "--output", "executed.ipynb", notebook],
-                                    capture_output=True, text=True, env=env, cwd=tmp, timeout=240)
-            self.assertEqual(result.returncode, 0, result.stderr[-3000:])
-            self.assertEqual(png_dpi(os.path.join(tmp, "scratch.png")), 200)
+def tree_snapshot(root):
+    """Every file and directory under root (but __pycache__, which other
+    tests' imports write), with its modification time."""
+    snapshot = {}
+    for directory, subdirs, files in os.walk(root):
+        subdirs[:] = [d for d in subdirs if d != "__pycache__"]
+        for name in subdirs + files:
+            path = os.path.join(directory, name)
+            snapshot[os.path.relpath(path, root)] = os.stat(path).st_mtime_ns
+    return snapshot
 
 
-class PipInstall(unittest.TestCase):
-    def test_pip_installs_offline_into_a_venv(self):
-        with tempfile.TemporaryDirectory() as tmp:
-            venv = os.path.join(tmp, "venv")
-            subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", venv], check=True, timeout=120)
-            package = os.path.join(tmp, "src")  # a copy: an in-tree build writes build/ and *.egg-info
-            shutil.copytree(os.path.join(ARGS.source_dir, "client/python"), package,
-                            ignore=shutil.ignore_patterns("__pycache__"))
-            env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-            env["TRIBO_BUILD_DIR"] = ARGS.build_dir
-            pip = subprocess.run([os.path.join(venv, "bin", "pip"), "install", "--no-build-isolation", "--no-index",
-                                  package], capture_output=True, text=True, env=env, timeout=300)
-            self.assertEqual(pip.returncode, 0, pip.stdout[-2000:] + pip.stderr[-2000:])
-            check = ("import tribo_client, tribo_client.sim as sim, tribo_client.campaign;"
-                     "from tribo.v1 import api_pb2;"
-                     "print(tribo_client.__file__); print(sim.software_version)")
-            env.pop("TRIBO_BUILD_DIR")
-            result = subprocess.run([os.path.join(venv, "bin", "python"), "-c", check], capture_output=True,
-                                    text=True, env=env, cwd=tmp, timeout=60)
-            self.assertEqual(result.returncode, 0, result.stderr)
-            self.assertIn(os.path.join(venv, "lib"), result.stdout)
-            campaign = subprocess.run([os.path.join(venv, "bin", "tribo-campaign"), "--version"],
-                                      capture_output=True, text=True, env=env, cwd=tmp, timeout=60)
-            self.assertEqual(campaign.returncode, 0, campaign.stderr)
-            self.assertIn("tribo-campaign", campaign.stdout)
+class VenvInstall(unittest.TestCase):
+    """docs/python.md's commands, in order: the venv, `pip install
+    client/python` offline from the checkout, the venv's Jupyter kernel, the
+    example notebook executed on it. PYTHONPATH is unset throughout: the
+    venv alone provides tribo_client, as for a user."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory()
+        cls.venv = os.path.join(cls.tmp.name, "venv")
+        cls.env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+        cls.env["HOME"] = os.path.join(cls.tmp.name, "home")  # the kernel spec goes under ~/.local/share/jupyter
+        cls.env["TRIBO_BUILD_DIR"] = ARGS.build_dir
+        package = os.path.join(ARGS.source_dir, "client/python")
+        cls.before = tree_snapshot(package)
+        subprocess.run(["/usr/bin/python3", "-m", "venv", "--system-site-packages", cls.venv], check=True, timeout=120)
+        cls.pip = subprocess.run([cls.bin("pip"), "install", "--no-build-isolation", "--no-index", package],
+                                 capture_output=True, text=True, env=cls.env, cwd=ARGS.source_dir, timeout=300)
+        cls.after = tree_snapshot(package)
+        cls.env.pop("TRIBO_BUILD_DIR")
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    @classmethod
+    def bin(cls, name):
+        return os.path.join(cls.venv, "bin", name)
+
+    def run_in(self, args, cwd, timeout=60):
+        return subprocess.run(args, capture_output=True, text=True, env=self.env, cwd=cwd, timeout=timeout)
+
+    def test_pip_installs_offline_and_leaves_the_checkout_as_it_was(self):
+        self.assertEqual(self.pip.returncode, 0, self.pip.stdout[-2000:] + self.pip.stderr[-2000:])
+        changed = sorted(p for p in set(self.before) | set(self.after) if self.before.get(p) != self.after.get(p))
+        self.assertEqual(changed, [], "pip install wrote into client/python")
+        check = ("import tribo_client, tribo_client.sim as sim, tribo_client.campaign;"
+                 "from tribo.v1 import api_pb2;"
+                 "print(tribo_client.__file__); print(sim.software_version)")
+        result = self.run_in([self.bin("python"), "-c", check], self.tmp.name)
+        self.assertEqual(result.returncode, 0, result.stderr)
+        self.assertIn(os.path.join(self.venv, "lib"), result.stdout)
+        campaign = self.run_in([self.bin("tribo-campaign"), "--version"], self.tmp.name)
+        self.assertEqual(campaign.returncode, 0, campaign.stderr)
+        self.assertIn("tribo-campaign", campaign.stdout)
+
+    def test_example_notebook_runs_on_the_venv_kernel(self):
+        self.assertEqual(self.pip.returncode, 0, self.pip.stderr[-2000:])
+        kernel = self.run_in([self.bin("python"), "-m", "ipykernel", "install", "--user", "--name", "tribo",
+                              "--display-name", "Python (tribo)"], self.tmp.name)
+        self.assertEqual(kernel.returncode, 0, kernel.stderr)
+        # The notebook copied out of the checkout (it writes scratch.png beside itself), pointed back at it.
+        work = os.path.join(self.tmp.name, "notebook")
+        os.makedirs(work)
+        notebook = shutil.copy(os.path.join(ARGS.source_dir, "client/python/examples/simulated_scratch.ipynb"), work)
+        env = dict(self.env, TRIBO_SOURCE_DIR=ARGS.source_dir)
+        result = subprocess.run(["jupyter-execute", "--kernel_name=tribo", notebook], capture_output=True, text=True,
+                                env=env, cwd=work, timeout=240)
+        self.assertEqual(result.returncode, 0, result.stderr[-3000:])
+        self.assertEqual(png_dpi(os.path.join(work, "scratch.png")), 200)
+        # The system interpreter's kernel (the notebook's own, "python3") cannot import the package:
+        # the kernel step is what makes the notebook run.
+        default = subprocess.run(["jupyter-execute", notebook], capture_output=True, text=True, env=env, cwd=work,
+                                 timeout=240)
+        self.assertNotEqual(default.returncode, 0)
+        self.assertIn("No module named 'tribo_client'", default.stderr)
 
 
 if __name__ == "__main__":
