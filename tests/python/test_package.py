@@ -96,7 +96,8 @@ class RunFolder(unittest.TestCase):
         self.assertEqual(labels, ["force (µN)", "friction coefficient µ", "normal force (µN)",
                                   "lateral position (µm)"])
         # Nothing but lateral forces on the force axis (no scaled normal force).
-        self.assertEqual([l.get_label() for l in axes[0].get_lines()], ["lateral force (signed)", "friction (sliding)"])
+        self.assertEqual([l.get_label() for l in axes[0].get_lines()],
+                         ["lateral force\n(+ towards +x)", "friction while sliding\n(against the motion)"])
         # Every legend lies beside its axes, not over the data.
         fig.canvas.draw()
         renderer = fig.canvas.get_renderer()
@@ -111,6 +112,55 @@ class RunFolder(unittest.TestCase):
         steady = np.nanmedian(mu)
         self.assertGreater(steady, 0.05)
         self.assertLess(steady, 0.2)
+
+
+class SixPassFigure(unittest.TestCase):
+    """The run figure of a 6-pass velocity reversal (config/protocols/velocity_reversal.textproto)."""
+
+    @classmethod
+    def setUpClass(cls):
+        from tribo_client import sim
+        config = sim.load_config(os.path.join(ARGS.source_dir, "config/tribod.textproto"))
+        cls.simulated = sim.simulate(config, os.path.join(ARGS.source_dir, "config/protocols/velocity_reversal.textproto"),
+                               seed=1)
+        cls.fig = plots.plot_run(cls.simulated, metrics=sim.metrics(cls.simulated))
+        cls.fig.canvas.draw()
+        cls.renderer = cls.fig.canvas.get_renderer()
+
+    @classmethod
+    def tearDownClass(cls):
+        import matplotlib.pyplot as plt
+        plt.close(cls.fig)
+
+    def test_no_two_labels_overlap(self):
+        for ax in self.fig.axes:
+            texts = [t for t in ax.texts if t.get_visible() and t.get_text()]
+            boxes = [t.get_window_extent(self.renderer) for t in texts]
+            for i in range(len(boxes)):
+                for j in range(i + 1, len(boxes)):
+                    self.assertFalse(boxes[i].overlaps(boxes[j]),
+                                     f"'{texts[i].get_text()}' overlaps '{texts[j].get_text()}'")
+        segment_labels = [t.get_text() for t in self.fig.axes[0].texts if t.get_position()[1] > 1]
+        self.assertEqual(len(segment_labels), 10, segment_labels)  # every segment named, shortened where needed
+        self.assertIn("2: stroke", segment_labels)
+        scratch_labels = [t.get_text() for t in self.fig.axes[1].texts]
+        self.assertEqual(len(scratch_labels), 6, scratch_labels)  # the steady µ of every pass
+
+    def test_friction_and_mu_are_not_negative_at_reversals(self):
+        friction = plots.friction_n(self.simulated.samples)
+        mu = plots.friction_coefficient(self.simulated.samples)
+        self.assertGreater(np.count_nonzero(np.isfinite(friction)), len(friction) // 2)
+        self.assertGreater(np.nanmin(friction), 0)
+        self.assertGreater(np.nanmin(mu), 0)
+        # The figure's friction and µ lines are those.
+        for ax, label in ((self.fig.axes[0], "friction while sliding"), (self.fig.axes[1], "µ = friction")):
+            line = next(l for l in ax.get_lines() if l.get_label().startswith(label))
+            self.assertGreater(np.nanmin(line.get_ydata()), 0)
+
+    def test_units_on_the_axes(self):
+        self.assertEqual([ax.get_ylabel() for ax in self.fig.axes],
+                         ["force (µN)", "friction coefficient µ", "normal force (µN)", "lateral position (µm)"])
+        self.assertEqual(self.fig.axes[-1].get_xlabel(), "time (s)")
 
 
 def tree_snapshot(root):
