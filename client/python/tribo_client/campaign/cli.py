@@ -25,8 +25,11 @@ def main(argv=None):
     parser.add_argument("--out", help="results directory (default: campaigns/<name> in the current directory)")
     parser.add_argument("--scheduler", help="address of a running Dask scheduler, e.g. tcp://HOST:8786 "
                                             "(default: a local cluster on 127.0.0.1)")
-    parser.add_argument("--workers", type=int, help="local cluster: worker processes (default: one per core)")
-    parser.add_argument("--limit", type=int, help="run at most this many new runs, then stop (resumable)")
+    parser.add_argument("--workers", type=int, help="local cluster: worker processes (default: one per core), "
+                                                    "started once the runs left would take over 3 s in this "
+                                                    "process; 1: every run in this process")
+    parser.add_argument("--limit", type=int, help="run at most this many new runs, then stop (resumable; the "
+                                                  "tables are then named *.partial.*)")
     parser.add_argument("--dry-run", action="store_true", help="expand and validate the spec, run nothing")
     parser.add_argument("--version", action="version", version=_version())
     args = parser.parse_args(argv)
