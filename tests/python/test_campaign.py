@@ -173,8 +173,8 @@ class Interrupted(unittest.TestCase):
             kept = len(results_done(out))
             self.assertGreaterEqual(kept, 2)
             self.assertLess(kept, 6)
-            self.assertIn(f"interrupted: {kept} runs done are kept in {os.path.join(out, 'runs')}", stderr)
-            self.assertIn(f"{6 - kept} not run", stderr)
+            self.assertIn(f"interrupted: {kept} of 6 runs done, kept in {os.path.join(out, 'runs')}", stderr)
+            self.assertIn(f"; {6 - kept} not run", stderr)
             self.assertFalse(os.path.exists(os.path.join(out, "results.csv")))
             # Nothing of it is left running: no worker, no forkserver.
             deadline = time.monotonic() + 30

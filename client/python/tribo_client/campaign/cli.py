@@ -70,9 +70,10 @@ def _run(campaign, out_dir, args):
     outcome = run_campaign(campaign, out_dir, scheduler=args.scheduler, workers=args.workers, limit=args.limit)
     kept = len(campaign.tasks) - outcome.left
     if outcome.interrupted:
-        print(f"tribo-campaign: interrupted: {kept} runs done are kept in {os.path.join(out_dir, 'runs')} "
-              f"({kept - outcome.skipped} this time, {outcome.skipped} before), {outcome.left} not run; "
-              "no table written: rerun the same command to finish (runs done are skipped)", file=sys.stderr)
+        print(f"tribo-campaign: interrupted: {kept} of {len(campaign.tasks)} runs done, kept in "
+              f"{os.path.join(out_dir, 'runs')} ({kept - outcome.skipped} this time, {outcome.skipped} before); "
+              f"{outcome.left} not run; no table written: rerun the same command to finish (runs done are "
+              "skipped)", file=sys.stderr)
         return 130
     partial = outcome.left > 0
     frame = write_results(out_dir, campaign.name, campaign.spec_path, partial)

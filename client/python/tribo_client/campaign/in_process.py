@@ -1,10 +1,11 @@
 """Runs of a campaign in the driver process, one after another, on a thread
-(the native module releases the GIL while it simulates and analyses, so the
-driver's main thread goes on recording, and starting a cluster). The local
-default begins this way: a campaign whose runs would all be done before a
-local cluster could start and pay for itself never starts one (runner.py)."""
+that also records each result (the native module releases the GIL while it
+simulates and analyses; the main thread only looks in now and then, to start
+a cluster, so the two hardly ever wait for each other's GIL on a loaded
+machine). The local default begins this way: a campaign whose runs would all
+be done before a local cluster could start and pay for itself never starts
+one (runner.py)."""
 
-import queue
 import threading
 import time
 
@@ -13,13 +14,12 @@ from . import worker
 
 class InProcessRunner(threading.Thread):
     """Takes tasks from the front of `tasks` (a deque shared with the main
-    thread, under `lock`) until it is empty or stop() is called; puts
-    (task, result) on `results`, then None when it ends."""
+    thread, under `lock`) until it is empty or stop() is called; hands each
+    (task, result) to `record` on this thread."""
 
-    def __init__(self, tasks, lock):
+    def __init__(self, tasks, lock, record):
         super().__init__(name="tribo-campaign-in-process", daemon=True)
-        self.tasks, self.lock = tasks, lock
-        self.results = queue.Queue()
+        self.tasks, self.lock, self.record = tasks, lock, record
         self._stop_requested = threading.Event()
         self._running_since = None
 
@@ -33,15 +33,12 @@ class InProcessRunner(threading.Thread):
         return time.monotonic() - since if since is not None else 0.0
 
     def run(self):
-        try:
-            while not self._stop_requested.is_set():
-                with self.lock:
-                    if not self.tasks:
-                        break
-                    task = self.tasks.popleft()
-                self._running_since = time.monotonic()
-                result = worker.execute_safely(task)
-                self._running_since = None
-                self.results.put((task, result))
-        finally:
-            self.results.put(None)
+        while not self._stop_requested.is_set():
+            with self.lock:
+                if not self.tasks:
+                    break
+                task = self.tasks.popleft()
+            self._running_since = time.monotonic()
+            result = worker.execute_safely(task)
+            self._running_since = None
+            self.record(task, result)

@@ -16,7 +16,6 @@ import collections
 import contextlib
 import json
 import os
-import queue
 import signal
 import sys
 import threading
@@ -39,6 +38,8 @@ CLUSTER_WORTH_S = 3.0
 # Tasks queued per worker thread beyond the one it runs: no worker waits
 # for the driver between two tasks.
 IN_FLIGHT_PER_SLOT = 2
+# How often the main thread looks at the in-process runs, to start a cluster.
+IN_PROCESS_LOOK_S = 0.1
 
 RESULT_FILE = "result.json"
 
@@ -102,26 +103,38 @@ class Outcome:
 
 
 class _Recorder:
-    """Writes each result as it arrives, advances the progress line, learns the per-run cost."""
+    """Writes each result as it arrives, advances the progress line, learns
+    the per-run cost; from the main thread and the in-process runner's."""
 
     def __init__(self, out_dir, progress, stream, outcome):
         self.out_dir, self.progress, self.stream, self.outcome = out_dir, progress, stream, outcome
         self.cost = RunCost()
         self._errors_said = set()
+        self._lock = threading.Lock()
 
     def result(self, task, result):
-        if "exception" in result:
-            self.failed(task, result["exception"])
-            return
-        record_result(self.out_dir, task, result)
-        ok = result["row"].get("status") == "ok"
-        self.outcome.attempted += 1
-        self.outcome.failed += 0 if ok else 1
-        self.cost.add(result["row"])
-        self.progress.advance(ok)
+        with self._lock:
+            if "exception" in result:
+                self._failed(task, result["exception"])
+                return
+            record_result(self.out_dir, task, result)
+            ok = result["row"].get("status") == "ok"
+            self.outcome.attempted += 1
+            self.outcome.failed += 0 if ok else 1
+            self.cost.add(result["row"])
+            self.progress.advance(ok)
+
+    def in_process_result(self, task, result):
+        with self._lock:
+            self.outcome.in_process += 1
+        self.result(task, result)
 
     def failed(self, task, error):
         """A run without a result (a lost worker, an exception): not recorded, retried on restart."""
+        with self._lock:
+            self._failed(task, error)
+
+    def _failed(self, task, error):
         self.outcome.attempted += 1
         self.outcome.failed += 1
         if error not in self._errors_said:  # each cause once, not once per run
@@ -221,12 +234,13 @@ def _run_locally(tasks, workers, recorder, local_directory):
     runs left are worth one. The in-process runner goes on while the cluster
     starts."""
     todo, lock = collections.deque(tasks), threading.Lock()
-    local = InProcessRunner(todo, lock)
+    local = InProcessRunner(todo, lock, recorder.in_process_result)
     local.start()
     client = cluster = None
     try:
-        while _record_in_process(local, recorder, timeout=0.05):
-            if workers > 1 and _worth_a_cluster(recorder.cost, local, todo, lock):
+        while local.is_alive():
+            local.join(timeout=IN_PROCESS_LOOK_S)
+            if local.is_alive() and workers > 1 and _worth_a_cluster(recorder.cost, local, todo, lock):
                 break
         else:
             return  # all done in this process
@@ -235,7 +249,8 @@ def _run_locally(tasks, workers, recorder, local_directory):
         with lock:
             rest = list(todo)
             todo.clear()
-        _run_on_cluster(client, rest, recorder, lambda: workers, local)
+        _run_on_cluster(client, rest, recorder, lambda: workers)
+        local.join()  # its last run, recorded on its thread
     except KeyboardInterrupt:
         local.stop()
         _finish_in_process(local, recorder)
@@ -249,34 +264,15 @@ def _finish_in_process(local, recorder):
     """After Ctrl-C: the run in progress in this process ends and is kept
     (a native call cannot be abandoned: the interpreter would abort at
     exit); a second Ctrl-C exits at once, without it."""
-    if local.is_alive():
-        recorder.progress.interrupt()
-        print("stopping: the run in progress in this process ends first (Ctrl-C again to drop it)",
-              file=recorder.stream)
-        previous = signal.signal(signal.SIGINT, lambda *_: os._exit(130))
-        try:
-            local.join()
-        finally:
-            signal.signal(signal.SIGINT, previous)
-    _record_in_process(local, recorder, timeout=None)
-
-
-def _record_in_process(local, recorder, timeout):
-    """Records what the in-process runner has finished, waiting up to
-    `timeout` for the first (None: not at all); False once it has ended and
-    all is recorded."""
-    block = timeout is not None
-    while True:
-        try:
-            item = local.results.get(block=block, timeout=timeout)
-        except queue.Empty:
-            return True
-        if item is None:
-            local.results.put(None)  # stays ended for the next call
-            return False
-        recorder.outcome.in_process += 1
-        recorder.result(*item)
-        block = False
+    if not local.is_alive():
+        return
+    recorder.progress.interrupt()
+    print("stopping: the run in progress in this process ends first (Ctrl-C again to drop it)", file=recorder.stream)
+    previous = signal.signal(signal.SIGINT, lambda *_: os._exit(130))
+    try:
+        local.join()
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _worth_a_cluster(cost, local, todo, lock):
@@ -288,10 +284,9 @@ def _worth_a_cluster(cost, local, todo, lock):
     return per_run * left > CLUSTER_WORTH_S
 
 
-def _run_on_cluster(client, tasks, recorder, slots, local=None):
+def _run_on_cluster(client, tasks, recorder, slots):
     """Submits the tasks in batches, at most IN_FLIGHT_PER_SLOT per worker
-    thread ahead; records each run as its batch returns. local: an
-    in-process runner finishing its last run, recorded alongside."""
+    thread ahead; records each run as its batch returns."""
     from distributed import as_completed
     todo = collections.deque(tasks)
     in_flight = {}
@@ -306,8 +301,6 @@ def _run_on_cluster(client, tasks, recorder, slots, local=None):
                 in_flight[future.key] = (future, batch)
                 completed.add(future)
                 recorder.outcome.task_sizes.append(len(batch))
-            if local is not None and not _record_in_process(local, recorder, timeout=None):
-                local = None
             if not in_flight:
                 break
             future = next(completed)
@@ -320,9 +313,6 @@ def _run_on_cluster(client, tasks, recorder, slots, local=None):
                 continue
             for task, result in zip(batch, results):
                 recorder.result(task, result)
-        if local is not None:
-            local.join()
-            _record_in_process(local, recorder, timeout=None)
     finally:
         if in_flight:  # interrupted: nothing left running for this campaign
             with _sigint_ignored():
