@@ -9,7 +9,7 @@
                        observations against the grid column `x`, one line per
                        value of the grid column `lines` (optional), the
                        dissertation's value dashed, the base config's x dotted;
-                       the last panel counts the rows within issue 14's goals
+                       the last panel counts the rows within the scorecard's goals
 (NAME.partial.EXT when runs are left: results.py)"""
 
 import json
