@@ -17,7 +17,12 @@
 //   - the mean friction of the standard scratch over seeds, with and without.
 //
 //   build/bench/friction_compensation_figures --config config/tribod.textproto --model REPORT.json
-//       [--robustness] [--seeds 5] [--traces DIR] [--json FILE]
+//       [--robustness] [--seeds 5] [--json FILE]
+//
+// Or the break-away and reversal figures of two recorded runs of
+// breakaway_velocities.textproto (tribod's, or `tribo run --out`):
+//
+//   build/bench/friction_compensation_figures --before RUN_DIR --after RUN_DIR
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -62,14 +67,40 @@ double mean_friction_un(const tribo::v1::DaemonConfig& config, const tribo::v1::
   return summary.scratches_size() > 0 ? summary.scratches(0).mean_friction_un() : std::nan("");
 }
 
-void write_trace(const std::filesystem::path& path, const InProcessRun& run) {
-  std::ofstream out(path);
-  out << "t_s,segment,lateral_setpoint_m,lateral_position_m,lateral_force_N,normal_force_N\n";
-  for (const tribo::Sample& s : run.samples) {
-    out << fmt::format("{},{},{},{},{},{}\n", s.time_s, s.segment_index, s.lateral_setpoint_m, s.lateral_position_m,
-                       s.lateral_force_n, s.normal_force_n);
+// The break-away and tracking figures of one run, as a table row.
+std::string figures_row(const std::string& name, const InProcessRun& run, bool simulated, Json& row) {
+  const auto slides = tribo::testing::segments_named(run, "slide");
+  std::string os, tos, tts;
+  row["model"] = name;
+  for (std::size_t i = 0; i < slides.size() && i < 3; ++i) {
+    const auto b = tribo::testing::breakaway_figures(run, slides[i]);
+    os += fmt::format("{}{:.2f}", i ? " / " : "", b.overshoot);
+    tos += fmt::format("{}{:.2f}", i ? " / " : "", b.true_overshoot);
+    tts += fmt::format("{}{:.3f}", i ? " / " : "", b.time_to_speed_s);
+    row["breakaway"].push_back({{"commanded_um_per_s", b.commanded_m_per_s * 1e6},
+                                {"overshoot", b.overshoot},
+                                {"true_overshoot", simulated ? Json(b.true_overshoot) : Json(nullptr)},
+                                {"time_to_speed_s", b.time_to_speed_s},
+                                {"stiction_peak_uN", b.stiction_peak_n * 1e6},
+                                {"true_stiction_peak_uN", simulated ? Json(b.true_stiction_peak_n * 1e6) : Json(nullptr)}});
   }
+  const auto t = tribo::testing::tracking_figures(run, "stroke");
+  const auto x = tribo::testing::run_extremes(run);
+  row["tracking"] = {{"steady_rms_um", t.steady_rms_m * 1e6}, {"lag_um", t.steady_mean_abs_m * 1e6},
+                     {"reversal_rms_um", t.reversal_rms_m * 1e6}, {"reversal_max_um", t.reversal_max_m * 1e6}};
+  row["max_abs_lateral_force_uN"] = x.max_abs_lateral_force_n * 1e6;
+  row["max_abs_compensation_uN"] = simulated ? Json(x.max_abs_compensation_n * 1e6) : Json(nullptr);
+  row["outcome"] = x.tripped ? "tripped: " + x.trip : "completed";
+  return fmt::format("| {} | {} | {} | {} | {:.3f} | {:.3f} | {:.3f} | {:.3f} | {:.0f} | {} |\n", name, os,
+                     simulated ? tos : "-", tts, t.steady_rms_m * 1e6, t.steady_mean_abs_m * 1e6,
+                     t.reversal_rms_m * 1e6, t.reversal_max_m * 1e6, x.max_abs_lateral_force_n * 1e6,
+                     x.tripped ? "tripped: " + x.trip : "completed");
 }
+
+constexpr const char* kTableHead =
+    "| model | overshoot 4 / 18 / 36 µm/s | true (1 ms) | time to speed, s | steady RMS, µm | "
+    "lag, µm | reversal RMS, µm | reversal max, µm | peak |F|, µN | outcome |\n"
+    "|---|---|---|---|---|---|---|---|---|---|\n";
 
 std::string read_text(const std::string& path) {
   auto text = tribo::wire::read_file(path);
@@ -81,17 +112,44 @@ std::string read_text(const std::string& path) {
 
 int main(int argc, char** argv) {
   CLI::App app("The friction compensation's figures, before and after (docs/friction_compensation.md)");
-  std::string config_path = "config/tribod.textproto", model_path, traces, json_path;
+  std::string config_path = "config/tribod.textproto", model_path, json_path, before_dir, after_dir;
   bool robustness = false, stick_slip = true;
   int seeds = 5;
   app.add_option("--config", config_path, "daemon config: the backend and the loop");
-  app.add_option("--model", model_path, "tribo-fit diagnose --json report to compensate with")->required();
+  auto* model = app.add_option("--model", model_path, "tribo-fit diagnose --json report to compensate with");
+  auto* before = app.add_option("--before", before_dir, "a recorded run of breakaway_velocities without compensation");
+  auto* after = app.add_option("--after", after_dir, "the same run with compensation");
+  before->needs(after);
+  after->needs(before);
+  model->excludes(before);
   app.add_flag("--robustness", robustness, "also the model with levels x1.3, x0.7 and sigma0 x0.5, x2");
   app.add_flag("--stick-slip,!--no-stick-slip", stick_slip, "the 10 Hz loop's stick-slip (simulated backend)");
   app.add_option("--seeds", seeds, "seeds 1..N for the mean friction of the standard scratch (0: skip)");
-  app.add_option("--traces", traces, "write the break-away runs' records here (CSV, for the plot)");
   app.add_option("--json", json_path, "also write the figures as JSON");
   CLI11_PARSE(app, argc, argv);
+  if (!before_dir.empty()) {
+    // Two recorded runs: the figures the records give.
+    Json out, row;
+    std::cout << "## Break-away at 9810 µN and reversals at 4 µm/s, from the records\n\n" << kTableHead;
+    for (const auto& [name, dir] : {std::pair{std::string("before: ") + before_dir, before_dir},
+                                    std::pair{std::string("after: ") + after_dir, after_dir}}) {
+      const InProcessRun run = tribo::testing::recorded_run(dir);
+      std::cout << figures_row(name, run, false, row);
+      out["breakaway"].push_back(row);
+      row = Json();
+    }
+    const auto start = tribo::testing::recorded_run(after_dir).start;
+    for (const auto& use : start.friction_models()) {
+      std::cout << fmt::format("\nafter: compensated with {} ({}), SHA-256 {}, {} segments\n", use.report_file(),
+                               use.contact(), use.report_sha256(), use.segments_size());
+    }
+    if (!json_path.empty()) std::ofstream(json_path) << out.dump(1) << "\n";
+    return 0;
+  }
+  if (model_path.empty()) {
+    std::cerr << "give --model REPORT, or --before DIR --after DIR\n";
+    return 2;
+  }
 
   tribo::v1::DaemonConfig config;
   if (auto error = tribo::daemon::load_daemon_config(config_path, config)) {
@@ -115,49 +173,15 @@ int main(int argc, char** argv) {
 
   const tribo::v1::Protocol breakaway = tribo::testing::shipped_protocol("breakaway_velocities.textproto");
   std::cout << "## Break-away at 9810 µN and reversals at 4 µm/s (seed 1, " << config_path << ")\n\n";
-  std::cout << "| model | overshoot 4 / 18 / 36 µm/s | true (1 ms) | time to speed, s | steady RMS, µm | "
-               "lag, µm | reversal RMS, µm | reversal max, µm | peak |F|, µN | outcome |\n"
-               "|---|---|---|---|---|---|---|---|---|---|\n";
+  std::cout << kTableHead;
   std::map<std::string, std::vector<double>> overshoots;
   for (const Variant& v : variants) {
     const InProcessRun run =
         tribo::testing::run_in_process(config, tribo::testing::with_friction_model(breakaway, v.report), 1);
-    if (!traces.empty()) {
-      std::filesystem::create_directories(traces);
-      write_trace(std::filesystem::path(traces) / (v.report.empty() ? "breakaway_without.csv"
-                                                   : v.name == "with the model" ? "breakaway_with.csv"
-                                                                                : "breakaway_" + v.name + ".csv"),
-                  run);
-    }
-    const auto slides = tribo::testing::segments_named(run, "slide");
-    std::string os, tos, tts;
     Json row;
-    row["model"] = v.name;
-    double peak_force = 0;
-    for (std::size_t i = 0; i < slides.size() && i < 3; ++i) {
-      const auto b = tribo::testing::breakaway_figures(run, slides[i]);
-      overshoots[v.name].push_back(b.overshoot);
-      os += fmt::format("{}{:.2f}", i ? " / " : "", b.overshoot);
-      tos += fmt::format("{}{:.2f}", i ? " / " : "", b.true_overshoot);
-      tts += fmt::format("{}{:.3f}", i ? " / " : "", b.time_to_speed_s);
-      peak_force = std::max(peak_force, b.peak_lateral_force_n);
-      row["breakaway"].push_back({{"commanded_um_per_s", b.commanded_m_per_s * 1e6},
-                                  {"overshoot", b.overshoot},
-                                  {"true_overshoot", simulated ? Json(b.true_overshoot) : Json(nullptr)},
-                                  {"time_to_speed_s", b.time_to_speed_s}});
-    }
-    const auto t = tribo::testing::tracking_figures(run, "stroke");
-    const auto x = tribo::testing::run_extremes(run);
-    row["tracking"] = {{"steady_rms_um", t.steady_rms_m * 1e6}, {"lag_um", t.steady_mean_abs_m * 1e6},
-                       {"reversal_rms_um", t.reversal_rms_m * 1e6}, {"reversal_max_um", t.reversal_max_m * 1e6}};
-    row["max_abs_lateral_force_uN"] = x.max_abs_lateral_force_n * 1e6;
-    row["max_abs_compensation_uN"] = simulated ? Json(x.max_abs_compensation_n * 1e6) : Json(nullptr);
-    row["outcome"] = x.tripped ? "tripped: " + x.trip : "completed";
+    std::cout << figures_row(v.name, run, simulated, row);
+    for (const Json& b : row["breakaway"]) overshoots[v.name].push_back(b["overshoot"].get<double>());
     out["breakaway"].push_back(row);
-    std::cout << fmt::format("| {} | {} | {} | {} | {:.3f} | {:.3f} | {:.3f} | {:.3f} | {:.0f} | {} |\n", v.name, os,
-                             simulated ? tos : "-", tts, t.steady_rms_m * 1e6, t.steady_mean_abs_m * 1e6,
-                             t.reversal_rms_m * 1e6, t.reversal_max_m * 1e6, x.max_abs_lateral_force_n * 1e6,
-                             x.tripped ? "tripped: " + x.trip : "completed");
   }
   if (variants.size() > 2) {
     std::cout << "\nShare of the overshoot's reduction that remains (4 / 18 / 36 µm/s):\n\n";
@@ -214,12 +238,12 @@ int main(int argc, char** argv) {
       sum_a += a;
       sum_aa += a * a;
       out["mean_friction"].push_back({{"seed", seed}, {"without_uN", a}, {"with_uN", b}});
-      std::cout << fmt::format("| {} | {:.2f} | {:.2f} | {:+.2f} |\n", seed, a, b, b - a);
+      std::cout << fmt::format("| {} | {:.3f} | {:.3f} | {:+.4f} |\n", seed, a, b, b - a);
     }
     const double n = seeds, mean_d = sum_d / n, mean_a = sum_a / n;
     const double sd_a = n > 1 ? std::sqrt(std::max(0.0, (sum_aa - n * mean_a * mean_a) / (n - 1))) : 0.0;
     const double sd_d = n > 1 ? std::sqrt(std::max(0.0, (sum_dd - n * mean_d * mean_d) / (n - 1))) : 0.0;
-    std::cout << fmt::format("\nmean difference {:+.2f} µN (sd {:.2f} µN over the seeds); the uncompensated "
+    std::cout << fmt::format("\nmean difference {:+.4f} µN (sd {:.4f} µN over the seeds); the uncompensated "
                              "friction spreads by sd {:.2f} µN over the seeds\n",
                              mean_d, sd_d, sd_a);
   }

@@ -12,6 +12,7 @@
 #include "daemon/run_documents.h"
 #include "hal/backend_factory.h"
 #include "hal/sim_transducer.h"
+#include "proto/run_files.h"
 #include "proto/text_format_file.h"
 #include "sim/instrument_params.h"
 
@@ -58,10 +59,31 @@ InProcessRun run_in_process(const v1::DaemonConfig& config, const v1::Protocol& 
     if (sim) {
       run.true_position_m.push_back(sim->instrument().truth().lateral.position_m);
       run.compensation_n.push_back(loop.controller().last_compensation_n());
+      run.true_friction_n.push_back(sim->instrument().truth().friction_n);
+      run.true_tilt_n.push_back(sim->instrument().truth().tip_force_n);
     }
   }
   while (queue.try_pop(sample)) run.samples.push_back(sample);
   run.outcome = loop.outcome();
+  if (run.outcome.end == daemon::RunEnd::kTripped) run.end_reason = daemon::trip_description(run.outcome.trip);
+  return run;
+}
+
+InProcessRun recorded_run(const std::string& run_dir) {
+  std::string error;
+  const auto recorded = wire::read_run_directory(run_dir, error);
+  if (!recorded) throw std::runtime_error(run_dir + ": " + error);
+  InProcessRun run;
+  run.start = recorded->metadata.start();
+  run.loop_period_s = 1.0 / run.start.loop_rate_hz();
+  const int n = sample_count(recorded->samples);
+  run.samples.reserve(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) run.samples.push_back(sample_at(recorded->samples, i));
+  const auto& stop = recorded->metadata.stop();
+  run.outcome.end = stop.exit_status() == v1::FAULT ? daemon::RunEnd::kTripped
+                    : stop.exit_status() == v1::ABORT ? daemon::RunEnd::kAborted
+                                                       : daemon::RunEnd::kCompleted;
+  run.end_reason = stop.reason();
   return run;
 }
 
@@ -139,7 +161,15 @@ BreakawayFigures breakaway_figures(const InProcessRun& run, std::uint32_t segmen
     f.peak_lateral_force_n = std::max(f.peak_lateral_force_n, std::fabs(s[sp.first + k].lateral_force_n));
   }
   f.overshoot = peak / f.commanded_m_per_s;
+  // 20 ms means, as the summary's stiction peak.
+  const auto per_20ms = static_cast<std::size_t>(std::max(1L, std::lround(0.02 / dt)));
+  for (std::size_t k = sp.first; k + per_20ms <= sp.end; ++k) {
+    double sum = 0;
+    for (std::size_t j = k; j < k + per_20ms; ++j) sum += sign * s[j].lateral_force_n;
+    f.stiction_peak_n = std::max(f.stiction_peak_n, sum / static_cast<double>(per_20ms));
+  }
   f.true_overshoot = std::numeric_limits<double>::quiet_NaN();
+  f.true_stiction_peak_n = std::numeric_limits<double>::quiet_NaN();
   if (!run.true_position_m.empty()) {
     const std::size_t per_ms = static_cast<std::size_t>(std::lround(1e-3 / run.loop_period_s));
     const auto t0 = static_cast<std::size_t>(std::llround(segment_start_s(run, segment) / run.loop_period_s));
@@ -151,6 +181,14 @@ BreakawayFigures breakaway_figures(const InProcessRun& run, std::uint32_t segmen
                                           (static_cast<double>(per_ms) * run.loop_period_s));
     }
     f.true_overshoot = true_peak / f.commanded_m_per_s;
+    const auto per_20ms_ticks = static_cast<std::size_t>(std::lround(0.02 / run.loop_period_s));
+    double sum = 0, best = 0;
+    for (std::size_t k = t0; k < t1; ++k) {
+      sum += sign * run.true_friction_n[k] - run.true_tilt_n[k];
+      if (k >= t0 + per_20ms_ticks) sum -= sign * run.true_friction_n[k - per_20ms_ticks] - run.true_tilt_n[k - per_20ms_ticks];
+      if (k + 1 >= t0 + per_20ms_ticks) best = std::max(best, sum / static_cast<double>(per_20ms_ticks));
+    }
+    f.true_stiction_peak_n = best;
   }
   return f;
 }
@@ -200,7 +238,7 @@ RunExtremes run_extremes(const InProcessRun& run) {
   for (const Sample& s : run.samples) x.max_abs_lateral_force_n = std::max(x.max_abs_lateral_force_n, std::fabs(s.lateral_force_n));
   for (double c : run.compensation_n) x.max_abs_compensation_n = std::max(x.max_abs_compensation_n, std::fabs(c));
   x.tripped = run.outcome.end == daemon::RunEnd::kTripped;
-  if (x.tripped) x.trip = daemon::trip_description(run.outcome.trip);
+  if (x.tripped) x.trip = run.end_reason;
   return x;
 }
 

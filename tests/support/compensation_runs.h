@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -30,16 +31,23 @@ struct InProcessRun {
   std::vector<Sample> samples;           // the record
   v1::RunStart start;                    // the start document tribod would write
   daemon::RunOutcome outcome;
+  std::string end_reason;                // a trip's or an abort's description, else empty
   double loop_period_s = 0;
   // Per loop tick, simulated backend only (empty otherwise): the plate's true
   // position and the compensation's share of the lateral drive.
   std::vector<double> true_position_m;
   std::vector<double> compensation_n;
+  std::vector<double> true_friction_n;   // the contact's friction on the tip (+: against +x motion)
+  std::vector<double> true_tilt_n;       // the tilt's push on the tip, N tan(theta) towards +x
 };
 
 // Validates (throws with the first error) and runs the protocol unpaced
 // (paced for a Modbus backend) with the seed.
 InProcessRun run_in_process(const v1::DaemonConfig& config, const v1::Protocol& protocol, std::uint64_t seed);
+
+// A run recorded by tribod or `tribo run --out` (metadata.json and
+// samples.csv; no per-tick truth). Throws if it cannot be read.
+InProcessRun recorded_run(const std::string& run_dir);
 
 // The record's velocity: the least-squares slope of the recorded position
 // over a centred window of half_width samples each side (at the edges, the
@@ -54,6 +62,12 @@ struct BreakawayFigures {
   double true_overshoot = 0;     // the tip's true velocity over 1 ms (simulated backend; else NaN)
   double time_to_speed_s = 0;    // from the segment's start to the record's velocity first reaching the commanded
   double peak_lateral_force_n = 0;  // largest |recorded lateral force| in the segment
+  // The stiction peak as the run summary takes it, the highest 20 ms mean of
+  // the recorded lateral force along the motion; and (simulated backend, else
+  // NaN) the same of what the transducer would read were there no inertia,
+  // the contact's true friction less the tilt's push.
+  double stiction_peak_n = 0;
+  double true_stiction_peak_n = 0;
 };
 BreakawayFigures breakaway_figures(const InProcessRun& run, std::uint32_t segment);
 
