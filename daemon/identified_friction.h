@@ -1,8 +1,9 @@
 // The friction model an identification found (tribo-fit diagnose --json,
 // its final_model), in the form the real-time friction observer evaluates:
 // plain numbers, SI, no allocation. The equations are those tribo-fit fits
-// (analysis/friction_model.h), restricted to the extensions a compensation
-// can evaluate from the motion it measures:
+// (analysis/friction_model.h), restricted to the extensions whose states the
+// observer can carry along a motion (daemon/friction_report.h says which a
+// report may use):
 //
 //   S(v)  = L (Fc + (Fs' - Fc) exp(-(|v|/vs)^delta)            L = N if load-scaled, else 1
 //              + c_v ln((|v| + v_f)/v_ref)                     velocity_strengthening

@@ -165,6 +165,7 @@ class Checker {
   AxisState lateral_{v1::LATERAL_DISPLACEMENT, Range::point(0)};     // at the neutral point
   Range lateral_position_um_ = Range::point(0);
   Range normal_drive_un_ = Range::point(0);
+  double max_compensation_n_;                    // supervisor.max_friction_compensation_n, or its default
   std::vector<FrictionReport> friction_models_;  // one per distinct report
   int protocol_friction_model_ = -1;             // the protocol's, -1 none
   std::string protocol_friction_field_ = "friction_compensation";
@@ -174,7 +175,8 @@ Checker::Checker(const v1::DaemonConfig& config)
     : config_(config),
       loop_hz_(config.controller().loop_rate_hz()),
       normal_axis_(electrostatic_axis_from_config(config.transducer().normal())),
-      lateral_axis_(electrostatic_axis_from_config(config.transducer().lateral())) {}
+      lateral_axis_(electrostatic_axis_from_config(config.transducer().lateral())),
+      max_compensation_n_(supervisor_params_from_config(config).max_friction_compensation_n) {}
 
 std::optional<double> Checker::lateral_distance_um(const AxisFields& f, const AxisState& previous,
                                                    bool start_fresh) const {
@@ -242,7 +244,7 @@ void Checker::check_compensation_bound(int model, const std::string& field, cons
   if (m.direction_asymmetry) level *= 1 + std::fabs(m.asymmetry_levels);
   const double viscous = std::fabs(m.viscous_n_s_per_m) * (m.direction_asymmetry ? 1 + std::fabs(m.asymmetry_viscous) : 1);
   const double bound = level + (viscous + m.sigma1_n_s_per_m) * speed + std::fabs(m.tilt_tan) * load_n;
-  const double limit = supervisor_params_from_config(config_).max_friction_compensation_n;
+  const double limit = max_compensation_n_;
   if (!(bound <= limit)) {
     error(field, label + ": friction compensation (" + (r.report_file.empty() ? r.contact : r.report_file) +
                      ") may reach " + fmt(bound / kMicro) + " µN at " + fmt(max_load_un) + " µN and " +

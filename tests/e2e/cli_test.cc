@@ -271,7 +271,12 @@ TEST(TriboCli, RunWithAFrictionModelRecordsWhichReport) {
   const auto ran = tribo({"run", kStandardProtocolPath, "--friction-model", report, "--out",
                           (out.path() / "run").string(), "--json"});
   ASSERT_EQ(ran.exit_code, 0) << ran.err;
-  EXPECT_EQ(parse_json<v1::RunSummary>(ran.out).exit_status(), "SUCCESS");
+  const auto summary = parse_json<v1::RunSummary>(ran.out);
+  EXPECT_EQ(summary.exit_status(), "SUCCESS");
+  ASSERT_EQ(summary.friction_compensation_size(), 1);
+  EXPECT_EQ(summary.friction_compensation(0).report_sha256(),
+            "8e97474e04076d74d1d9601fbd005e21276ec9f28ec6427ff41f64d99bba46bf");
+  EXPECT_EQ(summary.friction_compensation(0).segments(), 5u);
   std::string error;
   const auto metadata = wire::read_run_metadata(out.path() / "run", error);
   ASSERT_TRUE(metadata) << error;
