@@ -73,13 +73,16 @@ InProcessRun recorded_run(const std::string& run_dir) {
   std::string error;
   const auto recorded = wire::read_run_directory(run_dir, error);
   if (!recorded) throw std::runtime_error(run_dir + ": " + error);
+  return recorded_run(recorded->metadata.start(), recorded->samples, recorded->metadata.stop());
+}
+
+InProcessRun recorded_run(const v1::RunStart& start, const v1::SampleBlock& samples, const v1::RunStop& stop) {
   InProcessRun run;
-  run.start = recorded->metadata.start();
+  run.start = start;
   run.loop_period_s = 1.0 / run.start.loop_rate_hz();
-  const int n = sample_count(recorded->samples);
+  const int n = sample_count(samples);
   run.samples.reserve(static_cast<std::size_t>(n));
-  for (int i = 0; i < n; ++i) run.samples.push_back(sample_at(recorded->samples, i));
-  const auto& stop = recorded->metadata.stop();
+  for (int i = 0; i < n; ++i) run.samples.push_back(sample_at(samples, i));
   run.outcome.end = stop.exit_status() == v1::FAULT ? daemon::RunEnd::kTripped
                     : stop.exit_status() == v1::ABORT ? daemon::RunEnd::kAborted
                                                        : daemon::RunEnd::kCompleted;

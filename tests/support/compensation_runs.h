@@ -48,6 +48,8 @@ InProcessRun run_in_process(const v1::DaemonConfig& config, const v1::Protocol& 
 // A run recorded by tribod or `tribo run --out` (metadata.json and
 // samples.csv; no per-tick truth). Throws if it cannot be read.
 InProcessRun recorded_run(const std::string& run_dir);
+// The same from its documents: the start document, the samples and the stop.
+InProcessRun recorded_run(const v1::RunStart& start, const v1::SampleBlock& samples, const v1::RunStop& stop);
 
 // The record's velocity: the least-squares slope of the recorded position
 // over a centred window of half_width samples each side (at the edges, the
