@@ -695,7 +695,12 @@ void define_commands(CLI::App& app, Options& o, std::map<CLI::App*, Command>& co
   run->add_option("PROTOCOL", o.positional, "protocol file (protobuf text format)")->required();
   value_option(run, o, "out", "also save the run to this directory (refused if it exists, unless --force)");
   value_option(run, o, "seed", "noise seed of the simulated instrument");
-  run->add_flag("--progress,!--no-progress", o.progress, "draw the live progress line (default: on a terminal)");
+  // A flag function, not add_flag on the optional: CLI11 sets an optional
+  // bound by add_flag (to false) even when neither flag is given, and then
+  // the terminal default never applies.
+  run->add_flag_function(
+      "--progress,!--no-progress", [&o](std::int64_t count) { o.progress = count > 0; },
+      "draw the live progress line (default: on a terminal)");
   run->add_flag("--force", o.force, "replace an existing --out directory");
   value_option(run, o, "sample", "the sample, recorded with the run (shown by `tribo list`)");
   value_option(run, o, "tip", "the tip, recorded with the run");

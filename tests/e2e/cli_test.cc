@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <fcntl.h>
+#include <pty.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -589,6 +590,53 @@ struct BackgroundCli {
 void wait_for_samples(client::TriboClient& observer) {
   while (!observer.next_event().has_samples()) {
   }
+}
+
+// `tribo ARGS...` with its standard streams on a pseudo-terminal, as in an
+// interactive shell: everything it wrote there, and its exit code.
+CommandResult run_on_terminal(const std::vector<std::string>& args) {
+  int master = -1;
+  const pid_t pid = forkpty(&master, nullptr, nullptr, nullptr);
+  if (pid == 0) {
+    std::vector<char*> argv;
+    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  CommandResult r;
+  if (pid < 0) return r;
+  char buf[4096];
+  for (;;) {  // until the child's side closes (EIO)
+    const ssize_t n = read(master, buf, sizeof buf);
+    if (n <= 0) break;
+    r.out.append(buf, static_cast<std::size_t>(n));
+  }
+  close(master);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+// On a terminal `tribo run` draws its live progress line without being
+// asked ("\r[####----]  50% seg 3/5 ..."), and --no-progress turns it off.
+TEST(TriboCli, RunDrawsTheProgressLineOnATerminalByDefault) {
+  TempDir data, cfg;
+  DaemonProcess daemon(data.path());
+  const auto protocol_file = cfg.path() / "short.textproto";
+  std::ofstream(protocol_file) << wire::to_text_proto(short_protocol());
+  const std::string address = "127.0.0.1:" + std::to_string(daemon.port());
+  const auto drawn = run_on_terminal({DaemonProcess::tribo_cli_path(), "run", protocol_file.string(), "--address", address});
+  ASSERT_EQ(drawn.exit_code, 0) << drawn.out;
+  EXPECT_NE(drawn.out.find("\r["), std::string::npos) << drawn.out;
+  EXPECT_NE(drawn.out.find("% seg "), std::string::npos) << drawn.out;
+  EXPECT_NE(drawn.out.find(": SUCCESS"), std::string::npos) << drawn.out;
+  const auto quiet = run_on_terminal(
+      {DaemonProcess::tribo_cli_path(), "run", protocol_file.string(), "--no-progress", "--address", address});
+  ASSERT_EQ(quiet.exit_code, 0) << quiet.out;
+  EXPECT_EQ(quiet.out.find("% seg "), std::string::npos) << quiet.out;
+  EXPECT_NE(quiet.out.find(": SUCCESS"), std::string::npos) << quiet.out;
 }
 
 TEST(TriboCli, CtrlCAbortsTheRunAndSaysWhatHappened) {
