@@ -722,7 +722,7 @@ void define_commands(CLI::App& app, Options& o, std::map<CLI::App*, Command>& co
       status_command);
   CLI::App* abort = add("abort",
                         "stop the running protocol (safe unload); works from another terminal while "
-                        "`tribo run` holds control, given the token",
+                        "`tribo run` holds control (with the token if the daemon has one)",
                         abort_command);
   value_option(abort, o, "reason", "why (recorded in the run's stop document)");
   CLI::App* list = add("list", "the recorded runs, newest first, with their sample, tip, operator and notes",

@@ -140,9 +140,8 @@ TEST(TriboCli, AbortStopsARunningProtocol) {
   std::thread runner([&] { tribo({"run", protocol_file.string()}); });
   while (!observer.next_event().has_samples()) {
   }
-  // Whether a second client may abort without a token on a daemon without
-  // one is the daemon's policy (AbortFromAnotherTerminalStopsTheCliRun has
-  // the token case); here the run just ends.
+  // AbortFromAnotherTerminal* abort a `tribo run` that holds control; here
+  // the run just ends.
   runner.join();
   // ...and a run started by a client that then releases control can be
   // aborted from the CLI.
@@ -657,6 +656,37 @@ TEST(TriboCli, CtrlCAbortsTheRunAndSaysWhatHappened) {
   const std::string out = slurp(cli.out), err = slurp(cli.err);
   EXPECT_NE(out.find(": ABORT (interrupted (Ctrl-C) in tribo run)"), std::string::npos) << out << err;
   EXPECT_NE(err.find("interrupted (Ctrl-C): the run was aborted with a safe unload"), std::string::npos) << err;
+}
+
+// The default config has no control token: `tribo abort` in a second
+// terminal stops the run the first one's `tribo run` controls, through the
+// normal stop sequence (ABORT, no re-arm needed).
+TEST(TriboCli, AbortFromAnotherTerminalStopsTheCliRunWithoutAToken) {
+  TempDir data, cfg;
+  DaemonProcess daemon(data.path(), write_config(cfg, paced_config()));
+  const std::string address = "127.0.0.1:" + std::to_string(daemon.port());
+  const Cli tribo{address};
+  client::TriboClient observer({"127.0.0.1", daemon.port()}, observer_session());
+  v1::ClientMessage subscribe;
+  subscribe.mutable_subscribe();
+  observer.request(subscribe);
+  const auto protocol_file = cfg.path() / "long.textproto";
+  v1::Protocol long_protocol = short_protocol();
+  long_protocol.mutable_segments(2)->set_duration_s(30);  // far longer than the test
+  long_protocol.mutable_segments(2)->mutable_lateral()->set_end_um(8);
+  long_protocol.mutable_segments(3)->mutable_lateral()->set_end_um(8);
+  std::ofstream(protocol_file) << wire::to_text_proto(long_protocol);
+  BackgroundCli run({DaemonProcess::tribo_cli_path(), "run", protocol_file.string(), "--address", address},
+                    cfg.path());
+  wait_for_samples(observer);
+  const auto aborted = tribo({"abort", "--reason", "from the other terminal"});
+  if (aborted.exit_code != 0) kill(run.pid, SIGINT);  // the run's own Ctrl-C ends it
+  EXPECT_EQ(aborted.exit_code, 0) << aborted.err;
+  EXPECT_EQ(run.wait(), 1);  // the run ended in ABORT
+  EXPECT_NE(slurp(run.out).find("ABORT (from the other terminal)"), std::string::npos) << slurp(run.out);
+  const auto status = parse_json<v1::StatusReply>(tribo({"status", "--json"}).out);
+  EXPECT_NE(status.state(), v1::FAULTED);  // no re-arm needed, unlike an emergency stop
+  EXPECT_FALSE(status.tripped());
 }
 
 TEST(TriboCli, AbortFromAnotherTerminalStopsTheCliRun) {
