@@ -517,6 +517,60 @@ TEST(TriboCli, CheckIsTheDryRunWithWarningsAndAPlot) {
   EXPECT_NE(unclosed.err.find("hint:"), std::string::npos) << unclosed.err;
 }
 
+// `tribo check PROTOCOL --config FILE` is the dry run offline: no daemon is
+// asked (the address is one where none listens), the config file's limits
+// and loop rate are those checked.
+TEST(TriboCli, CheckWithAConfigFileNeedsNoDaemon) {
+  TempDir dir;
+  const Cli tribo{"127.0.0.1:1"};  // nothing listens there
+  const std::string standard = std::string(TRIBO_SOURCE_DIR) + "/config/protocols/standard_scratch.textproto";
+  const auto offline = tribo({"check", standard, "--config", DaemonProcess::default_config_path()});
+  ASSERT_EQ(offline.exit_code, 0) << offline.err;
+  EXPECT_NE(offline.out.find("protocol standard-scratch-one-sided is valid: 32.000 s, 32000 samples expected"),
+            std::string::npos) << offline.out;
+  EXPECT_NE(offline.out.find("no daemon asked"), std::string::npos) << offline.out;
+  const auto json = tribo({"check", standard, "--config", DaemonProcess::default_config_path(), "--json"});
+  ASSERT_EQ(json.exit_code, 0) << json.err;
+  EXPECT_EQ(parse_json<v1::LoadProtocolReply>(json.out).expected_samples(), 32000u);
+  // Without --config the daemon is asked: none there, exit 3.
+  EXPECT_EQ(tribo({"check", standard}).exit_code, 3);
+
+  // The config's limits decide: a 5 mN scratch is refused under a 2 mN limit.
+  v1::DaemonConfig low = default_config();
+  low.mutable_limits()->set_max_normal_force_n(0.5e-3);
+  const std::string low_path = write_config(dir, low);
+  const auto refused = tribo({"check", standard, "--config", low_path});
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_NE(refused.err.find("segments[1].normal"), std::string::npos) << refused.err;
+  // A config that does not load is said as such.
+  const auto bad_config = tribo({"check", standard, "--config", (dir.path() / "none.textproto").string()});
+  EXPECT_EQ(bad_config.exit_code, 2);
+  EXPECT_NE(bad_config.err.find("none.textproto"), std::string::npos) << bad_config.err;
+}
+
+// A rule broken in every pass of a repeat block is said once, with the
+// passes, offline and by the daemon alike.
+TEST(TriboCli, CheckSaysARuleBrokenInEveryPassOnce) {
+  TempDir data, dir;
+  DaemonProcess daemon(data.path());
+  const Cli tribo{"127.0.0.1:" + std::to_string(daemon.port())};
+  v1::Protocol p;
+  ASSERT_FALSE(wire::load_text_proto_file(std::string(TRIBO_SOURCE_DIR) + "/config/protocols/repeated_scratch.textproto", p));
+  p.mutable_segments(0)->mutable_lateral()->set_end_um(-2);
+  p.mutable_segments(1)->mutable_repeat()->mutable_segments(3)->mutable_lateral()->set_end_um(-2);
+  const auto file = dir.path() / "across.textproto";
+  std::ofstream(file) << wire::to_text_proto(p);
+  const std::string rule = "keep loaded segments on one side of it";
+  for (const auto& r : {tribo({"check", file.string()}),
+                        tribo({"check", file.string(), "--config", DaemonProcess::default_config_path()})}) {
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_NE(r.err.find("\"scratch\" (passes 1-8 of 8): loaded lateral path [-2, 10] µm"), std::string::npos) << r.err;
+    const auto first = r.err.find(rule);
+    ASSERT_NE(first, std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find(rule, first + 1), std::string::npos) << "said more than once: " << r.err;
+  }
+}
+
 TEST(TriboCli, ExportsAnHdf5FileThatH5pyReads) {
   if (!std::filesystem::exists("/usr/bin/python3")) GTEST_SKIP() << "no /usr/bin/python3";
   TempDir data, out;
