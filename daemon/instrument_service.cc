@@ -187,8 +187,12 @@ void InstrumentService::loop_main() {
   // Linux lets an ordinary thread's absolute-deadline sleep end up to 50 µs
   // late (timer slack); the loop thread asks for 1 ns (bench: BM_PacedJitter).
   prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);
-  LoopScheduling scheduling = apply_loop_scheduling(config_.controller().loop_realtime_priority(), paced());
-  if (paced() && config_.controller().loop_realtime_priority() > 0 && !scheduling.realtime) {
+  const auto& controller = config_.controller();
+  LoopScheduling scheduling =
+      apply_loop_scheduling(controller.loop_realtime_priority(), paced(),
+                            controller.has_loop_cpu() ? std::optional<int>(controller.loop_cpu()) : std::nullopt);
+  if (paced() && ((controller.loop_realtime_priority() > 0 && !scheduling.realtime) ||
+                  scheduling.description.find("refused") != std::string::npos)) {
     spdlog::warn("loop thread: {}", scheduling.description);
   } else {
     spdlog::info("loop thread: {}", scheduling.description);
