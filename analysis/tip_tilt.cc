@@ -66,6 +66,41 @@ std::optional<TipTiltEstimate> estimate_tip_tilt(const v1::SampleBlock& b) {
   return tilt.estimate();
 }
 
+std::optional<PassesTiltEstimate> estimate_tilt_from_passes(const std::vector<PassFriction>& passes) {
+  constexpr double kSameSpeed = 0.01, kSameLoad = 0.05;
+  std::vector<bool> taken(passes.size(), false);
+  double weighted = 0;
+  PassesTiltEstimate e;
+  for (std::size_t i = 0; i < passes.size(); ++i) {
+    if (taken[i] || !(passes[i].normal_force_n > 0)) continue;
+    const double speed = std::fabs(passes[i].velocity_m_per_s), load = passes[i].normal_force_n;
+    double mu_sum[2] = {0, 0};  // [0] +x, [1] -x
+    std::uint32_t count[2] = {0, 0};
+    for (std::size_t j = i; j < passes.size(); ++j) {
+      const PassFriction& p = passes[j];
+      if (taken[j] || !(p.normal_force_n > 0) || p.velocity_m_per_s == 0) continue;
+      if (std::fabs(std::fabs(p.velocity_m_per_s) - speed) > kSameSpeed * speed) continue;
+      if (std::fabs(p.normal_force_n - load) > kSameLoad * load) continue;
+      taken[j] = true;
+      const int side = p.velocity_m_per_s > 0 ? 0 : 1;
+      mu_sum[side] += p.mean_friction_n / p.normal_force_n;
+      ++count[side];
+    }
+    if (count[0] == 0 || count[1] == 0) continue;
+    const double tan_tilt = (mu_sum[1] / count[1] - mu_sum[0] / count[0]) / 2;
+    weighted += tan_tilt * (count[0] + count[1]);
+    e.forward_passes += count[0];
+    e.backward_passes += count[1];
+  }
+  if (e.forward_passes == 0) return std::nullopt;
+  e.tan_tilt = weighted / (e.forward_passes + e.backward_passes);
+  return e;
+}
+
+bool hold_tilt_agrees(double hold_tan_tilt, double passes_tan_tilt) {
+  return std::fabs(hold_tan_tilt - passes_tan_tilt) <= kHoldTiltAgreement;
+}
+
 double tilt_corrected_friction_n(double mean_friction_n, double velocity_m_per_s, double normal_force_n,
                                  double tan_tilt) {
   const double sign = velocity_m_per_s > 0 ? 1.0 : -1.0;

@@ -3,10 +3,18 @@
 // other core), one sensor read and one drive write per tick.
 //
 //   ClosedLoopUnpaced        as fast as the link allows: the sustainable loop rate
-//   ClosedLoopPaced/RATE     paced by the wall clock for one second at RATE Hz:
-//                            achieved rate and overruns
+//   ClosedLoopPaced/RATE/P   paced by the wall clock for one second at RATE Hz:
+//                            achieved rate and overruns, with the loop and the
+//                            server thread placed by P:
+//                              0 normal scheduling, any CPU
+//                              1 SCHED_FIFO (loop 20, server 10), any CPU
+//                              2 SCHED_FIFO, both on controller.loop_cpu (CPU 1
+//                                in config/tribod-modbus.textproto): as shipped
 // Counters: ticks_per_s, read/write/tick time p50, p99 and max in µs.
+// Without CAP_SYS_NICE placements 1 and 2 run at normal priority (the
+// counter realtime says which).
 #include <benchmark/benchmark.h>
+#include <sys/prctl.h>
 
 #include <algorithm>
 #include <atomic>
@@ -18,6 +26,7 @@
 
 #include "daemon/controller.h"
 #include "daemon/daemon_config.h"
+#include "daemon/loop_scheduling.h"
 #include "emulator/bench_server.h"
 #include "hal/backend_factory.h"
 
@@ -34,16 +43,32 @@ v1::DaemonConfig load(const std::string& name) {
 }
 
 // tribo-bench's server on an ephemeral port, serving from its own thread.
+// How the loop and the server threads are scheduled (ClosedLoopPaced's P).
+enum class Placement { kNormal = 0, kRealtime = 1, kRealtimeSameCpu = 2 };
+
+// Scheduling of the calling thread for this placement; true if real time.
+bool place_thread(Placement placement, int priority, int cpu) {
+  if (placement == Placement::kNormal) return false;
+  return daemon::apply_loop_scheduling(priority, true,
+                                       placement == Placement::kRealtimeSameCpu ? std::optional<int>(cpu)
+                                                                                : std::nullopt)
+      .realtime;
+}
+
 class ServerThread {
  public:
-  explicit ServerThread(const v1::DaemonConfig& modbus) {
+  explicit ServerThread(const v1::DaemonConfig& modbus, Placement placement = Placement::kNormal) {
     bench::BenchSetup setup;
     setup.bench.set_bind_address("127.0.0.1");
     setup.bench.set_port(0);
     setup.modbus = modbus;
     setup.physics = load("tribod.textproto");
     server_ = std::make_unique<bench::BenchServer>(setup);
-    thread_ = std::thread([this] { server_->run(stop_); });
+    const int cpu = modbus.controller().has_loop_cpu() ? modbus.controller().loop_cpu() : 0;
+    thread_ = std::thread([this, placement, cpu] {
+      place_thread(placement, 10, cpu);
+      server_->run(stop_);
+    });
   }
   ~ServerThread() {
     stop_.store(true);
@@ -130,29 +155,39 @@ BENCHMARK(ClosedLoopUnpaced)->MinTime(3.0)->Unit(benchmark::kMicrosecond);
 
 void ClosedLoopPaced(benchmark::State& state) {
   const double rate_hz = static_cast<double>(state.range(0));
+  const auto placement = static_cast<Placement>(state.range(1));
   v1::DaemonConfig config = load("tribod-modbus.textproto");
   config.mutable_controller()->set_loop_rate_hz(rate_hz);
-  ServerThread server(config);
+  ServerThread server(config, placement);
   const auto n = static_cast<std::uint64_t>(rate_hz);  // one second of wall clock
   for (auto _ : state) {
-    Loop loop(config, server.port());
-    Percentiles reads(n), writes(n), ticks(n);
-    std::uint64_t failures = 0;
-    const auto start = std::chrono::steady_clock::now();
-    for (std::uint64_t k = 0; k < n; ++k) {
-      if (!loop.tick(k, reads, writes, ticks)) ++failures;
-      loop.transducer->wait_next_tick();
-    }
-    const double elapsed = seconds_since(start);
-    state.counters["ticks_per_s"] = static_cast<double>(n) / elapsed;
-    state.counters["overrun_fraction"] = static_cast<double>(loop.transducer->overruns()) / static_cast<double>(n);
-    state.counters["failed_ticks"] = static_cast<double>(failures);
-    reads.report(state, "read");
-    writes.report(state, "write");
-    ticks.report(state, "tick");
+    // On a thread of its own: the placement must not outlive the run.
+    std::thread([&] {
+      const bool realtime = place_thread(placement, 20, config.controller().loop_cpu());
+      Loop loop(config, server.port());
+      Percentiles reads(n), writes(n), ticks(n);
+      std::uint64_t failures = 0;
+      prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);  // as tribod's loop thread
+      const auto start = std::chrono::steady_clock::now();
+      for (std::uint64_t k = 0; k < n; ++k) {
+        if (!loop.tick(k, reads, writes, ticks)) ++failures;
+        loop.transducer->wait_next_tick();
+      }
+      const double elapsed = seconds_since(start);
+      state.counters["ticks_per_s"] = static_cast<double>(n) / elapsed;
+      state.counters["overrun_fraction"] = static_cast<double>(loop.transducer->overruns()) / static_cast<double>(n);
+      state.counters["failed_ticks"] = static_cast<double>(failures);
+      state.counters["realtime"] = realtime ? 1 : 0;
+      reads.report(state, "read");
+      writes.report(state, "write");
+      ticks.report(state, "tick");
+    }).join();
   }
 }
-BENCHMARK(ClosedLoopPaced)->Arg(1000)->Arg(2000)->Arg(5000)->Arg(10000)->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(ClosedLoopPaced)
+    ->ArgsProduct({{1000, 2000, 5000, 10000}, {0, 1, 2}})
+    ->Iterations(1)
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

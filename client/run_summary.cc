@@ -59,15 +59,27 @@ v1::RunSummary summary_header(const RunDocuments& run, std::uint64_t sample_coun
   return s;
 }
 
-void set_tilt(v1::RunSummary& s, const std::optional<analysis::TipTiltEstimate>& tilt) {
-  if (!tilt) return;
-  s.set_tilt_tan(tilt->tan_tilt);
-  s.set_tilt_segment(tilt->first_segment);
+// The tilt the summary corrects with: the passes' offset where the run slid
+// both ways; a hold's estimate alone is not checked, and on a contact that
+// holds a force at rest it reads less than the tilt, so it is reported but
+// not used (analysis/tip_tilt.h).
+std::optional<double> set_tilt(v1::RunSummary& s, const std::optional<analysis::TipTiltEstimate>& hold,
+                               const std::optional<analysis::PassesTiltEstimate>& passes) {
+  if (hold) {
+    s.set_tilt_tan(hold->tan_tilt);
+    s.set_tilt_segment(hold->first_segment);
+  }
+  if (!passes) return std::nullopt;
+  s.set_tilt_passes_tan(passes->tan_tilt);
+  s.set_tilt_passes_used(passes->forward_passes + passes->backward_passes);
+  s.set_tilt_source("passes");
+  s.set_tilt_correction_tan(passes->tan_tilt);
+  if (hold) s.set_tilt_hold_agrees(analysis::hold_tilt_agrees(hold->tan_tilt, passes->tan_tilt));
+  return passes->tan_tilt;
 }
 
 void add_scratch(v1::RunSummary& s, const RunDocuments& run, const analysis::SlidingSegmentMetrics& m,
-                 const analysis::SlidingCheck& check, const std::optional<analysis::TipTiltEstimate>& tilt,
-                 std::uint32_t stride) {
+                 const analysis::SlidingCheck& check, std::optional<double> tan_tilt, std::uint32_t stride) {
   v1::SlidingSummary* out = s.add_scratches();
   out->set_segment(m.segment);
   out->set_segment_name(segment_name(run, m.segment));
@@ -88,9 +100,9 @@ void add_scratch(v1::RunSummary& s, const RunDocuments& run, const analysis::Sli
   out->set_steady_window_begin_s(m.steady_begin_s);
   out->set_steady_window_end_s(m.end_s);
   out->set_steady_samples(static_cast<std::uint32_t>(m.steady_samples));
-  if (tilt) {
+  if (tan_tilt) {
     const double corrected_n =
-        analysis::tilt_corrected_friction_n(m.mean_friction_n, m.velocity_m_per_s, m.normal_force_n, tilt->tan_tilt);
+        analysis::tilt_corrected_friction_n(m.mean_friction_n, m.velocity_m_per_s, m.normal_force_n, *tan_tilt);
     out->set_mean_friction_tilt_corrected_un(corrected_n * kMicro);
     out->set_mu_tilt_corrected(m.normal_force_n > 0 ? corrected_n / m.normal_force_n : 0.0);
   }
@@ -122,21 +134,40 @@ std::string thinned_note(std::uint32_t stride) {
                      stride, kSegmentCapSamples);
 }
 
+std::string degrees(double tan_tilt) { return fmt::format("{:.3f}°", std::atan(tan_tilt) * 180 / M_PI); }
+
+// Which tilt the friction is corrected with, and what the hold read.
+std::string tilt_text(const v1::RunSummary& s) {
+  const std::string hold_at = fmt::format("segment {}/{}", s.tilt_segment() + 1, s.segment_count());
+  if (s.tilt_source() == "passes") {
+    std::string text = fmt::format(
+        "  tip tilt   tan(theta) = {:.5f} ({}) from the passes both ways (half the difference\n"
+        "             of their mu, {} passes); friction corrected with it\n",
+        s.tilt_passes_tan(), degrees(s.tilt_passes_tan()), s.tilt_passes_used());
+    if (s.has_tilt_tan()) {
+      text += fmt::format("             the loaded hold in {} read {:.5f}: {}\n", hold_at, s.tilt_tan(),
+                          s.tilt_hold_agrees() ? "agrees"
+                                               : "disagrees, not used (the contact held part of the tilt's push)");
+    }
+    return text;
+  }
+  if (s.has_tilt_tan()) {
+    return fmt::format(
+        "  tip tilt   tan(theta) = {:.5f} ({}) read at rest under load in {};\n"
+        "             not used: no passes both ways to check it (a contact that holds a force at\n"
+        "             rest reads less than the tilt); friction not tilt-corrected\n",
+        s.tilt_tan(), degrees(s.tilt_tan()), hold_at);
+  }
+  return "  tip tilt   not measured: no loaded hold before sliding and no passes both ways;\n"
+         "             friction not tilt-corrected\n";
+}
+
 }  // namespace
 
 v1::RunSummary summarize_run(const RunResult& run) {
-  v1::RunSummary s = summary_header(run, static_cast<std::uint64_t>(sample_count(run.samples)));
-  const auto tilt = analysis::estimate_tip_tilt(run.samples);
-  set_tilt(s, tilt);
-  for (const auto& m : analysis::sliding_segment_metrics(run.samples)) {
-    // An oscillation is not a scratch: its mean velocity is ~0.
-    if (analysis::is_oscillation_segment(run.samples, m.segment)) continue;
-    add_scratch(s, run, m, analysis::check_sliding(run.samples, m), tilt, 1);
-  }
-  for (const auto& o : analysis::oscillation_metrics(run.samples)) {
-    *s.add_oscillations() = oscillation_summary(run, o, 1);
-  }
-  return s;
+  RunSummarizer summarizer(run);
+  summarizer.add_segment(run.samples);
+  return summarizer.finish(static_cast<std::uint64_t>(sample_count(run.samples)));
 }
 
 // The same analysis, a segment at a time: every analysis function called
@@ -158,9 +189,13 @@ void RunSummarizer::add_segment(const v1::SampleBlock& samples, std::uint32_t st
 
 v1::RunSummary RunSummarizer::finish(std::uint64_t sample_count) const {
   v1::RunSummary s = summary_header(run_, sample_count);
-  const auto tilt = tilt_.estimate();
-  set_tilt(s, tilt);
-  for (const auto& c : scratches_) add_scratch(s, run_, c.metrics, c.check, tilt, c.stride);
+  std::vector<analysis::PassFriction> passes;
+  for (const auto& c : scratches_) {
+    if (!c.check.steady) continue;
+    passes.push_back({c.metrics.velocity_m_per_s, c.metrics.normal_force_n, c.metrics.mean_friction_n});
+  }
+  const std::optional<double> tan_tilt = set_tilt(s, tilt_.estimate(), analysis::estimate_tilt_from_passes(passes));
+  for (const auto& c : scratches_) add_scratch(s, run_, c.metrics, c.check, tan_tilt, c.stride);
   for (const auto& o : oscillations_) *s.add_oscillations() = o;
   return s;
 }
@@ -183,13 +218,7 @@ std::string summary_text(const v1::RunSummary& s) {
   if (!s.reason().empty()) text += " (" + s.reason() + ")";
   text += fmt::format("\n  protocol   {}, {:.3f} s, {} samples, seed {}\n", s.protocol(), s.duration_s(),
                       s.sample_count(), s.seed());
-  if (s.has_tilt_tan()) {
-    text += fmt::format("  tip tilt   tan(theta) = {:.5f} ({:.3f}°), measured at rest under load in {}\n",
-                        s.tilt_tan(), std::atan(s.tilt_tan()) * 180 / M_PI,
-                        fmt::format("segment {}/{}", s.tilt_segment() + 1, s.segment_count()));
-  } else {
-    text += "  tip tilt   not measured: no loaded hold before sliding; friction not tilt-corrected\n";
-  }
+  text += tilt_text(s);
   for (const auto& c : s.friction_compensation()) {
     text += fmt::format("  compensated {}, model {} (SHA-256 {}), {} of {} segments\n", c.contact(), c.report_file(),
                         c.report_sha256().substr(0, 12), c.segments(), s.segment_count());

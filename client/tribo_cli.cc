@@ -37,6 +37,8 @@
 #include "client/tribo_client.h"
 #include "client/user_messages.h"
 #include "daemon/daemon_config.h"
+#include "daemon/protocol_validator.h"
+#include "daemon/validation_messages.h"
 #include "proto/run_files.h"
 #include "proto/sample_record.h"
 #include "proto/text_format_file.h"
@@ -144,7 +146,7 @@ tribo::v1::ErrorCode error_code_of(int exit_code) {
 
 // Reports a failure on stderr, and as {"error": ...} on stdout with --json.
 int fail(bool json, tribo::v1::Error error, int code) {
-  error.set_message(tribo::client::explain_missing_duration(tribo::client::collapse_repeated_lines(error.message())));
+  error.set_message(tribo::client::explain_missing_duration(error.message()));
   std::cerr << "tribo: " << (error.field().empty() ? "" : error.field() + ": ") << error.message() << "\n";
   if (json) std::cout << "{\"error\": " << to_json(error) << ", \"exit_code\": " << code << "}\n";
   return code;
@@ -487,23 +489,49 @@ int export_command(const Options& o) {
   return kOk;
 }
 
+// The daemon's dry run: it validates against its own config and limits and
+// arms (nothing moves until a start).
+tribo::v1::LoadProtocolReply daemon_dry_run(const Options& o, const tribo::v1::Protocol& protocol) {
+  tribo::client::TriboClient client(o.address, session(o, tribo::v1::CONTROLLER));
+  tribo::v1::ClientMessage load;
+  *load.mutable_load_protocol()->mutable_protocol() = protocol;
+  return client.request(load).load_protocol();
+}
+
 int check_command(const Options& o) {
   const auto loaded = load_protocol(o);
   if (const auto* error = std::get_if<std::string>(&loaded)) return fail(o, *error, kUsage);
   const auto& protocol = std::get<tribo::v1::Protocol>(loaded);
-  // The daemon's dry run: it validates against its own config and limits and
-  // arms (nothing moves until a start).
-  tribo::client::TriboClient client(o.address, session(o, tribo::v1::CONTROLLER));
-  tribo::v1::ClientMessage load;
-  *load.mutable_load_protocol()->mutable_protocol() = protocol;
-  const tribo::v1::LoadProtocolReply reply = client.request(load).load_protocol();
+  const auto config_option = o.value("config");
+  tribo::v1::DaemonConfig config;
+  if (config_option) {
+    if (auto error = tribo::daemon::load_daemon_config(*config_option, config)) return fail(o, *error, kUsage);
+  }
+  tribo::v1::LoadProtocolReply reply;
+  if (config_option) {
+    // Offline: the same validation the daemon runs, against the config file;
+    // no daemon is asked.
+    const tribo::daemon::ProtocolCheck check = tribo::daemon::validate_protocol(protocol, config);
+    if (!check.ok()) {
+      tribo::v1::Error error;
+      error.set_code(tribo::v1::INVALID_ARGUMENT);
+      error.set_field(check.errors.front().field);
+      error.set_message(tribo::daemon::describe_issues(check.errors));
+      return fail(o, error, kUsage);
+    }
+    reply = tribo::daemon::dry_run_reply(protocol, check);
+  } else {
+    reply = daemon_dry_run(o, protocol);
+  }
   std::string plotted;
   if (const auto plot = o.value("plot")) {
     if (auto refusal = refuse_overwrite(o, *plot)) return fail(o, *refusal, kUsage);
-    tribo::v1::DaemonConfig config;
-    const std::string config_path = o.value("config").value_or("config/tribod.textproto");
-    if (auto error = tribo::daemon::load_daemon_config(config_path, config)) {
-      return fail(o, "--plot needs the daemon's config for the loop rate: " + *error + " (give --config FILE)", kUsage);
+    if (!config_option) {
+      // The loop rate of the plot: the default config (the daemon does not send its own).
+      if (auto error = tribo::daemon::load_daemon_config("config/tribod.textproto", config)) {
+        return fail(o, "--plot needs the daemon's config for the loop rate: " + *error + " (give --config FILE)",
+                    kUsage);
+      }
     }
     std::string error;
     if (!tribo::client::plot_planned_setpoints(protocol, config, *plot, error)) return fail(o, error, kFailed);
@@ -513,8 +541,9 @@ int check_command(const Options& o) {
     std::cout << to_json(reply) << "\n";
     return kOk;
   }
-  std::cout << fmt::format("protocol {} is valid: {:.3f} s, {} samples expected\n", reply.protocol_name(),
-                           reply.duration_s(), reply.expected_samples());
+  std::cout << fmt::format("protocol {} is valid: {:.3f} s, {} samples expected{}\n", reply.protocol_name(),
+                           reply.duration_s(), reply.expected_samples(),
+                           config_option ? " (checked against " + *config_option + ", no daemon asked)" : "");
   // The description says what the protocol needs (e.g. a gain change first).
   if (!protocol.description().empty()) std::cout << "description: " << protocol.description() << "\n";
   for (const auto& w : tribo::client::collapse_repeated(
@@ -707,7 +736,12 @@ void define_commands(CLI::App& app, Options& o, std::map<CLI::App*, Command>& co
   value_option(run, o, "friction-model",
                "compensate friction with this identified model: a `tribo-fit diagnose --json` report "
                "(docs/friction_compensation.md); replaces the protocol's own friction_compensation");
-  run->add_flag("--progress,!--no-progress", o.progress, "draw the live progress line (default: on a terminal)");
+  // A flag function, not add_flag on the optional: CLI11 sets an optional
+  // bound by add_flag (to false) even when neither flag is given, and then
+  // the terminal default never applies.
+  run->add_flag_function(
+      "--progress,!--no-progress", [&o](std::int64_t count) { o.progress = count > 0; },
+      "draw the live progress line (default: on a terminal)");
   run->add_flag("--force", o.force, "replace an existing --out directory");
   value_option(run, o, "sample", "the sample, recorded with the run (shown by `tribo list`)");
   value_option(run, o, "tip", "the tip, recorded with the run");
@@ -718,19 +752,22 @@ void define_commands(CLI::App& app, Options& o, std::map<CLI::App*, Command>& co
 
   CLI::App* check = add("check",
                         "the daemon's dry run of a protocol: validation against its limits and every "
-                        "warning, before anything moves (the protocol stays loaded)",
+                        "warning, before anything moves (the protocol stays loaded); with --config, the "
+                        "same dry run offline against a config file, no daemon needed",
                         check_command);
   check->add_option("PROTOCOL", o.positional, "protocol file (protobuf text format)")->required();
   value_option(check, o, "friction-model", "check with this friction model report, as `run --friction-model`");
   value_option(check, o, "plot", "also plot the planned normal and lateral setpoints to this PNG");
   check->add_flag("--force", o.force, "replace an existing --plot file");
-  value_option(check, o, "config", "the daemon's config, for the plot's loop rate (default config/tribod.textproto)");
+  value_option(check, o, "config",
+               "check offline against this daemon config (no daemon asked); without it the daemon checks, and "
+               "--plot takes the loop rate from config/tribod.textproto");
 
   add("status", "the daemon's state, the current run, a safety trip's reason, recording and backend health",
       status_command);
   CLI::App* abort = add("abort",
                         "stop the running protocol (safe unload); works from another terminal while "
-                        "`tribo run` holds control, given the token",
+                        "`tribo run` holds control (with the token if the daemon has one)",
                         abort_command);
   value_option(abort, o, "reason", "why (recorded in the run's stop document)");
   CLI::App* list = add("list", "the recorded runs, newest first, with their sample, tip, operator and notes",

@@ -3,7 +3,7 @@
 #include <map>
 #include <regex>
 
-#include <fmt/format.h>
+#include "daemon/validation_messages.h"
 
 namespace tribo::client {
 
@@ -35,34 +35,11 @@ std::vector<std::string> collapse_repeated(const std::vector<std::string>& messa
       out.push_back(g.text);
       continue;
     }
-    const std::string passes =
-        g.passes.size() == 1 ? fmt::format("(pass {}/{})", g.passes[0], g.total)
-                             : fmt::format("(passes {} of {})", fmt::join(g.passes, ", "), g.total);
-    out.push_back(g.text.substr(0, at) + passes + g.text.substr(at + 1));
+    std::vector<std::string> passes;
+    for (const std::string& p : g.passes) passes.push_back(p + "/" + g.total);
+    out.push_back(g.text.substr(0, at) + daemon::passes_text(passes) + g.text.substr(at + 1));
   }
   return out;
-}
-
-std::string collapse_repeated_lines(const std::string& message) {
-  static const std::regex more(R"(^(.*?) \(and \d+ more:(.*)\)$)");
-  std::smatch match;
-  if (!std::regex_match(message, match, more)) return message;
-  std::vector<std::string> issues{match[1].str()};
-  const std::string rest = match[2].str();
-  std::size_t begin = 0;
-  while (begin < rest.size()) {
-    std::size_t end = rest.find(';', begin);
-    if (end == std::string::npos) end = rest.size();
-    std::string issue = rest.substr(begin, end - begin);
-    const auto first = issue.find_first_not_of(' ');
-    if (first != std::string::npos) issues.push_back(issue.substr(first));
-    begin = end + 1;
-  }
-  const auto collapsed = collapse_repeated(issues);
-  if (collapsed.size() == 1) return collapsed[0];
-  std::string out = collapsed[0] + fmt::format(" (and {} more:", collapsed.size() - 1);
-  for (std::size_t i = 1; i < collapsed.size(); ++i) out += " " + collapsed[i] + ";";
-  return out + ")";
 }
 
 std::string explain_missing_duration(const std::string& message) {

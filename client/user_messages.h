@@ -1,4 +1,4 @@
-// What tribo tells a person when something is wrong: the same issue repeated
+// What tribo tells a person when something is wrong: the same warning repeated
 // for every pass of a repeat block said once with its passes, and protobuf's
 // terse text-format syntax errors with a hint.
 #pragma once
@@ -8,13 +8,10 @@
 
 namespace tribo::client {
 
-// Messages that differ only in "(pass N/M)" become one, "(passes 1, 2, 3 of M)";
-// the order of first appearance is kept.
+// Messages that differ only in "(pass N/M)" become one, "(passes 1-3 of M)"
+// (daemon/validation_messages.h says errors the same way); the order of
+// first appearance is kept. For the daemon's warnings.
 std::vector<std::string> collapse_repeated(const std::vector<std::string>& messages);
-
-// The daemon's "first (and K more: a; b; ...)" error message with repeated
-// issues collapsed as above.
-std::string collapse_repeated_lines(const std::string& message);
 
 // The daemon's message for a segment without a duration, said as what the
 // user left out: neither duration_s nor lateral.speed_um_per_s.

@@ -192,13 +192,16 @@ void ClientSession::dispatch(const v1::ClientMessage& request, v1::ServerMessage
     return set_error(reply, v1::HANDSHAKE_REQUIRED, "hello", "send hello (api_version " +
                                                                  std::to_string(kApiVersion) + ") first");
   }
-  // Aborting is stopping, not steering: a session that shows the control
-  // token may abort a run another session controls (`tribo abort` beside a
-  // hung `tribo run`).
-  const bool token_abort = body == v1::ClientMessage::kAbortRun && !server_.controls(*this) &&
-                           !request.abort_run().token().empty() &&
-                           server_.token_matches(*this, request.abort_run().token());
-  if (is_control_command(body) && !server_.controls(*this) && !token_abort) {
+  // Aborting is stopping, not steering: it ends the run through the normal
+  // stop sequence. So a session without control may abort a run another
+  // session controls (`tribo abort` beside a hung `tribo run`): any local
+  // client when the daemon has no control token (as any may take control
+  // then), and otherwise only one that shows the token.
+  const std::string& abort_token = request.abort_run().token();
+  const bool open_abort = body == v1::ClientMessage::kAbortRun && !server_.controls(*this) &&
+                          (!server_.token_required() ||
+                           (!abort_token.empty() && server_.token_matches(*this, abort_token)));
+  if (is_control_command(body) && !server_.controls(*this) && !open_abort) {
     if (body == v1::ClientMessage::kAbortRun && !request.abort_run().token().empty()) {
       return set_error(reply, v1::UNAUTHENTICATED, "abort_run.token", "the token is wrong");
     }

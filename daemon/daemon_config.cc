@@ -1,10 +1,13 @@
 #include "daemon/daemon_config.h"
 
+#include <sched.h>
+
 #include <array>
 #include <cmath>
 #include <sstream>
 
 #include "daemon/electrostatic_drive.h"
+#include "daemon/loop_stability.h"
 #include "hal/backend_factory.h"
 #include "sim/fault_injection.h"
 #include "proto/text_format_file.h"
@@ -31,7 +34,8 @@ std::optional<std::string> validate_transducer_axis(const std::string& at,
       {"gap_negative_m", {a.gap_negative_m(), 1e-9, 1e-2}},
       {"bias_v", {a.bias_v(), 0, 1e4}},
       {"max_drive_v", {a.max_drive_v(), 1e-3, 1e5}},
-      {"relative_permittivity", {a.relative_permittivity(), 1, 1e3}}};
+      {"relative_permittivity", {a.relative_permittivity(), 1, 1e3}},
+      {"moving_mass_kg", {a.moving_mass_kg(), 0, 1}}};
   for (const auto& [name, f] : fields) {
     if (auto e = out_of_range(at + "." + name, f[0], f[1], f[2])) return e;
   }
@@ -115,6 +119,9 @@ std::optional<std::string> validate_daemon_config(const v1::DaemonConfig& c) {
   if (auto e = out_of_range("controller.default_acquisition_rate_hz", ctl.default_acquisition_rate_hz(),
                             1e-3, ctl.loop_rate_hz())) return e;
   if (auto e = out_of_range("controller.loop_realtime_priority", ctl.loop_realtime_priority(), 0, 99)) return e;
+  if (ctl.has_loop_cpu()) {
+    if (auto e = out_of_range("controller.loop_cpu", ctl.loop_cpu(), 0, CPU_SETSIZE - 1)) return e;
+  }
   if (auto e = validate_pid_gains("controller.lateral_displacement", ctl.lateral_displacement())) return e;
   if (auto e = validate_pid_gains("controller.lateral_force", ctl.lateral_force())) return e;
   if (auto e = validate_pid_gains("controller.normal_force", ctl.normal_force())) return e;
@@ -151,7 +158,8 @@ std::optional<std::string> validate_daemon_config(const v1::DaemonConfig& c) {
   if (c.backend_case() == v1::DaemonConfig::kSim) {
     if (auto e = sim::validate_fault_schedule(c.sim().faults())) return e;
   }
-  return hal::validate_backend_config(c);
+  if (auto e = hal::validate_backend_config(c)) return e;
+  return check_loop_stability(c);
 }
 
 std::optional<std::string> load_daemon_config(const std::string& path, v1::DaemonConfig& config) {

@@ -15,6 +15,7 @@
 #include "daemon/controller.h"
 #include "daemon/daemon_config.h"
 #include "daemon/protocol_validator.h"
+#include "daemon/validation_messages.h"
 #include "daemon/run_loop.h"
 #include "daemon/field_bounds.h"
 #include "daemon/idle_stop.h"
@@ -186,8 +187,12 @@ void InstrumentService::loop_main() {
   // Linux lets an ordinary thread's absolute-deadline sleep end up to 50 µs
   // late (timer slack); the loop thread asks for 1 ns (bench: BM_PacedJitter).
   prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);
-  LoopScheduling scheduling = apply_loop_scheduling(config_.controller().loop_realtime_priority(), paced());
-  if (paced() && config_.controller().loop_realtime_priority() > 0 && !scheduling.realtime) {
+  const auto& controller = config_.controller();
+  LoopScheduling scheduling =
+      apply_loop_scheduling(controller.loop_realtime_priority(), paced(),
+                            controller.has_loop_cpu() ? std::optional<int>(controller.loop_cpu()) : std::nullopt);
+  if (paced() && ((controller.loop_realtime_priority() > 0 && !scheduling.realtime) ||
+                  scheduling.description.find("refused") != std::string::npos)) {
     spdlog::warn("loop thread: {}", scheduling.description);
   } else {
     spdlog::info("loop thread: {}", scheduling.description);
@@ -234,27 +239,16 @@ double InstrumentService::last_emergency_stop_latency_s() const {
 std::optional<v1::Error> InstrumentService::load_protocol(const v1::Protocol& protocol,
                                                           v1::LoadProtocolReply& reply) {
   ProtocolCheck check = validate_protocol(protocol, config_);
-  if (!check.ok()) {
-    std::string message = check.errors.front().message;
-    if (check.errors.size() > 1) {
-      message += " (and " + std::to_string(check.errors.size() - 1) + " more:";
-      for (std::size_t i = 1; i < check.errors.size(); ++i) message += " " + check.errors[i].message + ";";
-      message += ")";
-    }
-    return make_error(v1::INVALID_ARGUMENT, check.errors.front().field, message);
-  }
+  if (!check.ok()) return make_error(v1::INVALID_ARGUMENT, check.errors.front().field, describe_issues(check.errors));
   std::lock_guard lock(mutex_);
   if (state_ == v1::RUNNING) {
     return make_error(v1::WRONG_STATE, "", "a run is in progress; abort it before loading");
   }
+  reply = dry_run_reply(protocol, check);
   protocol_ = protocol;
   load_function_ = std::move(check.load_function);
   loaded_duration_s_ = check.duration_s;
   if (state_ != v1::FAULTED) state_ = v1::ARMED;  // a fault needs an explicit re-arm
-  reply.set_protocol_name(protocol.name());
-  reply.set_duration_s(check.duration_s);
-  reply.set_expected_samples(load_function_.expected_samples());
-  for (auto& w : check.warnings) reply.add_warnings(std::move(w));
   return std::nullopt;
 }
 

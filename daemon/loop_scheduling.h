@@ -5,6 +5,7 @@
 // as LinuxCNC's servo thread does.
 #pragma once
 
+#include <optional>
 #include <string>
 
 namespace tribo::daemon {
@@ -16,7 +17,11 @@ struct LoopScheduling {
 
 // Called on the loop thread. priority 0 keeps normal scheduling; 1-99 asks
 // for SCHED_FIFO at that priority. `paced` is false for a simulated run in
-// lock-step (it would hold a core at real-time priority for nothing).
-LoopScheduling apply_loop_scheduling(int priority, bool paced);
+// lock-step (it would hold a core at real-time priority for nothing). A
+// paced loop given a cpu is also pinned to it: with the bench emulator's
+// server on the same core, a tick's two round trips over loopback need no
+// wake-up of the other core (docs/modbus.md, "Loop rate over Modbus TCP");
+// refused (no such CPU), the loop runs unpinned and the description says so.
+LoopScheduling apply_loop_scheduling(int priority, bool paced, std::optional<int> cpu = std::nullopt);
 
 }  // namespace tribo::daemon

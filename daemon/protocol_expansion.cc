@@ -13,6 +13,7 @@ struct Pass {
   bool mirrored = false;     // lateral motion negated on this pass
   bool first = true;         // first pass of every enclosing block: report errors once
   std::string suffix;        // " (pass 2/6)", nested: " (pass 1/5, 2/6)"
+  std::string passes;        // "2/6", nested: "1/5, 2/6"
 };
 
 std::string quoted_name(const v1::Segment& s) {
@@ -39,7 +40,7 @@ class Expander {
 
  private:
   void error(const Pass& pass, std::string field, std::string message) {
-    if (pass.first) result.errors.push_back({std::move(field), std::move(message)});
+    if (pass.first) result.errors.push_back({std::move(field), std::move(message), "", ""});
   }
   void expand_repeat(const v1::Segment& block, const std::string& path, const Pass& outer);
   void add_segment(const v1::Segment& seg, const std::string& path, const Pass& pass);
@@ -77,8 +78,8 @@ void Expander::expand_repeat(const v1::Segment& block, const std::string& path,
     pass.mirrored = outer.mirrored != (r.alternate_direction() && p % 2 == 1);
     pass.first = outer.first && p == 0;
     const std::string here = std::to_string(p + 1) + "/" + std::to_string(r.count());
-    pass.suffix = outer.suffix.empty() ? " (pass " + here + ")"
-                                       : outer.suffix.substr(0, outer.suffix.size() - 1) + ", " + here + ")";
+    pass.passes = outer.passes.empty() ? here : outer.passes + ", " + here;
+    pass.suffix = " (pass " + pass.passes + ")";
     expand_list(r.segments(), path + ".repeat.", pass);
   }
 }
@@ -130,14 +131,16 @@ void Expander::add_segment(const v1::Segment& definition, const std::string& pat
                            const Pass& pass) {
   if (result.segments.size() >= max_segments_) {
     result.errors.push_back({"segments", "the protocol unrolls to more than " +
-                                             std::to_string(max_segments_) + " segments"});
+                                             std::to_string(max_segments_) + " segments", "", ""});
     too_many_ = true;
     return;
   }
   ExpandedSegment out;
   out.segment = definition;
   out.path = path;
-  out.label = path + quoted_name(definition) + pass.suffix;
+  out.subject = path + quoted_name(definition);
+  out.pass = pass.passes;
+  out.label = out.subject + pass.suffix;
   out.name = definition.name().empty() && !pass.suffix.empty() ? pass.suffix.substr(1) : definition.name() + pass.suffix;
   v1::Segment& seg = out.segment;
   apply_pass_values(seg, path, out.label, pass);

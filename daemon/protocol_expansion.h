@@ -14,6 +14,12 @@ namespace tribo::daemon {
 struct ValidationIssue {
   std::string field;    // e.g. "segments[2].normal.end_uN"
   std::string message;  // names the segment, the value and the limit
+  // When the message is about one unrolled segment it begins with that
+  // segment's label and ": "; the label's parts (ExpandedSegment), so that
+  // the same rule broken in several segments or passes can be said once
+  // (daemon/validation_messages.h). Empty otherwise.
+  std::string segment;  // path and name: segments[2].repeat.segments[0] "scratch"
+  std::string pass;     // "3/8", nested "1/5, 2/6"; empty outside repeat blocks
 };
 
 struct ExpandedSegment {
@@ -21,6 +27,8 @@ struct ExpandedSegment {
   std::string path;     // "segments[2].repeat.segments[0]"
   std::string label;    // path, name and pass: segments[2].repeat.segments[0] "scratch" (pass 3/8)
   std::string name;     // name with the pass, for the run's segment table
+  std::string subject;  // the label without the pass: segments[2].repeat.segments[0] "scratch"
+  std::string pass;     // "3/8", nested "1/5, 2/6"; empty outside repeat blocks
 };
 
 struct Expansion {

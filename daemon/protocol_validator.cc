@@ -137,7 +137,13 @@ class Checker {
 
  private:
   void error(std::string field, std::string message) {
-    if (result_.errors.size() < kMaxErrors) result_.errors.push_back({std::move(field), std::move(message)});
+    if (result_.errors.size() >= kMaxErrors) return;
+    ValidationIssue issue{std::move(field), std::move(message), "", ""};
+    if (segment_ != nullptr && issue.message.starts_with(segment_->label + ": ")) {
+      issue.segment = segment_->subject;
+      issue.pass = segment_->pass;
+    }
+    result_.errors.push_back(std::move(issue));
   }
   void check_segment(const ExpandedSegment& e);
   PathSummary check_path(const AxisFields& f, const std::string& label, bool start_fresh,
@@ -161,6 +167,7 @@ class Checker {
   double protocol_rate_hz_ = 0;
   std::string protocol_rate_field_ = "acquisition_rate_hz";
   bool first_ = true;
+  const ExpandedSegment* segment_ = nullptr;  // the one being checked
   AxisState normal_{v1::NORMAL_OPEN_LOOP_FORCE, Range::point(0)};    // unloaded at rest
   AxisState lateral_{v1::LATERAL_DISPLACEMENT, Range::point(0)};     // at the neutral point
   Range lateral_position_um_ = Range::point(0);
@@ -691,7 +698,11 @@ ProtocolCheck Checker::run(const v1::Protocol& protocol) {
   Expansion expansion = expand_protocol(protocol, kMaxSegments);
   for (auto& e : expansion.errors) error(std::move(e.field), std::move(e.message));
   if (!result_.errors.empty()) return std::move(result_);
-  for (const ExpandedSegment& e : expansion.segments) check_segment(e);
+  for (const ExpandedSegment& e : expansion.segments) {
+    segment_ = &e;
+    check_segment(e);
+    segment_ = nullptr;
+  }
   const double max_total = config_.limits().max_protocol_duration_s();
   if (result_.duration_s > max_total) {
     error("segments", "the protocol lasts " + fmt(result_.duration_s) + " s, above the maximum " +

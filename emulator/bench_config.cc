@@ -1,8 +1,11 @@
 #include "emulator/bench_config.h"
 
+#include <sched.h>
+
 #include <filesystem>
 
 #include "daemon/daemon_config.h"
+#include "daemon/loop_stability.h"
 #include "emulator/fault_injector.h"
 #include "hal/modbus_link.h"
 #include "proto/text_format_file.h"
@@ -34,6 +37,12 @@ std::optional<std::string> load_bench_setup(const std::string& path, BenchSetup&
   if (b.modbus_config_file().empty()) return path + ": modbus_config_file is empty";
   if (b.physics_config_file().empty()) return path + ": physics_config_file is empty";
   if (auto e = validate_faults(b.faults())) return path + ": " + *e;
+  if (b.realtime_priority() < 0 || b.realtime_priority() > 99) {
+    return path + ": realtime_priority = " + std::to_string(b.realtime_priority()) + ": must be in [0, 99]";
+  }
+  if (b.has_cpu() && (b.cpu() < 0 || b.cpu() >= CPU_SETSIZE)) {
+    return path + ": cpu = " + std::to_string(b.cpu()) + ": must be in [0, " + std::to_string(CPU_SETSIZE - 1) + "]";
+  }
 
   const std::string modbus_path = resolve(b.modbus_config_file());
   if (auto e = daemon::load_daemon_config(modbus_path, setup.modbus)) return *e;
@@ -41,6 +50,12 @@ std::optional<std::string> load_bench_setup(const std::string& path, BenchSetup&
   const std::string physics_path = resolve(b.physics_config_file());
   if (auto e = daemon::load_daemon_config(physics_path, setup.physics)) return *e;
   if (!setup.physics.has_sim()) return physics_path + ": backend is not sim { ... } (physics_config_file)";
+  // The register map's loop drives this physics: its gains at its rate on
+  // the emulated plant (the modbus config was checked on its own nominal
+  // transducer constants when it loaded).
+  if (auto e = daemon::check_loop_stability(setup.modbus.controller(), setup.physics)) {
+    return modbus_path + " on the plant of " + physics_path + ": " + *e;
+  }
   return std::nullopt;
 }
 

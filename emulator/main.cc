@@ -15,6 +15,7 @@
 #include <spdlog/spdlog.h>
 
 #include "emulator/bench_config.h"
+#include "daemon/loop_scheduling.h"
 #include "emulator/bench_server.h"
 #include "tribo/version.h"
 
@@ -66,6 +67,11 @@ int main(int argc, char** argv) {
     std::cerr << "tribo-bench: " << e.what() << "\n";
     return 1;
   }
+  // The server answers on this thread: real time as tribod's loop, if asked.
+  const tribo::v1::BenchConfig& b = setup.bench;
+  const auto scheduling = tribo::daemon::apply_loop_scheduling(
+      b.realtime_priority(), true, b.has_cpu() ? std::optional<int>(b.cpu()) : std::nullopt);
+  if (b.realtime_priority() > 0 || b.has_cpu()) spdlog::info("server thread: {}", scheduling.description);
   std::printf("tribo-bench listening on %s\n", server->endpoint().c_str());
   std::fflush(stdout);
   spdlog::info("serving {} (unit {}): plant step {} s, {} faults scheduled", server->endpoint(),

@@ -169,6 +169,7 @@ bool ModbusLink::connect_if_due() {
     connected_.store(true, std::memory_order_relaxed);
     ++connections_;
     consecutive_timeouts_ = 0;
+    consecutive_bad_frames_ = 0;
     backoff_s_ = settings_.backoff_min_s;
     if (connections_ == 1) {
       spdlog::info("modbus {}: connected", describe_link(settings_));
@@ -209,6 +210,7 @@ LinkResult ModbusLink::finish(LinkOp op, int rc, std::int64_t started_ns) {
   if (rc != -1) {
     transactions_.fetch_add(1, std::memory_order_relaxed);
     consecutive_timeouts_ = 0;
+    consecutive_bad_frames_ = 0;
     note_success();
     return LinkResult::kOk;
   }
@@ -232,6 +234,14 @@ LinkResult ModbusLink::finish(LinkOp op, int rc, std::int64_t started_ns) {
     bad_frames_.fetch_add(1, std::memory_order_relaxed);
     note_failure(op, Failure::kProtocol, err);
     modbus_flush(ctx_);
+    // An answer to an earlier request (one that came after its timeout and
+    // the flush) puts every later answer one behind: each transaction then
+    // reads its predecessor's answer, and a flush right after it finds the
+    // stream empty. Reconnecting starts the stream afresh.
+    if (++consecutive_bad_frames_ >= settings_.max_consecutive_timeouts) {
+      close_link(op, Failure::kTooManyBadFrames, static_cast<int>(consecutive_bad_frames_));
+      return LinkResult::kLinkDown;
+    }
     return LinkResult::kBadFrame;
   }
   close_link(op, Failure::kLinkLost, err);
@@ -323,6 +333,8 @@ std::string ModbusLink::error_text(std::uint64_t packed) const {
       return text + "connection lost (" + modbus_strerror(static_cast<int>(detail)) + ")";
     case Failure::kTooManyTimeouts:
       return text + std::to_string(detail) + " timeouts in a row; connection closed to reconnect";
+    case Failure::kTooManyBadFrames:
+      return text + std::to_string(detail) + " malformed answers in a row; connection closed to reconnect";
     case Failure::kConnect:
       return "connect " + describe_link(settings_) + ": " + modbus_strerror(static_cast<int>(detail));
     case Failure::kFrame:

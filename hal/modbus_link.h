@@ -93,7 +93,8 @@ class ModbusLink {
 
  private:
   enum class Failure : std::uint8_t {
-    kNone, kTimeout, kException, kProtocol, kLinkLost, kTooManyTimeouts, kConnect, kFrame, kRefused
+    kNone, kTimeout, kException, kProtocol, kLinkLost, kTooManyTimeouts, kConnect, kFrame, kRefused,
+    kTooManyBadFrames
   };
 
   LinkResult finish(LinkOp op, int rc, std::int64_t started_ns);
@@ -108,6 +109,7 @@ class ModbusLink {
   bool refused_ = false;
   std::uint64_t connections_ = 0;
   unsigned consecutive_timeouts_ = 0;
+  unsigned consecutive_bad_frames_ = 0;
   double backoff_s_;
   std::int64_t next_attempt_ns_ = 0;
 

@@ -113,10 +113,10 @@ TEST_P(StreamedSummary, IsIdenticalToTheInMemoryOneAndTheFileToTheRecording) {
   EXPECT_LT(held, static_cast<std::uint64_t>(sample_count(run.samples)));
 }
 
-// A scratch with a tilt hold (tilt estimate and correction), an oscillation
-// run, and a run of many repeated segments.
+// A scratch with a tilt hold (tilt estimate), a hold and passes both ways
+// (the tilt correction), an oscillation run, and a run of many repeated segments.
 INSTANTIATE_TEST_SUITE_P(ShippedProtocols, StreamedSummary,
-                         ::testing::Values("standard_scratch_tilt_hold.textproto",
+                         ::testing::Values("standard_scratch_tilt_hold.textproto", "tilt_hold_and_passes.textproto",
                                            "oscillation_amplitudes.textproto", "repeated_scratch.textproto"));
 
 TEST(RunStreamWriter, KeepsSequenceOrderAcrossOverlapsAndCountsWhatTheRecordingLacks) {

@@ -1,5 +1,6 @@
 // The run summary's tilt correction on the simulated instrument: the tip
-// tilt measured at rest under load, and the friction without the tilt's share.
+// tilt measured at rest under load and from passes both ways, and the
+// friction without the tilt's share.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -86,7 +87,9 @@ TEST_F(StandardScratch, WithoutALoadedHoldTheTiltIsNotMeasured) {
 // on seeds 1-8, 4.9 % above tan(1.5 deg) -- the contact keeps part of the
 // creep the tilt's push caused while the load came on. Alone, one 5 s hold
 // measures tan(theta) to +-15 % (sd over seeds 1-8: 0.0255 +- 0.0038).
-TEST_F(StandardScratch, ALoadedHoldRecoversTheTiltAndTheFriction) {
+// The summary reports it but, with no passes both ways to check it against,
+// does not correct the friction with it.
+TEST_F(StandardScratch, ALoadedHoldReadsTheTiltButIsNotUsedAlone) {
   const double tan_tilt = configured_tan_tilt(base_config());
   ASSERT_TRUE(held_tilted->has_tilt_tan());
   ASSERT_TRUE(held_untilted->has_tilt_tan());
@@ -96,24 +99,103 @@ TEST_F(StandardScratch, ALoadedHoldRecoversTheTiltAndTheFriction) {
   EXPECT_NEAR(held_tilted->tilt_tan() - held_untilted->tilt_tan(), tan_tilt, 0.06 * tan_tilt);
   EXPECT_NEAR(held_tilted->tilt_tan(), tan_tilt, 2 * 0.0038);
   EXPECT_NEAR(held_untilted->tilt_tan(), 0, 2 * 0.0038);
+  EXPECT_EQ(held_tilted->tilt_source(), "");
+  EXPECT_FALSE(held_tilted->has_tilt_passes_tan());
+  EXPECT_FALSE(held_tilted->has_tilt_correction_tan());
+  EXPECT_FALSE(held_tilted->has_tilt_hold_agrees());
   ASSERT_EQ(held_tilted->scratches_size(), 1);
-  ASSERT_EQ(held_untilted->scratches_size(), 1);
-  const v1::SlidingSummary& t = held_tilted->scratches(0);
-  const v1::SlidingSummary& u = held_untilted->scratches(0);
-  RecordProperty("held_corrected_uN", std::to_string(t.mean_friction_tilt_corrected_un()));
-  // Uncorrected, the tilt takes N tan(theta) = 26 µN (20 %) off the friction;
-  // corrected, the two runs agree to the tilt estimate's 5 % of it.
-  EXPECT_LT(t.mean_friction_un(), 0.85 * u.mean_friction_un());
-  EXPECT_NEAR(t.mean_friction_tilt_corrected_un(), u.mean_friction_tilt_corrected_un(),
-              0.06 * tan_tilt * t.normal_force_un());
-  EXPECT_NEAR(t.mu_tilt_corrected(), t.mean_friction_tilt_corrected_un() / t.normal_force_un(), 1e-12);
+  EXPECT_FALSE(held_tilted->scratches(0).has_mean_friction_tilt_corrected_un());
+  const std::string text = summary_text(*held_tilted);
+  EXPECT_NE(text.find("not used: no passes both ways"), std::string::npos) << text;
+  EXPECT_NE(text.find("friction not tilt-corrected"), std::string::npos) << text;
 }
 
-TEST_F(StandardScratch, TheTextSummaryPrintsBothFrictions) {
-  const std::string text = summary_text(*held_tilted);
+// The default instrument, a 5 s hold at 2000 µN and then passes both ways at
+// 5 µm/s (config/protocols/tilt_hold_and_passes.textproto), tilted (1.5 deg)
+// and untilted, seed 1. The default contact holds a force below break-away,
+// so its hold reads little of the tilt (0.0046 tilted, -0.027 untilted); the
+// passes' offset is the configured tilt: 0.02603-0.02626 over seeds 1-8
+// (tan 1.5 deg = 0.026186), untilted |tan| < 0.0002. Each pass's mu,
+// corrected with it, is within 0.0002 of the others and of the untilted
+// run's raw mu on the same seed.
+struct TiltHoldAndPasses : ::testing::Test {
+  static void SetUpTestSuite() {
+    const v1::Protocol protocol = daemon::testing::load_protocol_file("tilt_hold_and_passes.textproto");
+    v1::DaemonConfig untilted = tribo::testing::default_config();
+    untilted.mutable_sim()->mutable_tip()->mutable_tilt_offset()->set_enabled(false);
+    tilted = new v1::RunSummary(summarize(tribo::testing::default_config(), protocol));
+    plain = new v1::RunSummary(summarize(untilted, protocol));
+  }
+  static void TearDownTestSuite() {
+    delete tilted;
+    delete plain;
+  }
+  static inline v1::RunSummary* tilted = nullptr;
+  static inline v1::RunSummary* plain = nullptr;
+};
+
+TEST_F(TiltHoldAndPasses, TheFrictionIsCorrectedWithThePassesOffset) {
+  const double tan_tilt = configured_tan_tilt(tribo::testing::default_config());
+  RecordProperty("passes_tilt_tan", std::to_string(tilted->tilt_passes_tan()));
+  RecordProperty("hold_tilt_tan", std::to_string(tilted->tilt_tan()));
+  EXPECT_EQ(tilted->tilt_source(), "passes");
+  EXPECT_EQ(tilted->tilt_passes_used(), 4u);
+  ASSERT_TRUE(tilted->has_tilt_passes_tan());
+  EXPECT_NEAR(tilted->tilt_passes_tan(), tan_tilt, 0.0005);  // 2 %, seven times the seed-to-seed sd
+  EXPECT_EQ(tilted->tilt_correction_tan(), tilted->tilt_passes_tan());
+  EXPECT_NEAR(plain->tilt_passes_tan(), 0, 0.0005);
+  // The hold is measured, found to disagree, and not used.
+  ASSERT_TRUE(tilted->has_tilt_tan());
+  ASSERT_TRUE(tilted->has_tilt_hold_agrees());
+  EXPECT_FALSE(tilted->tilt_hold_agrees());
+  EXPECT_LT(tilted->tilt_tan(), 0.5 * tan_tilt);
+
+  // Raw, the two directions differ by 2 tan(theta); corrected, every pass has
+  // the untilted run's mu.
+  ASSERT_EQ(tilted->scratches_size(), 4);
+  ASSERT_EQ(plain->scratches_size(), 4);
+  for (int i = 0; i < 4; ++i) {
+    const v1::SlidingSummary& t = tilted->scratches(i);
+    const v1::SlidingSummary& u = plain->scratches(i);
+    ASSERT_TRUE(t.steady_state()) << t.not_steady_reason();
+    EXPECT_EQ(t.velocity_um_s() > 0, i % 2 == 0);
+    EXPECT_NEAR(t.mu() - u.mu(), t.velocity_um_s() > 0 ? -tan_tilt : tan_tilt, 0.001) << i;
+    ASSERT_TRUE(t.has_mu_tilt_corrected());
+    EXPECT_NEAR(t.mu_tilt_corrected(), u.mu(), 0.001) << i;
+    EXPECT_NEAR(t.mu_tilt_corrected(), tilted->scratches(0).mu_tilt_corrected(), 0.001) << i;
+  }
+}
+
+TEST_F(TiltHoldAndPasses, TheTextSaysWhichEstimateItUsed) {
+  const std::string text = summary_text(*tilted);
+  EXPECT_NE(text.find("from the passes both ways"), std::string::npos) << text;
+  EXPECT_NE(text.find("disagrees, not used"), std::string::npos) << text;
   EXPECT_NE(text.find("mean friction"), std::string::npos) << text;
   EXPECT_NE(text.find("friction (tilt-corrected)"), std::string::npos) << text;
-  EXPECT_NE(text.find("tip tilt   tan(theta) = "), std::string::npos) << text;
+}
+
+// Passes pair only at the same speed and load: a faster -x pass has no +x
+// partner and gives nothing.
+TEST(TiltFromPasses, PairsPassesOfTheSameSpeedAndLoad) {
+  using analysis::PassFriction;
+  const double n = 2e-3, t = 0.026, mu = 0.1;
+  const auto pass = [&](double v, double load, double mu_true) {
+    // friction = reading x sgn(v) = mu N - sgn(v) N tan(theta)
+    return PassFriction{v, load, mu_true * load - (v > 0 ? 1 : -1) * load * t};
+  };
+  EXPECT_FALSE(analysis::estimate_tilt_from_passes({pass(5e-6, n, mu), pass(5e-6, n, mu)}).has_value());
+  EXPECT_FALSE(analysis::estimate_tilt_from_passes({pass(5e-6, n, mu), pass(-20e-6, n, mu)}).has_value());
+  EXPECT_FALSE(analysis::estimate_tilt_from_passes({pass(5e-6, n, mu), pass(-5e-6, 2 * n, mu)}).has_value());
+  // Two speeds, each both ways, with a higher mu at the higher speed: each
+  // pair gives the tilt, the mix of speeds does not bias it.
+  const auto e = analysis::estimate_tilt_from_passes(
+      {pass(5e-6, n, mu), pass(-5e-6, n, mu), pass(20e-6, n, 1.2 * mu), pass(-20e-6, n, 1.2 * mu), pass(-20e-6, n, 1.2 * mu)});
+  ASSERT_TRUE(e.has_value());
+  EXPECT_NEAR(e->tan_tilt, t, 1e-12);
+  EXPECT_EQ(e->forward_passes, 2u);
+  EXPECT_EQ(e->backward_passes, 3u);
+  EXPECT_TRUE(analysis::hold_tilt_agrees(0.024, t));
+  EXPECT_FALSE(analysis::hold_tilt_agrees(0.0046, t));
 }
 
 // A scratch that loads while the tip already moves has no loaded rest: the

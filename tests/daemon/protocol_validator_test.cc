@@ -1,4 +1,5 @@
 #include "daemon/protocol_validator.h"
+#include "daemon/validation_messages.h"
 
 #include <google/protobuf/text_format.h>
 #include <gtest/gtest.h>
@@ -226,6 +227,48 @@ TEST(ProtocolValidator, ErrorsInARepeatNameThePass) {
   EXPECT_NE(e->message.find("\"scratch\" (pass 2/3)"), std::string::npos) << e->message;
   EXPECT_NE(e->message.find("200"), std::string::npos) << e->message;
   EXPECT_NE(e->message.find("100"), std::string::npos) << e->message;
+}
+
+// The repeated scratch moved across the breakpoint: every one of its eight
+// passes breaks the same rule, and the message says it once with the passes
+// listed (not eight times in one line).
+TEST(ValidationMessages, ARuleBrokenInEveryPassIsSaidOnceWithThePasses) {
+  v1::Protocol p;
+  ASSERT_FALSE(wire::load_text_proto_file(std::string(TRIBO_SOURCE_DIR) + "/config/protocols/repeated_scratch.textproto", p));
+  p.mutable_segments(0)->mutable_lateral()->set_end_um(-2);  // approach to -2 µm
+  p.mutable_segments(1)->mutable_repeat()->mutable_segments(3)->mutable_lateral()->set_end_um(-2);  // "back"
+  const ProtocolCheck c = check(p);
+  ASSERT_EQ(c.errors.size(), 8u) << all(c);
+  EXPECT_EQ(c.errors[3].segment, "segments[1].repeat.segments[1] \"scratch\"");
+  EXPECT_EQ(c.errors[3].pass, "4/8");
+  const std::string message = describe_issues(c.errors);
+  const std::string rule = "keep loaded segments on one side of it";
+  EXPECT_EQ(message,
+            "segments[1].repeat.segments[1] \"scratch\" (passes 1-8 of 8): loaded lateral path [-2, 10] µm comes "
+            "within 0.5 µm of the breakpoint at 0 µm; " + rule);
+  const auto grouped = group_repeated_issues(c.errors);
+  ASSERT_EQ(grouped.size(), 1u);
+  EXPECT_EQ(grouped[0].field, "segments[1].repeat.segments[1].lateral");
+}
+
+// The same rule on the same field of different segments is said once with
+// the segments listed; different rules stay apart.
+TEST(ValidationMessages, TheSameRuleInSeveralSegmentsIsSaidOnce) {
+  const std::vector<ValidationIssue> issues{
+      {"segments[2].lateral", "segments[2] \"a\": too fast", "segments[2] \"a\"", ""},
+      {"segments[3].normal.end_uN", "segments[3] \"b\": too heavy", "segments[3] \"b\"", ""},
+      {"segments[5].lateral", "segments[5] \"c\": too fast", "segments[5] \"c\"", ""},
+      {"segments[6].repeat.segments[0].lateral", "segments[6].repeat.segments[0] \"d\" (pass 2/4): too fast",
+       "segments[6].repeat.segments[0] \"d\"", "2/4"},
+      {"segments[6].repeat.segments[0].lateral", "segments[6].repeat.segments[0] \"d\" (pass 4/4): too fast",
+       "segments[6].repeat.segments[0] \"d\"", "4/4"},
+      {"segments", "the protocol lasts 1e+06 s", "", ""}};
+  EXPECT_EQ(describe_issues(issues),
+            "segments[2] \"a\", segments[5] \"c\", segments[6].repeat.segments[0] \"d\" (passes 2, 4 of 4): too fast "
+            "(and 2 more: segments[3] \"b\": too heavy; the protocol lasts 1e+06 s;)");
+  EXPECT_EQ(passes_text({"3/8"}), "(pass 3/8)");
+  EXPECT_EQ(passes_text({"1/8", "2/8", "3/8", "5/8", "7/8", "8/8"}), "(passes 1-3, 5, 7, 8 of 8)");
+  EXPECT_EQ(passes_text({"1/2, 1/3", "2/2, 1/3"}), "(passes 1/2, 1/3 and 2/2, 1/3)");
 }
 
 TEST(ProtocolValidator, SpeedSetsTheDurationInWholeSamplePeriods) {

@@ -75,6 +75,15 @@ TEST(ApiSafety, TheRearmCheckRunsInTheLoopAndAnEmergencyStopEndsIt) {
   config.mutable_controller()->set_default_acquisition_rate_hz(100);
   config.mutable_supervisor()->set_force_filter_hz(20);  // below the 100 Hz loop's Nyquist
   config.mutable_supervisor()->set_motion_filter_hz(20);
+  // Gains a 100 Hz loop holds (daemon/loop_stability.h): integral action only
+  // on the lateral plate (as the scorecard's slow loop), ki dt = 1 on the rest.
+  auto* ctl = config.mutable_controller();
+  ctl->mutable_lateral_displacement()->set_kp(0);
+  ctl->mutable_lateral_displacement()->set_kd(0);
+  ctl->mutable_lateral_displacement()->set_ki(500);
+  ctl->mutable_lateral_force()->set_ki(100);
+  ctl->mutable_normal_force()->set_ki(100);
+  ctl->mutable_normal_displacement()->set_ki(1e4);
   DaemonProcess daemon(data.path(), testing::write_config(data, config));
   RawClient controller(daemon.port());
   ASSERT_TRUE(controller.request(testing::hello_message(v1::CONTROLLER)).has_hello());

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <fcntl.h>
+#include <pty.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -139,9 +140,8 @@ TEST(TriboCli, AbortStopsARunningProtocol) {
   std::thread runner([&] { tribo({"run", protocol_file.string()}); });
   while (!observer.next_event().has_samples()) {
   }
-  // Whether a second client may abort without a token on a daemon without
-  // one is the daemon's policy (AbortFromAnotherTerminalStopsTheCliRun has
-  // the token case); here the run just ends.
+  // AbortFromAnotherTerminal* abort a `tribo run` that holds control; here
+  // the run just ends.
   runner.join();
   // ...and a run started by a client that then releases control can be
   // aborted from the CLI.
@@ -577,6 +577,60 @@ TEST(TriboCli, CheckIsTheDryRunWithWarningsAndAPlot) {
   EXPECT_NE(unclosed.err.find("hint:"), std::string::npos) << unclosed.err;
 }
 
+// `tribo check PROTOCOL --config FILE` is the dry run offline: no daemon is
+// asked (the address is one where none listens), the config file's limits
+// and loop rate are those checked.
+TEST(TriboCli, CheckWithAConfigFileNeedsNoDaemon) {
+  TempDir dir;
+  const Cli tribo{"127.0.0.1:1"};  // nothing listens there
+  const std::string standard = std::string(TRIBO_SOURCE_DIR) + "/config/protocols/standard_scratch.textproto";
+  const auto offline = tribo({"check", standard, "--config", DaemonProcess::default_config_path()});
+  ASSERT_EQ(offline.exit_code, 0) << offline.err;
+  EXPECT_NE(offline.out.find("protocol standard-scratch-one-sided is valid: 32.000 s, 32000 samples expected"),
+            std::string::npos) << offline.out;
+  EXPECT_NE(offline.out.find("no daemon asked"), std::string::npos) << offline.out;
+  const auto json = tribo({"check", standard, "--config", DaemonProcess::default_config_path(), "--json"});
+  ASSERT_EQ(json.exit_code, 0) << json.err;
+  EXPECT_EQ(parse_json<v1::LoadProtocolReply>(json.out).expected_samples(), 32000u);
+  // Without --config the daemon is asked: none there, exit 3.
+  EXPECT_EQ(tribo({"check", standard}).exit_code, 3);
+
+  // The config's limits decide: a 5 mN scratch is refused under a 2 mN limit.
+  v1::DaemonConfig low = default_config();
+  low.mutable_limits()->set_max_normal_force_n(0.5e-3);
+  const std::string low_path = write_config(dir, low);
+  const auto refused = tribo({"check", standard, "--config", low_path});
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_NE(refused.err.find("segments[1].normal"), std::string::npos) << refused.err;
+  // A config that does not load is said as such.
+  const auto bad_config = tribo({"check", standard, "--config", (dir.path() / "none.textproto").string()});
+  EXPECT_EQ(bad_config.exit_code, 2);
+  EXPECT_NE(bad_config.err.find("none.textproto"), std::string::npos) << bad_config.err;
+}
+
+// A rule broken in every pass of a repeat block is said once, with the
+// passes, offline and by the daemon alike.
+TEST(TriboCli, CheckSaysARuleBrokenInEveryPassOnce) {
+  TempDir data, dir;
+  DaemonProcess daemon(data.path());
+  const Cli tribo{"127.0.0.1:" + std::to_string(daemon.port())};
+  v1::Protocol p;
+  ASSERT_FALSE(wire::load_text_proto_file(std::string(TRIBO_SOURCE_DIR) + "/config/protocols/repeated_scratch.textproto", p));
+  p.mutable_segments(0)->mutable_lateral()->set_end_um(-2);
+  p.mutable_segments(1)->mutable_repeat()->mutable_segments(3)->mutable_lateral()->set_end_um(-2);
+  const auto file = dir.path() / "across.textproto";
+  std::ofstream(file) << wire::to_text_proto(p);
+  const std::string rule = "keep loaded segments on one side of it";
+  for (const auto& r : {tribo({"check", file.string()}),
+                        tribo({"check", file.string(), "--config", DaemonProcess::default_config_path()})}) {
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_NE(r.err.find("\"scratch\" (passes 1-8 of 8): loaded lateral path [-2, 10] µm"), std::string::npos) << r.err;
+    const auto first = r.err.find(rule);
+    ASSERT_NE(first, std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find(rule, first + 1), std::string::npos) << "said more than once: " << r.err;
+  }
+}
+
 TEST(TriboCli, ExportsAnHdf5FileThatH5pyReads) {
   if (!std::filesystem::exists("/usr/bin/python3")) GTEST_SKIP() << "no /usr/bin/python3";
   TempDir data, out;
@@ -651,6 +705,53 @@ void wait_for_samples(client::TriboClient& observer) {
   }
 }
 
+// `tribo ARGS...` with its standard streams on a pseudo-terminal, as in an
+// interactive shell: everything it wrote there, and its exit code.
+CommandResult run_on_terminal(const std::vector<std::string>& args) {
+  int master = -1;
+  const pid_t pid = forkpty(&master, nullptr, nullptr, nullptr);
+  if (pid == 0) {
+    std::vector<char*> argv;
+    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  CommandResult r;
+  if (pid < 0) return r;
+  char buf[4096];
+  for (;;) {  // until the child's side closes (EIO)
+    const ssize_t n = read(master, buf, sizeof buf);
+    if (n <= 0) break;
+    r.out.append(buf, static_cast<std::size_t>(n));
+  }
+  close(master);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+// On a terminal `tribo run` draws its live progress line without being
+// asked ("\r[####----]  50% seg 3/5 ..."), and --no-progress turns it off.
+TEST(TriboCli, RunDrawsTheProgressLineOnATerminalByDefault) {
+  TempDir data, cfg;
+  DaemonProcess daemon(data.path());
+  const auto protocol_file = cfg.path() / "short.textproto";
+  std::ofstream(protocol_file) << wire::to_text_proto(short_protocol());
+  const std::string address = "127.0.0.1:" + std::to_string(daemon.port());
+  const auto drawn = run_on_terminal({DaemonProcess::tribo_cli_path(), "run", protocol_file.string(), "--address", address});
+  ASSERT_EQ(drawn.exit_code, 0) << drawn.out;
+  EXPECT_NE(drawn.out.find("\r["), std::string::npos) << drawn.out;
+  EXPECT_NE(drawn.out.find("% seg "), std::string::npos) << drawn.out;
+  EXPECT_NE(drawn.out.find(": SUCCESS"), std::string::npos) << drawn.out;
+  const auto quiet = run_on_terminal(
+      {DaemonProcess::tribo_cli_path(), "run", protocol_file.string(), "--no-progress", "--address", address});
+  ASSERT_EQ(quiet.exit_code, 0) << quiet.out;
+  EXPECT_EQ(quiet.out.find("% seg "), std::string::npos) << quiet.out;
+  EXPECT_NE(quiet.out.find(": SUCCESS"), std::string::npos) << quiet.out;
+}
+
 TEST(TriboCli, CtrlCAbortsTheRunAndSaysWhatHappened) {
   TempDir data, cfg;
   DaemonProcess daemon(data.path(), write_config(cfg, paced_config()));
@@ -669,6 +770,37 @@ TEST(TriboCli, CtrlCAbortsTheRunAndSaysWhatHappened) {
   const std::string out = slurp(cli.out), err = slurp(cli.err);
   EXPECT_NE(out.find(": ABORT (interrupted (Ctrl-C) in tribo run)"), std::string::npos) << out << err;
   EXPECT_NE(err.find("interrupted (Ctrl-C): the run was aborted with a safe unload"), std::string::npos) << err;
+}
+
+// The default config has no control token: `tribo abort` in a second
+// terminal stops the run the first one's `tribo run` controls, through the
+// normal stop sequence (ABORT, no re-arm needed).
+TEST(TriboCli, AbortFromAnotherTerminalStopsTheCliRunWithoutAToken) {
+  TempDir data, cfg;
+  DaemonProcess daemon(data.path(), write_config(cfg, paced_config()));
+  const std::string address = "127.0.0.1:" + std::to_string(daemon.port());
+  const Cli tribo{address};
+  client::TriboClient observer({"127.0.0.1", daemon.port()}, observer_session());
+  v1::ClientMessage subscribe;
+  subscribe.mutable_subscribe();
+  observer.request(subscribe);
+  const auto protocol_file = cfg.path() / "long.textproto";
+  v1::Protocol long_protocol = short_protocol();
+  long_protocol.mutable_segments(2)->set_duration_s(30);  // far longer than the test
+  long_protocol.mutable_segments(2)->mutable_lateral()->set_end_um(8);
+  long_protocol.mutable_segments(3)->mutable_lateral()->set_end_um(8);
+  std::ofstream(protocol_file) << wire::to_text_proto(long_protocol);
+  BackgroundCli run({DaemonProcess::tribo_cli_path(), "run", protocol_file.string(), "--address", address},
+                    cfg.path());
+  wait_for_samples(observer);
+  const auto aborted = tribo({"abort", "--reason", "from the other terminal"});
+  if (aborted.exit_code != 0) kill(run.pid, SIGINT);  // the run's own Ctrl-C ends it
+  EXPECT_EQ(aborted.exit_code, 0) << aborted.err;
+  EXPECT_EQ(run.wait(), 1);  // the run ended in ABORT
+  EXPECT_NE(slurp(run.out).find("ABORT (from the other terminal)"), std::string::npos) << slurp(run.out);
+  const auto status = parse_json<v1::StatusReply>(tribo({"status", "--json"}).out);
+  EXPECT_NE(status.state(), v1::FAULTED);  // no re-arm needed, unlike an emergency stop
+  EXPECT_FALSE(status.tripped());
 }
 
 TEST(TriboCli, AbortFromAnotherTerminalStopsTheCliRun) {

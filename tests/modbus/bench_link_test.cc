@@ -265,6 +265,22 @@ TEST(ModbusBackend, LateAnswersAreFlushedNotTakenForLaterOnes) {
   EXPECT_EQ(run.reads.back(), IoResult::kOk);
 }
 
+// One answer 0.8 s late against a 0.5 s timeout: it arrives while the next
+// request (the drive write) waits, is refused as that request's answer, and
+// the write's own answer may then come after the flush: every later
+// transaction would read its predecessor's answer. Malformed answers in a
+// row reopen the link, which starts the stream afresh.
+TEST(ModbusBackend, AnswersOneBehindReopenTheLinkAndItRecovers) {
+  v1::BenchFault f = fault(v1::BenchFault::SLOW_ANSWERS, 50, 1);
+  f.set_delay_s(0.8);
+  const FaultRun run = run_with_faults({f}, 300);
+  EXPECT_EQ(run.stale_or_unknown_frames, 0);
+  EXPECT_EQ(run.failed_reads_with_values, 0);
+  EXPECT_EQ(run.reads[50], IoResult::kTimeout);
+  EXPECT_LE(run.health.bad_frames, 3u) << run.health.last_error;
+  for (int k = 200; k < 300; ++k) EXPECT_EQ(run.reads[k], IoResult::kOk) << k << ": " << run.health.last_error;
+}
+
 TEST(ModbusBackend, SlowButTimelyAnswersShowInTheMaximumIoTime) {
   v1::BenchFault f = fault(v1::BenchFault::SLOW_ANSWERS, 50, 1);
   f.set_delay_s(0.02);

@@ -10,6 +10,7 @@
 
 #include "client/run_summary.h"
 #include "client/tribo_client.h"
+#include "daemon/daemon_config.h"
 #include "hal/modbus_register_map.h"
 #include "proto/run_files.h"
 #include "proto/sample_record.h"
@@ -166,8 +167,10 @@ TEST(ModbusEndToEnd, ScratchGivesTheSimulatedBackendsFrictionWithinQuantisation)
   compare_with_simulated_backend(short_scratch(), 3);
 }
 
-// The full 32 s standard scratch: about a minute of wall clock here, so not
-// in the default suite. Run with --gtest_also_run_disabled_tests.
+// The full 32 s standard scratch at 10 kHz with the test rig's bench (normal
+// priority, any CPU), compared sample by sample: 35-60 s of wall clock on a
+// busy 2-core machine, so not in the default suite (the shipped configs run
+// it below). Run with --gtest_also_run_disabled_tests.
 TEST(ModbusEndToEnd, DISABLED_FullStandardScratchGivesTheSimulatedBackendsFriction) {
   compare_with_simulated_backend(standard_scratch(), 1);
 }
@@ -209,6 +212,63 @@ TEST(ModbusEndToEnd, FrictionCompensationBehavesAsOnTheSimulatedBackend) {
   EXPECT_NEAR(over_modbus.stiction_peak_n, over_with.stiction_peak_n, 3e-6);
   EXPECT_LT(over_modbus.overshoot, 0.8 * over_without.overshoot);
   for (const Sample& s : modbus.samples) ASSERT_TRUE(s.status_flags & v1::FRICTION_COMPENSATED) << s.time_s;
+}
+
+// The shipped bench pairs as a user starts them, only the ports chosen
+// free: tribo-bench --config config/tribo-bench[-2khz].textproto (its server
+// at SCHED_FIFO on CPU 1), tribod --config config/tribod-modbus[-2khz].textproto
+// pointed at it (its loop on CPU 1). The run ends in SUCCESS and gives the
+// friction of the simulated backend running the same controller at the same
+// rate, within the standard error one force step per sample makes (lock
+// step: the pace of the wall clock does not enter).
+struct ShippedPair {
+  const char* bench_config;
+  const char* daemon_config;
+  bool full_standard_scratch;  // else the short one
+};
+
+void run_shipped_pair(const ShippedPair& pair) {
+  const std::string dir = std::string(TRIBO_SOURCE_DIR) + "/config/";
+  v1::DaemonConfig modbus;
+  ASSERT_FALSE(daemon::load_daemon_config(dir + pair.daemon_config, modbus));
+  TempDir config_dir, data, sim_data;
+  BenchProcess bench(dir + pair.bench_config);
+  const auto daemon_path = config_dir.path() / pair.daemon_config;
+  testing::write_text_proto(daemon_path, testing::with_port(modbus, bench.port()));
+  DaemonProcess daemon(data.path(), daemon_path.string());
+
+  v1::DaemonConfig sim = testing::sim_daemon_config();
+  *sim.mutable_controller() = modbus.controller();
+  const auto sim_path = config_dir.path() / "tribod-sim.textproto";
+  testing::write_text_proto(sim_path, sim);
+  DaemonProcess sim_daemon(sim_data.path(), sim_path.string());
+
+  const v1::Protocol protocol = pair.full_standard_scratch ? standard_scratch() : short_scratch();
+  const client::RunResult b = run(daemon, protocol, 1);
+  const client::RunResult a = run(sim_daemon, protocol, 1);
+  ASSERT_EQ(b.stop.exit_status(), v1::SUCCESS) << b.stop.reason();
+  ASSERT_EQ(a.stop.exit_status(), v1::SUCCESS) << a.stop.reason();
+  EXPECT_EQ(b.stop.cycle_count(), a.stop.cycle_count());
+  EXPECT_EQ(b.stop.backend_health().backend(), "modbus");
+  const v1::SlidingSummary sa = scratch_of(client::summarize_run(a));
+  const v1::SlidingSummary sb = scratch_of(client::summarize_run(b));
+  ASSERT_TRUE(sb.steady_state()) << sb.not_steady_reason();
+  const double lsb_un = sim.sim().sensors().lateral_force_resolution_n() * 1e6;
+  const double tolerance_un = lsb_un / std::sqrt(static_cast<double>(sa.steady_samples()));
+  EXPECT_NEAR(sb.mean_friction_un(), sa.mean_friction_un(), tolerance_un);
+  std::printf("%s at %g Hz: mean friction %.4f µN over Modbus, %.4f µN simulated (tolerance %.4f µN)\n",
+              pair.daemon_config, modbus.controller().loop_rate_hz(), sb.mean_friction_un(), sa.mean_friction_un(),
+              tolerance_un);
+}
+
+// The standard scratch at 2 kHz: 32 s of wall clock.
+TEST(ModbusEndToEnd, TheShippedTwoKilohertzPairRunsTheStandardScratch) {
+  run_shipped_pair({"tribo-bench-2khz.textproto", "tribod-modbus-2khz.textproto", true});
+}
+
+// The shortened standard scratch at 10 kHz: 6 s of wall clock.
+TEST(ModbusEndToEnd, TheShippedTenKilohertzPairRunsTheShortScratch) {
+  run_shipped_pair({"tribo-bench.textproto", "tribod-modbus.textproto", false});
 }
 
 // ------------------------------------------------------------------ faults

@@ -7,12 +7,14 @@
 #include <vector>
 
 #include "daemon/daemon_config.h"
+#include "emulator/bench_config.h"
 #include "hal/backend_factory.h"
 #include "hal/modbus_blocks.h"
 #include "hal/modbus_link.h"
 #include "hal/modbus_register_map.h"
 #include "proto/text_format_file.h"
 #include "tests/modbus/modbus_support.h"
+#include "tests/support/daemon_process.h"
 
 namespace tribo {
 namespace {
@@ -27,12 +29,61 @@ TEST(ModbusConfig, ShippedConfigIsValidAndMatchesTheSimulatedOne) {
   const v1::DaemonConfig modbus = testing::modbus_daemon_config();
   const v1::DaemonConfig sim = testing::sim_daemon_config();
   EXPECT_EQ(hal::backend_name(modbus), "modbus");
-  // The controller cannot tell the backends apart: same loop, gains and limits.
-  EXPECT_EQ(modbus.controller().SerializeAsString(), sim.controller().SerializeAsString());
+  // The controller cannot tell the backends apart: same loop, gains and
+  // limits (the Modbus loop thread is pinned beside tribo-bench's server).
+  v1::ControllerConfig modbus_controller = modbus.controller();
+  EXPECT_EQ(modbus_controller.loop_cpu(), 1);
+  modbus_controller.clear_loop_cpu();
+  EXPECT_EQ(modbus_controller.SerializeAsString(), sim.controller().SerializeAsString());
   EXPECT_EQ(modbus.limits().SerializeAsString(), sim.limits().SerializeAsString());
   EXPECT_EQ(modbus.server().SerializeAsString(), sim.server().SerializeAsString());
   // The same instrument: the supervisor's nominal transducer constants.
   EXPECT_EQ(modbus.transducer().SerializeAsString(), sim.transducer().SerializeAsString());
+}
+
+// The 2 kHz pair is the 10 kHz one but for the loop rate and the lateral
+// loop's derivative; tribo-bench-2khz.textproto serves it.
+TEST(ModbusConfig, TheTwoKilohertzConfigDiffersOnlyInRateAndDerivative) {
+  v1::DaemonConfig slow;
+  ASSERT_FALSE(daemon::load_daemon_config(std::string(TRIBO_SOURCE_DIR) + "/config/tribod-modbus-2khz.textproto", slow));
+  v1::DaemonConfig fast = testing::modbus_daemon_config();
+  EXPECT_EQ(slow.controller().loop_rate_hz(), 2000);
+  EXPECT_EQ(slow.controller().lateral_displacement().kd(), 1);
+  EXPECT_EQ(slow.controller().lateral_displacement().derivative_filter_hz(), 0);
+  auto* c = fast.mutable_controller();
+  c->set_loop_rate_hz(2000);
+  c->mutable_lateral_displacement()->set_kd(1);
+  c->mutable_lateral_displacement()->set_derivative_filter_hz(0);
+  EXPECT_EQ(fast.SerializeAsString(), slow.SerializeAsString());
+  v1::BenchConfig bench, bench_2khz;
+  ASSERT_FALSE(wire::load_text_proto_file(testing::bench_config_path(), bench));
+  ASSERT_FALSE(wire::load_text_proto_file(std::string(TRIBO_SOURCE_DIR) + "/config/tribo-bench-2khz.textproto", bench_2khz));
+  EXPECT_EQ(bench_2khz.modbus_config_file(), "tribod-modbus-2khz.textproto");
+  bench_2khz.set_modbus_config_file(bench.modbus_config_file());
+  EXPECT_EQ(bench.SerializeAsString(), bench_2khz.SerializeAsString());
+  EXPECT_EQ(bench.realtime_priority(), 10);
+  EXPECT_EQ(bench.cpu(), fast.controller().loop_cpu());  // the server beside the loop
+}
+
+// tribo-bench checks the register map config's loop on the plant it
+// emulates: a config that is stable on its own nominal mass (10 g here) but
+// not on the simulated instrument's 1 g is refused, naming both files.
+TEST(ModbusConfig, TheBenchChecksTheLoopOnTheEmulatedPlant) {
+  testing::TempDir dir;
+  v1::DaemonConfig modbus = testing::modbus_daemon_config();
+  modbus.mutable_controller()->set_loop_rate_hz(2000);
+  modbus.mutable_transducer()->mutable_lateral()->set_moving_mass_kg(10e-3);
+  ASSERT_EQ(error_of(modbus), "");
+  bench::BenchSetup setup;
+  const auto error = bench::load_bench_setup(testing::write_bench_config(dir.path(), modbus).string(), setup);
+  ASSERT_TRUE(error);
+  EXPECT_NE(error->find("tribod-modbus.textproto on the plant of "), std::string::npos) << *error;
+  EXPECT_NE(error->find("controller.lateral_displacement.kd = 5: the sampled lateral displacement loop is unstable at "
+                        "controller.loop_rate_hz = 2000 (out of contact, moving mass 0.001 kg"),
+            std::string::npos)
+      << *error;
+  modbus.mutable_controller()->mutable_lateral_displacement()->set_kd(1);
+  EXPECT_FALSE(bench::load_bench_setup(testing::write_bench_config(dir.path(), modbus).string(), setup));
 }
 
 TEST(ModbusConfig, ValidationNamesTheEntry) {
@@ -102,7 +153,16 @@ TEST(ModbusConfig, RtuIsSelectableAndValidated) {
       "device: \"/dev/ttyUSB0\" baud: 115200 parity: \"E\" data_bits: 8 stop_bits: 1", "rtu",
       *config.mutable_modbus()->mutable_rtu());
   ASSERT_FALSE(parse_error) << *parse_error;
+  // A tick is 80 characters of 11 bits on the wire: 115200 baud carries 131 Hz.
+  EXPECT_EQ(error_of(config).rfind("controller.loop_rate_hz = 10000: above what modbus.rtu carries, at most 130.9 Hz", 0),
+            0u)
+      << error_of(config);
+  config.mutable_modbus()->mutable_rtu()->set_baud(4000000);  // 4545 Hz
+  EXPECT_EQ(error_of(config).rfind("controller.loop_rate_hz = 10000: above what modbus.rtu carries, at most 4545 Hz", 0), 0u)
+      << error_of(config);
+  config.mutable_controller()->set_loop_rate_hz(4000);
   EXPECT_EQ(error_of(config), "");
+  config.mutable_modbus()->mutable_rtu()->set_baud(115200);
   const hal::LinkSettings s = hal::link_settings_from_config(config.modbus());
   EXPECT_TRUE(s.rtu);
   EXPECT_EQ(s.parity, 'E');

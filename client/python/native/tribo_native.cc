@@ -25,6 +25,7 @@
 #include "analysis/series_input.h"
 #include "daemon/daemon_config.h"
 #include "daemon/protocol_validator.h"
+#include "daemon/validation_messages.h"
 #include "daemon/run_loop.h"
 #include "hal/backend_factory.h"
 #include "proto/run_files.h"
@@ -78,11 +79,7 @@ v1::DaemonConfig checked_config(const py::handle& source) {
 
 daemon::ProtocolCheck checked_protocol(const v1::Protocol& protocol, const v1::DaemonConfig& config) {
   daemon::ProtocolCheck check = daemon::validate_protocol(protocol, config);
-  if (!check.ok()) {
-    std::string message = check.errors.front().message;
-    for (std::size_t i = 1; i < check.errors.size(); ++i) message += "; " + check.errors[i].message;
-    raise_validation(check.errors.front().field, message);
-  }
+  if (!check.ok()) raise_validation(check.errors.front().field, daemon::describe_issues(check.errors));
   return check;
 }
 
