@@ -161,11 +161,13 @@ def load_spec(path, validate=None):
     """Reads and expands a spec. validate(config_bytes, protocol_bytes) (the
     native validator, tribo_client.sim) checks every config and protocol
     pair; ValidationError propagates with its field."""
-    with open(path, "rb") as f:
-        try:
+    try:
+        with open(path, "rb") as f:
             spec = tomllib.load(f)
-        except tomllib.TOMLDecodeError as e:
-            raise SpecError(f"{path}: {e}") from None
+    except OSError as e:
+        raise SpecError(f"cannot read {path}: {e.strerror}") from None
+    except tomllib.TOMLDecodeError as e:
+        raise SpecError(f"{path}: {e}") from None
     base_dir = os.path.dirname(os.path.abspath(path))
     known = {"name", "config", "seeds", "compute", "overrides", "protocols", "grid", "variants", "diagnosis",
              "report", "description", "scorecard"}
