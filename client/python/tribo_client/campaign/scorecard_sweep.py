@@ -102,7 +102,7 @@ def plot_sweep(frame, report, path, title, base_x=None):
     if base_x is not None:
         ax.axvline(base_x, color="0.5", ls=":", lw=0.8)
     goals = frame[frame["goal"] > 0].groupby("key").size()
-    ax.set_title(f"rows within issue 14's goals (of {int(goals.max()) if len(goals) else 0})", fontsize=7)
+    ax.set_title(f"rows within their goals (of {int(goals.max()) if len(goals) else 0})", fontsize=7)
     ax.set_xlabel(_short(x), fontsize=7)
     ax.tick_params(labelsize=7)
     if lines:
