@@ -352,6 +352,33 @@ class RefusedSpecs(unittest.TestCase):
             self.assertNotIn("Traceback", stderr)
 
 
+class FrictionModels(unittest.TestCase):
+    """A campaign compares runs with and without the friction compensation."""
+
+    def test_variants_with_and_without_a_friction_model(self):
+        from tribo_client.campaign.spec import load_spec
+        report = os.path.join(ARGS.source_dir, "tests/data/friction_reports/identification.json")
+        with tempfile.TemporaryDirectory() as tmp:
+            spec = write_spec(tmp, f'[[variants]]\nlabel = "without"\n[[variants]]\nlabel = "compensated"\n'
+                                   f'friction_model = "{report}"\n')
+            tasks = load_spec(spec, validate=lambda config, protocol: sim.check(config, protocol)).tasks
+        self.assertEqual(len(tasks), 2)
+        from tribo.v1 import protocol_pb2
+        plain, compensated = protocol_pb2.Protocol(), protocol_pb2.Protocol()
+        plain.ParseFromString(tasks[0].protocol_bytes)
+        compensated.ParseFromString(tasks[1].protocol_bytes)
+        self.assertFalse(plain.HasField("friction_compensation"))
+        with open(report, encoding="utf-8") as f:
+            self.assertEqual(compensated.friction_compensation.report_json, f.read())
+        self.assertEqual(tasks[1].labels["friction_model"], report)
+        self.assertNotIn("friction_model", tasks[0].labels)
+        self.assertNotEqual(tasks[0].key, tasks[1].key)
+
+    def test_an_unreadable_model_is_refused_naming_the_key(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            assert_refused(self, tmp, write_spec(tmp, 'friction_model = "no-such-report.json"\n'), "friction_model")
+
+
 def run_shipped_spec(test, tmp, name, timeout):
     """Runs config/campaigns/NAME on 2 local workers into TMP/out; returns that directory."""
     out = os.path.join(tmp, "out")
