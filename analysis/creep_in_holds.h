@@ -1,6 +1,6 @@
-// Creep under a stuck contact, from the holds of minutes (the dissertation's
-// Fig. 3.12: about +-300 µN of lateral-force drift over 1000 s at 7000 µN,
-// held at rest).
+// Creep under a stuck contact, from the holds of minutes (issue 15, item (a);
+// the dissertation's Fig. 3.12: about +-300 uN of lateral-force drift over
+// 1000 s at 7000 uN, held at rest).
 //
 // A stuck contact is a spring: when the sample creeps against the tip (or the
 // position sensor's zero drifts and the position loop follows it), the tip is
