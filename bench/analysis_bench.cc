@@ -1,4 +1,4 @@
-// Timings of the identification (issue 7): the LuGre fit on 100 k samples
+// Timings of the identification: the LuGre fit on 100 k samples
 // (goal: at most 2 s) and a full diagnosis of a 200 s run at 1 kHz (goal: at
 // most 30 s), on synthetic scratch series (tests/analysis/synthetic_run.h),
 // plus the model simulation they are built on.

@@ -1,5 +1,5 @@
-// The emergency stop's latency under every activity of the supervised loop
-// (issue 13), on the simulated instrument paced to the wall clock at the
+// The emergency stop's latency under every activity of the supervised loop,
+// on the simulated instrument paced to the wall clock at the
 // shipped loop rate (10 kHz: one period is 100 µs). Reported, not asserted
 // (timings are figures). Activities:
 //   Run            a loaded dwell of a protocol run

@@ -1,4 +1,4 @@
-// `tribo run` streams to disk (issue 13): the run's samples.csv is written as
+// `tribo run` streams to disk: the run's samples.csv is written as
 // blocks arrive, holes left by gap notices are filled from the recording, and
 // the summary is read back a segment at a time within a cap -- identical to
 // the summary from every sample in memory.

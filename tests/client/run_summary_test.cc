@@ -36,7 +36,7 @@ v1::RunSummary summarize(const v1::DaemonConfig& config, const v1::Protocol& pro
 // On the plain LuGre plant (tests/sim/sim_test_support.h), a declared plant:
 // the estimate (analysis/tip_tilt.h) reads -N tan(theta) in a loaded hold,
 // which assumes that the contact gives way to the tilt's push while the load
-// comes on, as LuGre's creep does. The default contact (issue 14) holds a
+// comes on, as LuGre's creep does. The default contact holds a
 // force below break-away (elasto-plastic presliding), so what its hold reads
 // depends on what the contact stored while loading: measured on seed 1,
 // tilted 0.0034, untilted -0.0264, difference 0.0298 against tan(1.5 deg) =

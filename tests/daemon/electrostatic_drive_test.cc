@@ -1,6 +1,6 @@
 // The supervisor's per-tick stiffness check (drive_stiffness) against the
 // full assessment it replaced (assess_drive): the same gap_closed and the
-// same stiffness_ratio, bit for bit, so no trip decision moved (issue 17).
+// same stiffness_ratio, bit for bit, so no trip decision moves.
 #include "daemon/electrostatic_drive.h"
 
 #include <gtest/gtest.h>

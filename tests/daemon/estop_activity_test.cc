@@ -1,5 +1,5 @@
-// Issue 13: an emergency stop acts within one loop period whatever the
-// supervised loop runs. The loop's paced sleep is interruptible (a wake ends
+// An emergency stop acts within one loop period whatever the supervised
+// loop runs. The loop's paced sleep is interruptible (a wake ends
 // it before its deadline), and an emergency stop during each activity (a
 // run, its stop sequence, autotune, the re-arm check), or after a run's last
 // tick, latches FAULTED. No assertion here is on a duration: the latencies

@@ -1,6 +1,6 @@
-// Issue 13: nothing reaches the instrument unchecked, no sample is lost
-// unseen. Each test here guards a defect the examination found; each failed
-// on the code before the fix (see the commit messages).
+// Nothing reaches the instrument unchecked, no sample is lost unseen. Each
+// test here guards a defect that was found; each failed on the code before
+// the fix (see the commit messages).
 #include <gtest/gtest.h>
 
 #include <signal.h>
@@ -464,7 +464,7 @@ TEST(Autotune, IsRecordedLikeARun) {
   EXPECT_EQ(metadata->faults_size(), 1);
 }
 
-// ------------------------------------------------- issue 16, daemon side
+// ------------------------------------------ segment names, daemon side
 
 TEST(SegmentNames, EventsNameTheUnrolledSegment) {
   ServiceFixture f;

@@ -126,7 +126,7 @@ TEST(InstrumentService, RearmAfterAnEmergencyStopResyncsTheSetpointsToTheMeasure
   v1::RearmReply rearmed;
   ASSERT_FALSE(f.service->rearm(rearmed));
   EXPECT_EQ(f.service->status().state(), v1::ARMED);
-  // The re-arm reads the continuing instrument (issue 13), not a fresh
+  // The re-arm reads the continuing instrument, not a fresh
   // session at rest: unloaded, the lateral axis back near the neutral point
   // where the stop sequence's retract took it (its loop still settling a
   // fraction of a µm away: 0.10 µm measured).

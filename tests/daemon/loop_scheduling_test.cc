@@ -1,5 +1,5 @@
-// The loop thread's real-time scheduling (issue 13: an emergency stop acts
-// within one loop period, which a loop at normal priority misses whenever the
+// The loop thread's real-time scheduling (an emergency stop acts within one
+// loop period, which a loop at normal priority misses whenever the
 // machine is busy). Whether SCHED_FIFO is granted depends on the machine
 // (CAP_SYS_NICE, RLIMIT_RTPRIO): each test accepts either outcome but checks
 // that what is reported is what is in force.

@@ -226,8 +226,8 @@ TEST(Pid, InvalidInputHoldsTheOutputAndLeavesTheStateAlone) {
   EXPECT_FALSE(s.input_invalid);
 }
 
-// pid_update as it was before the controller kept its terms (issue 17),
-// written out: every division made every call.
+// pid_update written out without the controller's kept terms: every division
+// made every call.
 double reference_update(const PidGains& g, double r, double y, double f, double dt, PidState& s) {
   const double error = r - y;
   const double p = g.kp * (g.setpoint_weight_p * r - y);

@@ -1,4 +1,4 @@
-// An unpaced run reads no clock (issue 17): with time_stages_every 0 the loop
+// An unpaced run reads no clock: with time_stages_every 0 the loop
 // never calls its clock, and its samples are those of a timed run bit for
 // bit; timing every tick (tribod's paced loops) it reads six times a tick,
 // which is what makes the count meaningful; tribod's unpaced simulated runs

@@ -198,8 +198,8 @@ TEST(ApiRobustness, TheNumberOfClientsIsBounded) {
   ASSERT_TRUE(refusal && refusal->has_error());
   EXPECT_EQ(refusal->error().field(), "server.max_clients");
   EXPECT_TRUE(d.closed_by_peer());
-  // A connection that has not said hello makes room for a new one (issue 13:
-  // silent sockets must not lock out an emergency stop).
+  // A connection that has not said hello makes room for a new one (silent
+  // sockets must not lock out an emergency stop).
   b.close();
   RawClient silent(daemon.port());
   std::this_thread::sleep_for(std::chrono::milliseconds(100));

@@ -1,4 +1,4 @@
-// Issue 13 end to end, on the real tribod: the emergency stop gets through
+// Safety end to end, on the real tribod: the emergency stop gets through
 // whatever else is going on (an autotune, silent connections), timeouts and
 // the control lease free what a hung client holds, and an operator holding
 // the control token can abort a run another session controls.

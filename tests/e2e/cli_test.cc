@@ -334,7 +334,7 @@ TEST(TriboCli, AutotuneAppliesTheProposedGainsOnRequest) {
   EXPECT_EQ(gains_json(tribo).loops(0).gains().kp(), reply.proposed().kp());
 }
 
-// ------------------------------------------------------------- issue 16
+// ------------------------------------ help, version and unknown options
 
 const std::vector<std::string> kCommands{"run",       "check", "status", "abort", "list",  "fetch",   "export",
                                          "gains",     "set-gains", "rearm", "estop", "autotune"};
@@ -434,8 +434,8 @@ TEST(TriboCli, OutAndFetchRefuseToOverwriteWithoutForce) {
   EXPECT_FALSE(slurp(first / wire::kMetadataFile) == kept);
 }
 
-// Issue 13: `tribo run` kept every sample in memory (489 MB an hour at
-// 1 kHz). It writes them to --out as they arrive and reads the summary back a
+// `tribo run` does not keep every sample in memory (489 MB an hour at
+// 1 kHz): it writes them to --out as they arrive and reads the summary back a
 // segment at a time: a 4-minute run of 1-4 s segments (242 000 samples) is
 // held at most one fetched page (32 768) or one segment and one read page at
 // a time, and its samples.csv is the daemon's recording, byte for byte.

@@ -1,4 +1,4 @@
-// The control and safety API (issue 4) end to end: the real tribod on a
+// The control and safety API end to end: the real tribod on a
 // loopback port, driven through the client library.
 #include <gtest/gtest.h>
 
@@ -118,7 +118,7 @@ TEST(ControlApi, EmergencyStopLatchesAFaultUntilReArmed) {
   v1::ClientMessage rearm;
   rearm.mutable_rearm();
   const v1::RearmReply rearmed = client.request(rearm).rearm();
-  // The continuing instrument (issue 13: not a fresh session at rest):
+  // The continuing instrument (not a fresh session at rest):
   // unloaded, back near the neutral point where the stop sequence took it.
   const v1::DaemonConfig config = testing::default_config();
   EXPECT_NE(rearmed.lateral_position_m(), testing::reading_at_rest(config, config.sim().seed()).lateral_position_m);

@@ -68,7 +68,7 @@ def main():
     modes.segments[2].lateral.end_uN = 100
     write("protocol_validator", "modes.bin", modes.SerializeToString())
 
-    # Issue 13: non-finite values where the range hull used to drop them.
+    # Non-finite values in every field the validator bounds.
     nan, inf = float("nan"), float("inf")
     for name, spoil in (
             ("nan_normal_end.bin", lambda q: setattr(q.segments[4].normal, "end_uN", nan)),

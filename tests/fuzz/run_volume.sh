@@ -1,6 +1,6 @@
 #!/bin/sh
-# Volume run of the libFuzzer targets (issue 13: "a bench script runs each for
-# at least 10 M executions and prints executions and findings"). CI runs each
+# Volume run of the libFuzzer targets: each for 10 M executions (by default),
+# printing executions and findings. CI runs each
 # target briefly from the seed corpus (ctest -L fuzz); this is the long run.
 #
 # Usage: tests/fuzz/run_volume.sh [EXECUTIONS [TARGET...]]

@@ -67,7 +67,7 @@ const v1::SlidingSummary& scratch_of(const v1::RunSummary& s) {
 
 // On the plain LuGre plant (tests/sim/sim_test_support.h), a declared plant,
 // in both backends: the comparison is of the Modbus path's quantisation. The
-// default contact (issue 14) carries a one-step rounding difference on for
+// default contact carries a one-step rounding difference on for
 // longer in sliding (this scratch on it: 3.4 converter steps RMS over the
 // scratch, at most 12, 35 pm, while the friction results agree to 0.0002 uN).
 // The record's readout noise has no register (docs/simulated_instrument.md)
@@ -152,7 +152,7 @@ void compare_with_simulated_backend(const v1::Protocol& protocol, std::uint64_t 
   const v1::BackendHealth& h = b.stop.backend_health();
   EXPECT_EQ(h.backend(), "modbus");
   // + the run's session reset (the backend, connected and identified at
-  // start-up, lives across runs: issue 13)
+  // start-up, lives across runs)
   EXPECT_EQ(h.transactions(), 2 * b.stop.cycle_count() + 1);
   EXPECT_EQ(h.timeouts() + h.exceptions() + h.bad_frames() + h.link_losses(), 0u);
   EXPECT_GT(h.max_io_s(), 0.0);

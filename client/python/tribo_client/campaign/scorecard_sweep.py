@@ -14,6 +14,7 @@
 
 import json
 import os
+import re
 
 from .runner import RESULT_FILE, run_dir
 
@@ -89,8 +90,8 @@ def plot_sweep(frame, report, path, title, base_x=None):
         ax.axhline(subset["dissertation"].iloc[0], color="k", ls="--", lw=0.8, label="dissertation")
         if base_x is not None:
             ax.axvline(base_x, color="0.5", ls=":", lw=0.8)
-        ax.set_title(f"{subset['source'].iloc[0]}: {observation}", fontsize=7)
-        ax.set_ylabel(subset["unit"].iloc[0] or "-", fontsize=7)
+        ax.set_title(f"{subset['source'].iloc[0]}: {_display(observation)}", fontsize=7)
+        ax.set_ylabel(_display(subset["unit"].iloc[0]) or "-", fontsize=7)
         ax.set_xlabel(_short(x), fontsize=7)
         ax.tick_params(labelsize=7)
     ax = axes.flat[len(observations)]
@@ -102,7 +103,7 @@ def plot_sweep(frame, report, path, title, base_x=None):
     if base_x is not None:
         ax.axvline(base_x, color="0.5", ls=":", lw=0.8)
     goals = frame[frame["goal"] > 0].groupby("key").size()
-    ax.set_title(f"rows within issue 14's goals (of {int(goals.max()) if len(goals) else 0})", fontsize=7)
+    ax.set_title(f"rows within their goals (of {int(goals.max()) if len(goals) else 0})", fontsize=7)
     ax.set_xlabel(_short(x), fontsize=7)
     ax.tick_params(labelsize=7)
     if lines:
@@ -113,6 +114,11 @@ def plot_sweep(frame, report, path, title, base_x=None):
     fig.tight_layout()
     fig.savefig(path, dpi=150, bbox_inches="tight")
     plt.close(fig)
+
+
+def _display(text):
+    """The scorecard's observation keys say uN and um (a contract of its JSON); a figure writes µ."""
+    return re.sub(r"\bu([Nm])\b", "\u00b5\\1", text)
 
 
 def _short(path):

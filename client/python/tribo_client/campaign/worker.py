@@ -84,7 +84,7 @@ def execute(task):
 def _scorecard(task, row, out):
     """tribo-scorecard --json on the task's config and seed (sim.scorecard):
     the full report for the run's folder and the table's scorecard_* summary
-    (rows, rows with a goal of issue 14, rows within it)."""
+    (rows, rows with a goal, rows within it)."""
     if "scorecard" not in task.compute:
         return
     from tribo_client import sim
