@@ -200,7 +200,7 @@ double score_test(const ModelData& data, const ModelParams& current, const std::
   // The regression factorises X in place and has the Jacobian computed again
   // for its residual, rather than hold a copy: X is the widest array of this
   // phase (drift: 15 columns), and two of them at once, one per core, set the
-  // diagnosis' peak heap (issue 17). Each derivative is computed on its own,
+  // diagnosis' peak heap. Each derivative is computed on its own,
   // so the kept columns alone are the same values.
   const Regression reg = regress_in_place(X, y, [&](Eigen::MatrixXd& out) {
     model_jacobian_into(data, start, start.theta, kept, rows, 1.0, out);

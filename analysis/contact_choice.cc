@@ -204,8 +204,8 @@ ContactPick pick_contact(const std::vector<ContactEvidence>& c, double min_heldo
   // blocks cannot tell from the best-predicting one (less than one standard
   // error of the difference above it) is kept over a fit past a bound: the
   // data prefer neither, and only one of them is physical. On sepiolite
-  // velstep1 with the speed steps as velocity jumps (stop 39, before the
-  // contact's second start), LuGre's mu_s read 4.65 (not determined) and the
+  // velstep1 with the speed steps as velocity jumps and the contact fitted
+  // from one start, LuGre's mu_s read 4.65 (not determined) and the
   // rate-and-state contact (a 0.013, b 0.024, D_c 362 um) predicted 3.9 %
   // worse, 0.10 standard errors.
   if (pool.empty() && !c[0].physical) {

@@ -1,4 +1,4 @@
-// The contact law as a decision on held-out data (issue 15, "base-model
+// The contact law as a decision on held-out data ("base-model
 // choice"): plain LuGre, LuGre with elasto-plastic presliding and with
 // rate-and-state dependence (nested), the rate-and-state contact in place of
 // the Stribeck curve, and on one-way records each with a friction level

@@ -1,5 +1,5 @@
-// Creep under a stuck contact, from the holds of minutes (issue 15, item (a);
-// the dissertation's Fig. 3.12: about +-300 uN of lateral-force drift over
+// Creep under a stuck contact, from the holds of minutes
+// (the dissertation's Fig. 3.12: about +-300 uN of lateral-force drift over
 // 1000 s at 7000 uN, held at rest).
 //
 // A stuck contact is a spring: when the sample creeps against the tip (or the

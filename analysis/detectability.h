@@ -1,5 +1,5 @@
 // How strong an effect the diagnosis did not accept would have to be for this
-// record to reveal it (issue 15: "where a protocol cannot reveal an effect at
+// record to reveal it ("where a protocol cannot reveal an effect at
 // a given strength and noise, the report says so per effect"). The question is
 // asked of the record, not of the effect: the same protocol at the same noise
 // gives the same answer whether the effect is there or not.

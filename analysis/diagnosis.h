@@ -75,7 +75,7 @@ struct DiagnosisOptions {
   // For each effect not accepted: the strength this record would reveal
   // (analysis/detectability.h).
   bool minimum_detectable = true;
-  // The contact law as a decision on held-out data (issue 15, "base-model
+  // The contact law as a decision on held-out data ("base-model
   // choice"): plain LuGre, LuGre with Dupont's elasto-plastic presliding, and
   // that with the rate-and-state dependence (the simulated instrument's
   // default contact), nested (a law whose signature does not apply is

@@ -1,5 +1,5 @@
 // The vocabulary of effects the residual diagnosis can name (the effects the dissertation names: Srivastava 2006, §2.1, §3.3, §4.4),
-// shared with the simulated instrument's effect switches (issue 3): the names
+// shared with the simulated instrument's effect switches: the names
 // are a contract of the tribo-fit JSON output.
 #pragma once
 

@@ -186,7 +186,7 @@ void simulate_streamed(const ModelData& data, const ModelParams& params, const s
 // other part of the model reads: d force / d theta is d value / d theta
 // times the regressor, the very product the dual numbers form (every other
 // term adds an exact zero), so a Jacobian fills its column from the data
-// instead of carrying it through the simulation (issue 17: the drift fit
+// instead of carrying it through the simulation (the drift fit
 // carries 5 of its 21 columns, not 21). The offset, mass, tilt and drift
 // are carried with state_from_rest, whose pass start subtracts them from
 // the measured force; Fv with direction asymmetry, which scales it.

@@ -55,8 +55,8 @@ struct MotionSegmentation {
   std::vector<int> pass_of;                   // per sample: pass index, -1 in holds
   std::vector<double> distance_since_start_m; // since the pass began (0 in holds)
   // (Per-sample time since the pass began and dwell before it were dropped:
-  // nothing read them, and they were 16 of the diagnosis' bytes per sample,
-  // issue 17. Each Pass carries its dwell_before_s.)
+  // nothing read them, and they were 16 of the diagnosis' bytes per sample.
+  // Each Pass carries its dwell_before_s.)
   std::vector<char> heldout;                  // per sample: 1 held out, 0 fit
   std::vector<int> block_of;                  // per sample: held-out block (pass or chunk)
   std::vector<Pass> passes;

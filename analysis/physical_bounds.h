@@ -1,4 +1,4 @@
-// Physical bounds on a fitted model (issue 15, "honest numbers"): why a
+// Physical bounds on a fitted model ("honest numbers"): why a
 // candidate's fit cannot be accepted whatever its held-out gain (a parameter
 // at or past its bound or below what the record resolves, a strength its
 // error does not determine, a contact law it moves past its bounds, a tilt

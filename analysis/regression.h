@@ -29,7 +29,7 @@ Regression regress(const Eigen::MatrixXd& X, const Eigen::VectorXd& y);
 // refill(X) writes X into it again for the residual (X is left as refill
 // wrote it, or overwritten when the regression fails). The same result, bit
 // for bit; for a design matrix that is cheaper to recompute than to hold
-// twice (the score test's Jacobian, issue 17).
+// twice (the score test's Jacobian).
 Regression regress_in_place(Eigen::MatrixXd& X, const Eigen::VectorXd& y,
                             const std::function<void(Eigen::MatrixXd&)>& refill);
 

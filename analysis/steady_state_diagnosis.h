@@ -1,4 +1,4 @@
-// The effect report for steady-state friction points (issue 15: `tribo-fit
+// The effect report for steady-state friction points (`tribo-fit
 // stribeck --diagnose`): points (velocity, force[, load]) measured on
 // plateaus, as a drive's or a tribometer's steady-state curve comes, not a
 // time series. The same decision as the time-series diagnosis, on held-out

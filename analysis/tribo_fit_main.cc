@@ -184,7 +184,7 @@ int diagnose_command(const DiagnoseArgs& a) {
   return 0;
 }
 
-// --diagnose: the effect report on steady-state points (issue 15).
+// --diagnose: the effect report on steady-state points.
 int steady_diagnosis_command(const StribeckArgs& a) {
   std::string error;
   const auto table = read_csv_columns(a.file, {a.x, a.y, a.weight, a.load}, error);

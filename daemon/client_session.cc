@@ -33,7 +33,7 @@ bool is_control_command(v1::ClientMessage::BodyCase body) {
     case v1::ClientMessage::kLoadProtocol:
     case v1::ClientMessage::kStartRun:
     case v1::ClientMessage::kAbortRun:
-    case v1::ClientMessage::kSetGains:  // issue 4; EmergencyStop stays open to every client
+    case v1::ClientMessage::kSetGains:  // EmergencyStop stays open to every client
     case v1::ClientMessage::kRearm:
     case v1::ClientMessage::kAutotune:
       return true;

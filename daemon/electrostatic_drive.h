@@ -50,7 +50,7 @@ DriveAssessment assess_drive(const ElectrostaticAxis& axis, double force_n, doub
 
 // What the supervisor checks every tick: assess_drive's gap_closed and
 // stiffness_ratio (the same values), without the two voltages' square roots,
-// which only a trip's message needs (issue 17: 8 % of an in-process run).
+// which only a trip's message needs (they cost 8 % of an in-process run).
 struct DriveStiffness {
   bool gap_closed = false;
   double stiffness_ratio = 0;
@@ -62,7 +62,7 @@ DriveStiffness drive_stiffness(const ElectrostaticAxis& axis, double force_n, do
 // min_ratio, i.e. drive_stiffness(...) certainly gives !gap_closed and
 // stiffness_ratio >= min_ratio; false when that is not certain (near the
 // limit, beyond it, or not finite: then ask drive_stiffness). Decided without
-// a division (issue 17: drive_stiffness's ten a tick cost the supervisor most
+// a division (drive_stiffness's ten a tick would cost the supervisor most
 // of its time), from k_e g_a g_o^3 = 2 |F| g_o^3 + eps A Vb^2 (g_o + g_a) (g_a
 // the active plate's gap, g_o the other's), with a relative margin of 1e-9
 // against rounding that is ~1e-15: the supervisor's decisions stay the same.

@@ -291,7 +291,7 @@ std::optional<v1::Error> InstrumentService::start_run(std::optional<std::uint64_
   // consumer: its plant waits with it. Paced or real loops never wait.
   run->loop_config.backpressure = !paced();
   // An unpaced loop times its stages on one tick in kUnpacedTimingInterval:
-  // status keeps its stage times, the run its speed (issue 17).
+  // status keeps its stage times, the run its speed.
   if (!paced()) run->loop_config.time_stages_every = kUnpacedTimingInterval;
 
   reply.set_run_id(start.run_id());
@@ -339,7 +339,7 @@ v1::StatusReply InstrumentService::status() const {
   s.set_run_time_s(counters.time_s);
   s.set_run_duration_s(loaded_duration_s_);
   s.set_loop_scheduling(loop_scheduling_);
-  // The link's own record (issue 6) plus what the recorded samples say.
+  // The link's own record plus what the recorded samples say.
   v1::BackendHealth* health = s.mutable_backend_health();
   *health = state_ == v1::RUNNING && run_ && run_->transducer
                 ? health_message(run_->transducer->backend_name(),

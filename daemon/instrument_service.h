@@ -69,7 +69,7 @@ class InstrumentService {
   std::optional<v1::Error> abort_run(const std::string& reason);
   v1::StatusReply status() const;
 
-  // Control and safety (issue 4). Gains apply to the next runs and,
+  // Control and safety. Gains apply to the next runs and,
   // bumplessly, to the running one.
   std::optional<v1::Error> set_gains(v1::ControlLoop loop, const v1::PidGains& gains,
                                      v1::SetGainsReply& reply);

@@ -1,4 +1,4 @@
-// The loop thread's scheduling (issue 13: an emergency stop acts within one
+// The loop thread's scheduling (an emergency stop acts within one
 // loop period). At normal priority a woken loop waits for a core behind
 // whatever else the machine runs (measured: maxima of 0.7-1 ms on a loaded
 // 2-core machine against a 100 µs period); SCHED_FIFO lets it preempt them,

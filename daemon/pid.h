@@ -94,7 +94,7 @@ double pid_update(const PidGains& g, double setpoint, double measurement, double
 // The terms of an update that depend only on the gains and the period,
 // computed by the operations pid_update uses for them: a caller that steps
 // the same gains every tick computes them once per gain change (the
-// controller; issue 17: two divisions a tick fewer) and gets the same outputs.
+// controller: two divisions a tick fewer) and gets the same outputs.
 struct PidTerms {
   double filter_time_s = 0;  // 1 / (2 pi derivative_filter_hz), 0 unfiltered
   double ki_dt = 0;          // ki dt

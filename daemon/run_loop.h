@@ -48,7 +48,7 @@ struct RunLoopConfig {
   // tribod's simulated backend unpaced; 0: never, no clock read at all (an
   // acted-on emergency stop excepted): in-process runs (tribo_native.simulate,
   // campaigns). Six reads cost ~150 ns a tick, as much as half the simulated
-  // instrument itself (issue 17).
+  // instrument itself.
   std::uint32_t time_stages_every = 1;
   // The clock read for the stage times; a test counts its reads through it.
   std::uint64_t (*clock_ns)() = &monotonic_ns;

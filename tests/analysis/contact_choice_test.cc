@@ -41,7 +41,7 @@ TEST(ContactChoice, APhysicalContactThatPredictsBetterIsKept) {
 // LuGre past a bound, and a physical contact the held-out blocks cannot tell
 // from it (4 % more squared error, with a scatter that puts the difference
 // well within one standard error): the physical one is kept, and the report
-// says why (sepiolite velstep1 with the speed steps as jumps at stop 39:
+// says why (sepiolite velstep1 with the speed steps as jumps, the contact fitted from one start:
 // 3.9 % worse, 0.10 standard errors).
 TEST(ContactChoice, APhysicalContactWithinOneStandardErrorIsKeptOverLugrePastABound) {
   const std::vector<ContactEvidence> e{contact("lugre", 100, 0, false, 6), contact("rate_state_contact", 104, 30, true, 5)};

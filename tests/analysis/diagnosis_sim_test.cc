@@ -214,8 +214,7 @@ double minimum_detectable(const Diagnosis& d, Effect e) {
 }
 
 // Two effects this protocol cannot reveal at their documented strengths
-// (once disabled tests: issue 15 asks the report to say so instead, with the
-// strength it would need; docs/identification.md "Minimum detectable strength").
+// (the report says so, with the strength it would need; docs/identification.md "Minimum detectable strength").
 //   frictional_lag 5 ms: given the measured motion, the lagged Stribeck speed
 //     changes the force too little to see: in the passes the 5 ms run's force
 //     differs from the clean run's by 0.75 uN RMS (same seed; the noise is
@@ -275,7 +274,7 @@ TEST(DiagnosisSim, SampleCreepMovesTheForceLessThanTheRecordCanReveal) {
   EXPECT_LT(creep_rms_n, needed_n / std::sqrt(12.0));
 }
 
-// The contact law as a decision on held-out data (issue 15, base-model
+// The contact law as a decision on held-out data (base-model
 // choice; DiagnosisOptions::choose_base_contact): on the default instrument
 // (elasto-plastic presliding and rate-and-state, dwell off) plain LuGre
 // leaves a structured residual and a richer contact is kept; on the plain
@@ -539,8 +538,8 @@ TEST(DiagnosisSim, ACleanRunAcceptsNothing) {
   EXPECT_NEAR(p.value("Fv"), 0.001, 0.05);
 }
 
-// Once failing (issue 7): the base fit was biased by the holds and a negative
-// log-velocity term took up 0.8 of the 2 N s/m; now Fv is fitted as 2.01.
+// A base fit biased by the holds would let a negative log-velocity term take
+// up part of the 2 N s/m (0.8 of it has been seen); Fv is fitted as 2.01.
 TEST(DiagnosisSim, StrongViscousFrictionIsNotMistakenForLogVelocity) {
   // Viscous friction 2 N s/m (80 uN at 40 um/s) instead of the config's
   // 0.001: it belongs in the base model's Fv, not in a log-velocity law.

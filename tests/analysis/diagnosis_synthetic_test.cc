@@ -1,6 +1,6 @@
 // Diagnosis on synthetic runs with one effect switched on and not declared.
 //
-// SYNTHETIC, TO BE REPLACED BY SIM-GENERATED RUNS (issue 7, phase 2): the
+// Synthetic: the
 // forward model is tests/analysis/synthetic_run.h, written apart from the
 // analysis's own candidate models (its own integrator and effect forms).
 // tests/analysis/diagnosis_sim_test.cc runs the same checks on tribo's

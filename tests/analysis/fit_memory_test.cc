@@ -1,4 +1,4 @@
-// Heap the fit and the diagnosis take per sample (issue 17: "peak memory
+// Heap the fit and the diagnosis take per sample ("peak memory
 // under 300 bytes per sample"), counted, not sampled: this test binary
 // interposes malloc and keeps the live and the peak bytes (glibc's usable
 // size of every block), and the measured calls run on one thread, so the

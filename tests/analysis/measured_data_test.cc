@@ -156,8 +156,8 @@ Diagnosis diagnose_with_contact_chosen(const MeasuredSeries& s) {
 
 // Sepiolite velstep3 (0.2 -> 2 um/s) with the contact chosen: a
 // rate-and-state law is kept once the level may trend with the distance slid
-// (before stop 34 its evolution came out opposite to the direct effect and it
-// was refused), and no effect accepted after it may leave the law past its
+// (without that trend its evolution comes out opposite to the direct effect
+// and it is refused), and no effect accepted after it may leave the law past its
 // bounds (drift's refit had taken the direct effect to a = -0.049).
 TEST(MeasuredRateAndState, TheSepioliteStepKeepsARateAndStateContactWithinItsBounds) {
   MeasuredSeries s = velocity_step_record("velstep3_TR2_exp013_sepiolite.csv");

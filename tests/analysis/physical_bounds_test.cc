@@ -1,7 +1,7 @@
 // Physical bounds (analysis/diagnosis.h out_of_bounds, base_bound_warnings):
 // a fit at or past a bound, or below what the data resolve, is a rejection
-// with the reason, never an accepted effect (issue 15: backlash gaps of 1e-22 m
-// and breakaway ratios of 1e-19 had been accepted).
+// with the reason, never an accepted effect (backlash gaps of 1e-22 m and
+// breakaway ratios of 1e-19 are what a fit at a bound gives).
 #include <gtest/gtest.h>
 
 #include "analysis/diagnosis.h"

@@ -1,4 +1,4 @@
-// The rate-and-state contact as a base-model choice (issue 15, "Base-model
+// The rate-and-state contact as a base-model choice ("Base-model
 // choice" and "rate_state in the vocabulary") on velocity steps made here,
 // not by tribo's simulator nor by the analysis model: a rigid contact whose
 // friction follows Dieterich's law, integrated in closed form, sampled and
@@ -78,9 +78,9 @@ double value_of(const std::vector<ParamEstimate>& estimates, const std::string& 
 // Steps up and down (3 <-> 10 um/s, about the basalt record's), so that
 // fitted and held-out chunks both hold steps: the rate-and-state contact is
 // kept over plain LuGre and over LuGre with a rate-and-state term, and its fit
-// (in place of the Stribeck curve) finds a, b and Dc. Until stop 38 LuGre
-// with the term was kept on seeds 3 and 41 (4 % lower held-out RMS), its
-// Stribeck curve and damping taking up the motion estimate's error at steps
+// (in place of the Stribeck curve) finds a, b and Dc. With the steps
+// smoothed over, LuGre with the term was kept on seeds 3 and 41 (4 % lower
+// held-out RMS), its Stribeck curve and damping taking up the motion estimate's error at steps
 // the smoother rounded off; with the steps found as velocity jumps
 // (--motion-estimator rts_jumps), and contacts with fewer parameters tried
 // first, the two predict alike, and the simpler is kept
@@ -106,7 +106,7 @@ TEST(RateStateContact, SpeedStepsKeepARateAndStateContactAndFindItsParameters) {
     std::cout << "[rate-state contact] seed " << seed << ": a " << a << " b " << b << " Dc " << dc << " m, kept "
               << d.base_contact->chosen << "\n";
     // Found within 1.4 % (a), 2.8 % (b) and 1.5 % (Dc) on the three seeds;
-    // within 4.5, 5.6 and 5.5 % with the steps smoothed over (stop 37).
+    // within 4.5, 5.6 and 5.5 % with the steps smoothed over.
     EXPECT_NEAR(a, truth.a, 0.03 * truth.a);
     EXPECT_NEAR(b, truth.b, 0.05 * truth.b);
     EXPECT_GT(dc, truth.dc_m / 1.05);

@@ -21,8 +21,7 @@ v1::DaemonConfig identification_config_from(const std::string& file, const Confi
 }  // namespace
 
 v1::DaemonConfig identification_config(const ConfigEdit& edit) {
-  // The contact these tests were written for: plain LuGre, tribod's default
-  // before issue 14, kept as config/instruments/lugre_plain.textproto.
+  // The contact these tests were written for: plain LuGre, kept as config/instruments/lugre_plain.textproto.
   return identification_config_from("/config/instruments/lugre_plain.textproto", edit);
 }
 

@@ -1,4 +1,4 @@
-// tribo-fit stribeck --diagnose (issue 15): the effect report on steady-state
+// tribo-fit stribeck --diagnose: the effect report on steady-state
 // points. Synthetic points come from the model's own closed form (not tribo's
 // simulated instrument) at a 2 % force noise; the measured case is the EMPS
 // drive's 31 velocity plateaus, whose direction asymmetry is published

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """ctest: tribo-fit on the independent generator, the contract command
-without a velocity column (issue 15).
+without a velocity column.
 
 On the clean seed-3 file: the record's noise floor is estimated (10 nm
 +- 15 %), the segmentation finds the protocol's 24 passes (+- 4), each pass
