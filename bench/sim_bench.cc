@@ -6,7 +6,11 @@
 
 #include "daemon/controller.h"
 #include "daemon/daemon_config.h"
+#include "daemon/protocol_validator.h"
+#include "daemon/run_loop.h"
+#include "hal/backend_factory.h"
 #include "hal/sim_transducer.h"
+#include "proto/text_format_file.h"
 #include "sim/instrument_params.h"
 
 namespace {
@@ -97,8 +101,56 @@ void BM_InstrumentPlainWithNewLaw(benchmark::State& state) {
               with_new_law(default_config(kPlainLugre), default_config(kDissertationFit)));
 }
 
+// A whole protocol through the daemon's loop as tribo_native.simulate runs it
+// (client/python/native/tribo_native.cc, simulate_run): the C++ side of
+// bench/sim_in_process_bench.py. Simulated seconds per CPU second over the
+// protocol (config/protocols/identification.textproto, 198 s), and the
+// evaluations of the contact law S per tick.
+void run_protocol(benchmark::State& state, const char* config_path, const char* protocol_path) {
+  const tribo::v1::DaemonConfig config = default_config(config_path);
+  tribo::v1::Protocol protocol;
+  if (auto error = tribo::wire::load_text_proto_file(protocol_path, protocol)) throw std::runtime_error(*error);
+  const tribo::daemon::ProtocolCheck check = tribo::daemon::validate_protocol(protocol, config);
+  if (!check.ok()) throw std::runtime_error(check.errors.front().message);
+  double simulated_s = 0;
+  long ticks = 0, evaluations = 0, substeps = 0, split = 0;
+  std::uint64_t seed = 0;
+  for (auto _ : state) {
+    auto transducer = tribo::hal::make_transducer(config, ++seed);
+    const auto& sim = dynamic_cast<const tribo::hal::SimTransducer&>(*transducer);
+    tribo::daemon::SpscQueue<tribo::Sample> queue(1 << 16);
+    tribo::daemon::RunControl control;
+    tribo::daemon::RunTelemetry telemetry;
+    tribo::daemon::RunLoopConfig loop_config = tribo::daemon::run_loop_config_from(config);
+    loop_config.backpressure = true;
+    loop_config.time_stages_every = 0;
+    tribo::daemon::RunLoop loop(*transducer, check.load_function, loop_config, queue, control, telemetry);
+    tribo::Sample sample;
+    while (loop.tick()) {
+      while (queue.try_pop(sample)) simulated_s = sample.time_s;
+      evaluations += sim.last_report().law_evaluations;
+      substeps += sim.last_report().substeps;
+      split += sim.last_report().split;
+      ++ticks;
+    }
+    while (queue.try_pop(sample)) simulated_s = sample.time_s;
+  }
+  state.counters["sim_s_per_cpu_s"] =
+      benchmark::Counter(simulated_s * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["S_evaluations_per_tick"] = static_cast<double>(evaluations) / static_cast<double>(ticks);
+  state.counters["substeps_per_tick"] = static_cast<double>(substeps) / static_cast<double>(ticks);
+  state.counters["split_ticks"] = static_cast<double>(split) / static_cast<double>(ticks);
+}
+const char* const kIdentification = TRIBO_SOURCE_DIR "/config/protocols/identification.textproto";
+void BM_IdentificationDefault(benchmark::State& state) {
+  run_protocol(state, TRIBO_SOURCE_DIR "/config/tribod.textproto", kIdentification);
+}
+void BM_IdentificationLugrePlain(benchmark::State& state) { run_protocol(state, kPlainLugre, kIdentification); }
+
 }  // namespace
 
+BENCHMARK(BM_IdentificationDefault)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
+BENCHMARK(BM_IdentificationLugrePlain)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
 BENCHMARK(BM_InstrumentAccurate)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_InstrumentCoarse)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_InstrumentDissertationFit)->Unit(benchmark::kMillisecond);

@@ -117,6 +117,7 @@ struct InstrumentTruth {
 
 struct StepReport {
   int substeps = 0;
+  int law_evaluations = 0;       // of S, by the held-contact scheme (sim/held_contact.h)
   bool split = false;            // the contact relaxation was integrated exactly
   bool substep_cap_hit = false;
   bool snapped = false;
@@ -170,6 +171,7 @@ class SimInstrument {
   NoiseSource lateral_position_record_noise_;
   FirstOrderGaussMarkov sample_creep_;
   WearTrack wear_;
+  HeldContactMemory held_contact_;  // the held-contact scheme's estimate of S's change
   double settled_force_n_ = 0, settled_surface_m_ = 0;
 };
 

@@ -109,6 +109,7 @@ struct LateralEvaluation {
   LateralRate rate;
   double friction_n = 0;
   double deflection_scale_m = 0;  // g at the evaluated point (0 out of contact)
+  double inverse_scale_per_m = 0; // 1/g (0 out of contact)
   double plasticity = 1;          // alpha of the single bristle (no Maxwell-slip elements)
 };
 

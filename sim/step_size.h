@@ -46,6 +46,7 @@
 // scheme at four times the sub-steps (reported as `retried`).
 #pragma once
 
+#include "sim/held_contact.h"
 #include "sim/lateral_plant.h"
 
 namespace tribo::sim {
@@ -58,10 +59,12 @@ struct LateralRates {
 // `now` is lateral_derivative(plant, in, s).
 LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs& in,
                                  const LateralState& s, const LateralEvaluation& now, double dt_s);
-// The same; without with_split, split_per_s is left 0 (not estimated).
+// The same; without with_split, split_per_s is left 0 (not estimated). A
+// full_per_s at or below enough_per_s may be the coarser estimate (the
+// elasto-plastic blend's steepest slope instead of the slope within reach).
 LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs& in,
                                  const LateralState& s, const LateralEvaluation& now, double dt_s,
-                                 bool with_split);
+                                 bool with_split, double enough_per_s = 0);
 
 // The split scheme is preferred once RK4 would need this many times its sub-steps.
 inline constexpr double kSplitAdvantage = 8.0;
@@ -79,10 +82,17 @@ struct IntegratorSettings {
   double max_h_lambda = 1.0;
   int max_substeps = 1000;
   bool midpoint = false;  // coarse mode: the explicit midpoint rule instead of RK4
+  // RK4 with the contact law held over each sub-step (sim/held_contact.h)
+  // where the plant allows; otherwise the law at every stage.
+  bool held_contact = false;
+  // Held contact: the friction force holding S at a sub-step's start may
+  // move, at most (0: S also evaluated at every sub-step's midpoint).
+  double contact_law_tolerance_n = 0;
 };
 
 struct AdvanceReport {
   int substeps = 0;
+  int law_evaluations = 0;  // of S, by the held-contact scheme (0 from the others)
   bool split = false;
   bool capped = false;
   bool stopped = false;  // the plate touched a stop
@@ -92,8 +102,9 @@ struct AdvanceReport {
 // Integrates the plant over dt_s under held inputs: estimates the rates,
 // plans the sub-steps and the scheme, and runs them.
 // stribeck_n_at_s: as for lateral_derivative (S at s, already computed).
+// memory: the held-contact scheme's, carried from tick to tick (or none).
 AdvanceReport advance_lateral(const LateralPlant& plant, const LateralInputs& in,
                               const IntegratorSettings& settings, double dt_s, LateralState& s,
-                              const double* stribeck_n_at_s = nullptr);
+                              const double* stribeck_n_at_s = nullptr, HeldContactMemory* memory = nullptr);
 
 }  // namespace tribo::sim
