@@ -55,7 +55,8 @@ DriveOverSubstep linearise_drive(const DriveField& f, double x0, double reach_m)
 class HeldContactStep {
  public:
   HeldContactStep(const LateralPlant& plant, const LateralInputs& in)
-      : plant_(plant), in_(in), m_(plant.friction), contact_(in.levels.in_contact()) {}
+      : plant_(plant), in_(in), m_(plant.friction), contact_(in.levels.in_contact()),
+        inverse_mass_per_kg_(1.0 / plant.axis.mass_kg) {}
 
   bool in_contact() const { return contact_; }
 
@@ -94,7 +95,7 @@ class HeldContactStep {
     const double drive_n =
         drive_.linear ? drive_.force0_n + drive_.stiffness_n_per_m * (s.x - drive_.x0) : in_.drive.force_n(s.x);
     const double plate_n = drive_n - axis.spring_n_per_m * s.x - axis.damping_n_s_per_m * s.v;
-    r.fast = Fast{s.v, (plate_n - r.friction_n + in_.tip_force_n) / axis.mass_kg, dz};
+    r.fast = Fast{s.v, (plate_n - r.friction_n + in_.tip_force_n) * inverse_mass_per_kg_, dz};
     if (!drive_.linear) hold_at_stop(in_.drive, s.x, r.fast.x, r.fast.v);
     return r;
   }
@@ -123,6 +124,7 @@ class HeldContactStep {
   const LateralInputs& in_;
   const FrictionModel& m_;
   bool contact_;
+  double inverse_mass_per_kg_;  // a multiplication at each stage, not a division on its dependency chain
   DriveOverSubstep drive_;  // not linear: the field itself (the tick's first evaluation)
 };
 
