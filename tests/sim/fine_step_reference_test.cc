@@ -1,15 +1,16 @@
 // The default instrument against a fine-step reference: the same closed-loop
 // run (config, protocol, seed, sensor noise; through the daemon's loop) with
-// the contact law evaluated at every RK4 stage and a sub-step 100 times
-// finer (integrator.max_h_lambda 0.01). Compared tick by tick, per channel,
+// the contact law evaluated at every RK4 stage and integrator.max_h_lambda
+// 0.01 (sub-steps 100 times finer than RK4's accurate setting, 150 times
+// finer than the default's). Compared tick by tick, per channel,
 // RMS and largest difference, against tolerances set from the channels'
 // noise floors (Table 3.2; config/tribod.textproto): the integration error
 // must stay well inside what the instrument's own noise hides.
 //
 // Two runs: the standard scratch (1 mN, 0.5 um/s, config/protocols/standard_scratch.textproto)
 // and a Table 5.1 break-away (9810 uN, 36 um/s after 2 s at rest, as the
-// scorecard runs it: scorecard/experiments.h). The previous default, RK4 with
-// the law at every stage at h lambda <= 1, is measured beside it for the record.
+// scorecard runs it: scorecard/experiments.h). RK4 with the law at every
+// stage at h lambda <= 1 is measured beside it for the record.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -39,13 +40,16 @@ constexpr const char* kBreakaway = R"pb(
 v1::DaemonConfig fine_reference(v1::DaemonConfig config) {
   auto* integrator = config.mutable_sim()->mutable_integrator();
   integrator->set_method(v1::INTEGRATION_RK4);
-  integrator->set_max_h_lambda(0.01 * integrator->max_h_lambda());
+  integrator->set_max_h_lambda(0.01);
   integrator->set_max_substeps(100000);
   return config;
 }
 
+// The scheme the default used before the held contact law: RK4 with the law
+// at every stage, h lambda <= 1.
 v1::DaemonConfig law_at_every_stage(v1::DaemonConfig config) {
   config.mutable_sim()->mutable_integrator()->set_method(v1::INTEGRATION_RK4);
+  config.mutable_sim()->mutable_integrator()->set_max_h_lambda(1.0);
   return config;
 }
 
@@ -79,7 +83,7 @@ Channels compare(const ProtocolRun& run, const ProtocolRun& ref) {
 }
 
 void print(const char* what, const Channels& c, const ProtocolRun& run) {
-  std::printf("  %-34s friction RMS %.3f max %.3f uN | lateral force RMS %.3f max %.3f uN | position RMS %.4f max "
+  std::printf("  %-40s friction RMS %.3f max %.3f uN | lateral force RMS %.3f max %.3f uN | position RMS %.4f max "
               "%.4f nm | normal force RMS %.2e max %.2e uN | %.2f evaluations of S a tick\n",
               what, c.friction_un.rms, c.friction_un.max, c.lateral_force_un.rms, c.lateral_force_un.max,
               c.position_nm.rms, c.position_nm.max, c.normal_force_un.rms, c.normal_force_un.max,
@@ -101,7 +105,11 @@ class FineStepReference : public ::testing::TestWithParam<Case> {};
 // (3 nm) and the normal force's noise (0.1 uN). The integration error's RMS
 // over the run must stay below a tenth of the floor, its largest single-tick
 // value below half of it (the measured lateral force, quantised to 3 uN, may
-// differ by one step wherever the true forces differ at all).
+// differ by one step wherever the true forces differ at all) -- for the
+// position, below the floor: the slip onset of a break-away turns any
+// difference into a difference of timing, a few microseconds, and at the
+// tip's ~100 um/s overshoot a microsecond is 0.1 nm (measured: 0.7-1.4 nm
+// largest for the schemes here, the RMS a tenth of that).
 TEST_P(FineStepReference, DefaultInstrumentIsWithinItsTolerances) {
   const Case& c = GetParam();
   const v1::DaemonConfig config = config_file("config/tribod.textproto");
@@ -114,7 +122,7 @@ TEST_P(FineStepReference, DefaultInstrumentIsWithinItsTolerances) {
   const Channels now = compare(run, ref);
   std::printf("  %s, %zu ticks:\n", c.name, ref.samples.size());
   print("default (held contact law)", now, run);
-  print("the law at every RK4 stage", compare(previous, ref), previous);
+  print("the law at every RK4 stage, h lambda 1", compare(previous, ref), previous);
 
   const double force_floor_un = 1e6 * config.sim().sensors().lateral_force_noise_n();
   const double position_floor_nm = 1e9 * config.sim().lateral().sensing().low_frequency_noise_m();
@@ -125,7 +133,7 @@ TEST_P(FineStepReference, DefaultInstrumentIsWithinItsTolerances) {
   EXPECT_LT(now.lateral_force_un.rms, force_floor_un / 10);
   EXPECT_LT(now.lateral_force_un.max, force_floor_un / 2);
   EXPECT_LT(now.position_nm.rms, position_floor_nm / 10);
-  EXPECT_LT(now.position_nm.max, position_floor_nm / 2);
+  EXPECT_LT(now.position_nm.max, position_floor_nm);
   EXPECT_LT(now.normal_force_un.rms, normal_floor_un / 10);
   EXPECT_LT(now.normal_force_un.max, normal_floor_un / 2);
 }
