@@ -15,12 +15,16 @@
 // q is linear in time to second order over the sub-step (its RK4 weights
 // average to q_m), so the law is integrated to second order and the plate
 // and bristle, whose stiff mode sets the step (sim/step_size.h), to fourth.
-// Where the bristle cannot leave the elastic range of the elasto-plastic
-// blend within the sub-step (|z| + 2 v_reach h <= r g: alpha = 0 at every
-// stage, so S does not enter the fast states' equations), S is not
-// evaluated at s_m: only the slow states' rates are (one evaluation of S a
-// sub-step). The law's formulas live in sim/friction_effects.cc; this file
-// only decides where they are evaluated.
+// S is evaluated once a sub-step (at s0; q held at q0 throughout, the slow
+// states still at their midpoint rates) where it does not matter or barely
+// does: where the bristle cannot leave the elastic range of the
+// elasto-plastic blend within the sub-step (|z| + 2 v_reach h <= r g:
+// alpha = 0 at every stage, S does not enter the fast states' equations),
+// and where holding it moves the friction by at most a tolerance
+// (integrate_lateral_held). The drive's attraction is linear in x over the
+// sub-step where its curvature term is below 1e-9 N. The law's formulas
+// live in sim/friction_effects.cc; this file only decides where they are
+// evaluated.
 //
 // Serves the plants without backlash, Maxwell-slip elements or frictional
 // lag (every named config); the others are integrated with the law at every

@@ -16,15 +16,20 @@
 // (k_e the drive's negative stiffness; with backlash the plate's mode, with
 // k_b and c_b, is added). d = |1 - alpha sgn(v) z/g| + (|z|/g) |v| g'(v)/g at
 // the present state, or its bound 1 + (|z|/g)(1 + ...) if the velocity may
-// reverse within the tick (|v| <= |dv/dt| dt). |v| g'(v)/g is bounded by
-// (Fs - Fc)/(e Fc) for the exponential and Gaussian shapes. To that are added
-// the contact's own rates:
+// reverse within the tick (|v| <= |dv/dt| dt). |v| g'(v)/g = |v| S'(v)/S is
+// bounded by ((Fs D - Fc)/e + Fvs + a N) over the smaller of Fc and half the
+// present S (no effect halves S within a tick), never below S's floor. Where
+// the bristle stays within the elasto-plastic blend's elastic range over the
+// whole tick (alpha = 0, |z| + 2 v_reach dt <= r g), dz/dt = v: d = 1 exactly
+// and the bristle has no relaxation. To that are added the contact's own
+// rates:
 //
 //   v_reach / g * P                  bristle relaxation |v|/g (P = 1 + the largest
 //                                    slope g dalpha/dz of the elasto-plastic blend,
 //                                    at most pi/(2(1-r)), over the |z|/g the tick
 //                                    can reach; 1 for plain LuGre)
-//   (v_reach + V*) / D_c (|ln x| + 1)  rate-and-state state (slip law; 1 for ageing)
+//   (v_reach + V*) / D_c (|ln x| + 1)  rate-and-state state (slip law; 1 for ageing;
+//                                    |ln x| bounded from x's binary exponent)
 //   v_reach (|z|/g) |dg/dx| / g      position-periodic friction
 //   v_reach / D_c                    contact ageing (dwell)
 //   1 / tau_L                        frictional lag
@@ -34,7 +39,10 @@
 // its bound. The estimate is exact for the stuck contact (where it matters)
 // and within a factor ~2 elsewhere; RK4 is stable for h lambda up to 2.78 on
 // the negative real axis, so max_h_lambda = 1 keeps the stiff modes accurate
-// as well as stable (measured: tests/sim/integrator_accuracy_test.cc).
+// as well as stable (measured: tests/sim/integrator_accuracy_test.cc); the
+// held-contact scheme (sim/held_contact.h), whose slow states take the
+// explicit midpoint rule (stable to 2), runs the default at 1.5
+// (tests/sim/fine_step_reference_test.cc).
 //
 // If that many RK4 sub-steps fit under max_substeps, and are not more than
 // kSplitAdvantage times what the split scheme needs, the tick uses plain RK4.
