@@ -26,11 +26,8 @@ tribo::v1::DaemonConfig default_config(const char* path = TRIBO_SOURCE_DIR "/con
 // One simulated second of the standard scratch's sliding part per iteration:
 // 1 mN, 0.5 µm/s back and forth between +2 and +10 µm (one-sided, as the
 // standard scratch), after a 1 s load ramp that is not timed.
-void run_scratch(benchmark::State& state, double max_h_lambda, tribo::v1::IntegrationMethod method,
-                 const tribo::v1::DaemonConfig& base = default_config()) {
-  tribo::v1::DaemonConfig config = base;
-  config.mutable_sim()->mutable_integrator()->set_max_h_lambda(max_h_lambda);
-  config.mutable_sim()->mutable_integrator()->set_method(method);
+// The config's own integrator.
+void run_scratch(benchmark::State& state, const tribo::v1::DaemonConfig& config) {
   tribo::hal::SimTransducer transducer(tribo::sim::instrument_params_from_config(config.sim()), 1,
                                        config.controller().loop_rate_hz(), false);
   tribo::daemon::Controller controller(
@@ -58,6 +55,14 @@ void run_scratch(benchmark::State& state, double max_h_lambda, tribo::v1::Integr
       benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
 
+// With the given integrator.
+void run_scratch(benchmark::State& state, double max_h_lambda, tribo::v1::IntegrationMethod method,
+                 tribo::v1::DaemonConfig config) {
+  config.mutable_sim()->mutable_integrator()->set_max_h_lambda(max_h_lambda);
+  config.mutable_sim()->mutable_integrator()->set_method(method);
+  run_scratch(state, config);
+}
+
 // Accurate: RK4 at h lambda <= 1 (the default). Coarse: the midpoint rule at
 // h lambda <= 1.2 (accuracy in tests/sim/integrator_accuracy_test.cc).
 // Both on the plain LuGre plant (the default config until issue 14), so the
@@ -70,11 +75,13 @@ void BM_InstrumentCoarse(benchmark::State& state) {
   run_scratch(state, 1.2, tribo::v1::INTEGRATION_MIDPOINT, default_config(kPlainLugre));
 }
 const char* const kDissertationFit = TRIBO_SOURCE_DIR "/config/instruments/dissertation_fit.textproto";
-// The contact fitted to the dissertation (issue 14): rate-and-state, elasto-plastic
-// presliding and dwell on top of LuGre, Table 5.1's loop gains.
-void BM_InstrumentDissertationFit(benchmark::State& state) {
-  run_scratch(state, 1.0, tribo::v1::INTEGRATION_RK4,
-              default_config(kDissertationFit));
+// The contact fitted to the dissertation (the default's): rate-and-state,
+// elasto-plastic presliding and dwell on top of LuGre, Table 5.1's loop
+// gains; with its own integrator (the held contact law, h lambda <= 1.5), and
+// with the law at every RK4 stage at h lambda <= 1.
+void BM_InstrumentDissertationFit(benchmark::State& state) { run_scratch(state, default_config(kDissertationFit)); }
+void BM_InstrumentDissertationFitLawAtEveryStage(benchmark::State& state) {
+  run_scratch(state, 1.0, tribo::v1::INTEGRATION_RK4, default_config(kDissertationFit));
 }
 
 // The new law's own cost (issue 14 limits it to 20 %): the fitted contact
@@ -154,6 +161,7 @@ BENCHMARK(BM_IdentificationLugrePlain)->Unit(benchmark::kMillisecond)->MeasurePr
 BENCHMARK(BM_InstrumentAccurate)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_InstrumentCoarse)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_InstrumentDissertationFit)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_InstrumentDissertationFitLawAtEveryStage)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_InstrumentDissertationFitWithoutNewLaw)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_InstrumentPlainWithNewLaw)->Unit(benchmark::kMillisecond);
 BENCHMARK_MAIN();
