@@ -727,6 +727,12 @@ void add_residual_and_warnings(const RoundInputs& in, const EvaluatedFit& curren
   std::vector<char> compared(series.size());
   for (std::size_t i = 0; i < series.size(); ++i) compared[i] = in_fit[i] || heldout[i];
   out.unexplained = describe_unexplained(data, residual, compared, out.noise_floor, out.rejected);
+  if (!out.adequacy.describes_record) {
+    std::string why;
+    for (const std::string& r : out.adequacy.reasons) why += (why.empty() ? "" : "; ") + r;
+    out.unexplained = "the model does not describe the record (" + why + ")" + (out.unexplained ? "; " + *out.unexplained : "");
+    out.warnings.push_back("the model does not describe the record, and no effect is named: " + why);
+  }
   out.warnings = out.final_fit.warnings;
   if (out.base_contact && !out.base_contact->warning.empty()) out.warnings.push_back(out.base_contact->warning);
   if (velocity_steps_on_lugre) {
@@ -740,6 +746,18 @@ void add_residual_and_warnings(const RoundInputs& in, const EvaluatedFit& curren
 }
 
 // The diagnosis with each pass's start as options.base says.
+// A model that does not describe the record names no effect: what the rounds
+// accepted moves to the rejected, with the reason.
+void withdraw_effects(Diagnosis& out) {
+  std::string why;
+  for (const std::string& r : out.adequacy.reasons) why += (why.empty() ? "" : "; ") + r;
+  for (AcceptedEffect& a : out.accepted) {
+    out.rejected.push_back({a.effect, "accepted by the rounds but not named: the model does not describe the record (" + why + ")",
+                            a.trial, a.trial.signature.strength, std::nullopt});
+  }
+  out.accepted.clear();
+}
+
 Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& options, MotionSegmentation motion) {
   Diagnosis out;
   out.motion = std::move(motion);
@@ -830,13 +848,15 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
       return redo;
     }
   }
+  out.adequacy = judge_model_adequacy(data, out.final_fit);
+  if (!out.adequacy.describes_record) withdraw_effects(out);
   for (auto& a : out.accepted) a.parameters = parameters_of(out.final_fit, a.effect);
   out.model_after = current.model;
   out.after = {error_stats(series.force_n, current.model, in_fit), error_stats(series.force_n, current.model, heldout),
                error_stats(series.force_n, current.model, everything)};
   out.heldout_by_condition = by_condition(series, out.motion, out.model_before, out.model_after);
   for (auto& [e, st] : status) out.rejected.push_back(st);
-  if (options.minimum_detectable) {
+  if (options.minimum_detectable && out.adequacy.describes_record) {
     add_minimum_detectable(in, current, out);
     check_minimum_detectable_by_rediagnosis(in, current, out);
     withhold_velocity_strengthening_on_a_rising_curve(current, out);

@@ -39,8 +39,10 @@
 #include "analysis/effect.h"
 #include "analysis/evaluated_fit.h"
 #include "analysis/friction_model.h"
+#include "analysis/model_adequacy.h"
 #include "analysis/lugre_fit.h"
 #include "analysis/measured_series.h"
+#include "analysis/model_adequacy.h"
 #include "analysis/model_fit.h"
 #include "analysis/motion_segmentation.h"
 #include "analysis/residual_signatures.h"
@@ -155,6 +157,10 @@ struct Diagnosis {
   // of minutes (analysis/creep_in_holds.h); accepted, drift is accepted with it.
   std::optional<CreepInHolds> creep;
   FitResult final_fit;
+  // Whether the final model describes the record (analysis/model_adequacy.h):
+  // when it does not, no effect is accepted (those the rounds took are in
+  // rejected, with the reason).
+  ModelAdequacy adequacy;
   std::vector<AcceptedEffect> accepted;
   std::vector<RejectedEffect> rejected;
   std::vector<CandidateTrial> trials;     // every fitted candidate, in order

@@ -114,7 +114,9 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
                      {"starts_evaluated", d.base.starts_evaluated},
                      {"starts_refined", d.base.starts_refined},
                      {"converged", d.base.result.converged},
-                     {"warnings", d.base.result.warnings}};
+                     {"warnings", d.base.result.warnings},
+                     {"describes_record", d.adequacy.describes_record},
+                     {"not_describing_reasons", d.adequacy.reasons}};
   if (d.base_contact) {
     Json options = Json::array();
     for (const auto& o : d.base_contact->options) {

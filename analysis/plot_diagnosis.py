@@ -10,7 +10,9 @@ Writes into DIR:
   hysteresis.png     force against position (measured, before, after)
   signature_<effect>.png  for each accepted effect (and each fitted but
                      rejected one): the residual against the regressor that
-                     revealed it, as the diagnosis measured it on the fit data
+                     revealed it, as the diagnosis measured it on the fit data,
+                     in the input's force unit; points (passes, bins) in
+                     markers sorted along x, a spectrum as a curve
 Needs numpy and matplotlib (Debian python3-numpy, python3-matplotlib).
 """
 import argparse
@@ -29,6 +31,8 @@ import numpy as np  # noqa: E402
 DPI = 200
 
 # SI prefixes for readable axes: forces in uN or mN, lengths in um or mm, etc.
+# A signature's residual is in the input's force unit (N, or e.g. Pa), its
+# power in that unit squared.
 PREFIXES = [(1e-9, "n"), (1e-6, "\u00b5"), (1e-3, "m"), (1.0, ""), (1e3, "k"), (1e6, "M"), (1e9, "G")]
 
 
@@ -129,32 +133,61 @@ def plot_hysteresis(d, report, out, title):
     plt.close(fig)
 
 
+def signature_y_unit(y_label, force_unit):
+    """The unit of a signature's residual axis: the force unit of the input,
+    squared for a power; the C++ labels name the quantity only."""
+    if "power" in y_label:
+        return f"{force_unit}\u00b2"
+    if "residual" in y_label:
+        return force_unit
+    return ""
+
+
+def signature_axes(g, force_unit):
+    """(x, y, y_error, x label, y label): sorted by x, in prefixed units
+    (m -> um, N -> uN), each label with its unit."""
+    x, y, e = np.array(g["x"]), np.array(g["y"]), np.array(g["e"])
+    order = np.argsort(x, kind="stable")  # points in the order of the axis, never the record's
+    x, y, e = x[order], y[order], e[order]
+    xl, yl = g["x_label"], g["y_label"]
+    if "(m)" in xl:
+        kx, u = scaled(x, "m")
+        x, xl = kx * x, xl.replace("(m)", f"({u})")
+    unit = signature_y_unit(yl, force_unit)
+    if unit.endswith("\u00b2"):  # a power: in the unit squared, unprefixed ((mN)^2 reads badly)
+        yl = f"{yl} ({unit})"
+    elif unit:
+        ky, u = scaled(y, unit)
+        y, e, yl = ky * y, ky * e, f"{yl} ({u})"
+    return x, y, e, xl, yl
+
+
+def signature_figure(effect, stage, g, force_unit, verdict):
+    """The figure of one signature (g: a read_signatures group)."""
+    fig, ax = plt.subplots(figsize=(7, 4.2), constrained_layout=True)
+    x, y, e, xl, yl = signature_axes(g, force_unit)
+    # A spectrum is a curve; every other signature is a set of points (passes, bins): markers.
+    style = {"fmt": "-", "lw": 0.8} if "wavelength" in xl else {"fmt": "o", "ms": 3}
+    if np.all(np.isnan(e)):
+        ax.plot(x, y, style["fmt"], **{k: v for k, v in style.items() if k != "fmt"})
+    else:
+        ax.errorbar(x, y, yerr=e, capsize=2, elinewidth=0.6, **style)
+    if "wavelength" in xl or "speed" in xl:
+        ax.set_xscale("log")
+    ax.axhline(0, color="0.5", lw=0.6)
+    ax.set_xlabel(xl)
+    ax.set_ylabel(wrap(yl, 45))
+    ax.set_title(wrap(f"{effect} ({stage}): {verdict}", 110), fontsize=7, loc="left")
+    return fig
+
+
 def plot_signatures(groups, report, out):
     verdicts = {e["name"]: ("accepted", e.get("signature", "")) for e in report["accepted_effects"]}
     for e in report["rejected_effects"]:
         verdicts.setdefault(e["name"], ("rejected", e.get("reason", "")))
+    force_unit = report["input"].get("force_unit", "N")
     for (effect, stage), g in groups.items():
-        fig, ax = plt.subplots(figsize=(7, 4.2), constrained_layout=True)
-        x, y, e = np.array(g["x"]), np.array(g["y"]), np.array(g["e"])
-        xl, yl = g["x_label"], g["y_label"]
-        for unit in ("m", "N"):
-            if f"({unit})" in xl:
-                kx, u = scaled(x, unit)
-                x, xl = kx * x, xl.replace(f"({unit})", f"({u})")
-            if f"({unit})" in yl:
-                ky, u = scaled(y, unit)
-                y, e, yl = ky * y, ky * e, yl.replace(f"({unit})", f"({u})")
-        if np.all(np.isnan(e)):
-            ax.plot(x, y, "o-", ms=3, lw=0.8)
-        else:
-            ax.errorbar(x, y, yerr=e, fmt="o-", ms=3, lw=0.8, capsize=2)
-        if "wavelength" in xl or "speed" in xl:
-            ax.set_xscale("log")
-        ax.axhline(0, color="0.5", lw=0.6)
-        ax.set_xlabel(xl)
-        ax.set_ylabel(yl)
-        text = verdicts.get(effect, (stage, ""))[1]
-        ax.set_title(wrap(f"{effect} ({stage}): {text}", 90)[:600], fontsize=8)
+        fig = signature_figure(effect, stage, g, force_unit, verdicts.get(effect, (stage, ""))[1])
         fig.savefig(os.path.join(out, f"signature_{effect}.png"), dpi=DPI)
         plt.close(fig)
 

@@ -1,8 +1,12 @@
 #include "analysis/series_input.h"
 
+#include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <fstream>
 #include <vector>
+
+#include <fmt/format.h>
 
 #include "proto/run_files.h"
 #include "proto/sample_record.h"
@@ -103,6 +107,110 @@ std::optional<MeasuredSeries> read_csv_series(const std::filesystem::path& path,
   s.velocity_measured = !s.velocity_m_per_s.empty();
   s.acceleration_measured = !s.acceleration_m_per_s2.empty();
   return s;
+}
+
+namespace {
+
+struct NamedColumn {
+  const char* role;         // "force", "position", ...
+  const std::string* name;  // the CSV header's
+  const std::vector<double>* values;
+};
+
+bool all_finite(const std::vector<double>& v) {
+  return std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
+}
+
+double median_of(std::vector<double> v) {
+  if (v.empty()) return 0;
+  const auto middle = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), middle, v.end());
+  return *middle;
+}
+
+// A factor between two quantities as the power of ten nearest to it.
+std::string order_of(double ratio) { return fmt::format("1e{:.0f}", std::round(std::log10(ratio))); }
+
+std::string constant_column(const NamedColumn& c) {
+  const auto& v = *c.values;
+  if (v.empty() || std::any_of(v.begin(), v.end(), [&](double x) { return x != v.front(); })) return {};
+  return fmt::format("{} column '{}' has the same value, {:g}, in every row: an empty channel, or the wrong column",
+                     c.role, *c.name, v.front());
+}
+
+std::string identical_columns(const NamedColumn& a, const NamedColumn& b) {
+  if (a.values->empty() || *a.values != *b.values) return {};
+  return fmt::format("{} column '{}' holds the same values as {} column '{}' in every row: the same column given twice?",
+                     a.role, *a.name, b.role, *b.name);
+}
+
+std::string friction_over_load(const MeasuredSeries& s, const ColumnMapping& c) {
+  double largest = 0;
+  for (double n : s.normal_force_n) largest = std::max(largest, std::abs(n));
+  std::vector<double> force, load;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (std::abs(s.normal_force_n[i]) > 0.1 * largest) {
+      force.push_back(std::abs(s.force_n[i]));
+      load.push_back(std::abs(s.normal_force_n[i]));
+    }
+  }
+  const double mu = median_of(force) / median_of(load);
+  if (mu >= kMinFrictionCoefficient && mu <= kMaxFrictionCoefficient) return {};
+  return fmt::format("the force column '{}' is typically {:.3g} times the normal column '{}' (medians over the "
+                     "loaded rows: {:.3g} against {:.3g}), not a friction coefficient ({:g} to {:g}): the two "
+                     "columns in different units (e.g. one in µN, the other in N), or the wrong column",
+                     c.force, mu, c.normal, median_of(force), median_of(load), kMinFrictionCoefficient,
+                     kMaxFrictionCoefficient);
+}
+
+std::string velocity_against_position(const MeasuredSeries& s, const ColumnMapping& c) {
+  double distance = 0, lowest = 0, highest = 0;
+  for (std::size_t i = 1; i < s.size(); ++i) {
+    distance += 0.5 * (s.velocity_m_per_s[i] + s.velocity_m_per_s[i - 1]) * (s.time_s[i] - s.time_s[i - 1]);
+    lowest = std::min(lowest, distance);
+    highest = std::max(highest, distance);
+  }
+  const auto [xmin, xmax] = std::minmax_element(s.position_m.begin(), s.position_m.end());
+  const double integrated = highest - lowest, span = *xmax - *xmin;
+  if (!(span > 0) || !(integrated > 0)) return {};
+  const double ratio = integrated / span;
+  if (ratio <= kMaxVelocitySpanRatio && ratio >= 1 / kMaxVelocitySpanRatio) return {};
+  return fmt::format("the velocity column '{}' integrates to a span of {:.3g} m where the position column '{}' spans "
+                     "{:.3g} m ({:.3g} times): a unit (about {}: e.g. a position in µm given as m, or a velocity in "
+                     "mm/s), or the wrong column",
+                     c.velocity, integrated, c.position, span, ratio, order_of(ratio));
+}
+
+}  // namespace
+
+std::string implausible_csv_series(const MeasuredSeries& s, const ColumnMapping& c) {
+  const std::vector<const std::vector<double>*> all = {&s.time_s, &s.position_m, &s.force_n, &s.normal_force_n,
+                                                       &s.velocity_m_per_s};
+  for (const auto* v : all) {
+    if (!v->empty() && (v->size() != s.size() || !all_finite(*v))) return {};  // check_series says what is wrong
+  }
+  for (std::size_t i = 1; i < s.size(); ++i) {
+    if (!(s.time_s[i] > s.time_s[i - 1])) {
+      return fmt::format("the time column '{}' does not increase at sample {} ({:g} after {:g}): the wrong column, "
+                         "or rows out of order",
+                         c.time, i + 1, s.time_s[i], s.time_s[i - 1]);
+    }
+  }
+  const NamedColumn time{"time", &c.time, &s.time_s}, position{"position", &c.position, &s.position_m},
+      force{"force", &c.force, &s.force_n}, normal{"normal", &c.normal, &s.normal_force_n},
+      velocity{"velocity", &c.velocity, &s.velocity_m_per_s};
+  for (const auto& column : {force, position, normal}) {
+    if (auto why = constant_column(column); !why.empty()) return why;
+  }
+  for (const auto& other : {time, position, normal, velocity}) {
+    if (auto why = identical_columns(force, other); !why.empty()) return why;
+  }
+  if (auto why = identical_columns(position, time); !why.empty()) return why;
+  if (s.has_normal()) {
+    if (auto why = friction_over_load(s, c); !why.empty()) return why;
+  }
+  if (!s.velocity_m_per_s.empty()) return velocity_against_position(s, c);
+  return {};
 }
 
 MeasuredSeries series_from_samples(const std::vector<Sample>& samples, const std::string& source) {

@@ -37,6 +37,26 @@ std::optional<std::vector<std::vector<double>>> read_csv_columns(const std::file
 std::optional<MeasuredSeries> read_csv_series(const std::filesystem::path& path,
                                               const ColumnMapping& columns, std::string& error);
 
+// Why a CSV record cannot be what its column mapping says, or empty when
+// it may be: judged from the record itself, on the whole file, before any
+// fit (docs/tribo_fit.md, "Input refused before fitting"). The reason names
+// the column, the value and the likely cause (a wrong column, a unit).
+//  - time that does not increase;
+//  - a force, position or normal column with one value in every row;
+//  - the force holding the same values as another column, or the time as
+//    the position;
+//  - with a normal column: the force's typical size over the normal load's
+//    (medians over the loaded rows, above 10 % of the largest load) outside
+//    a friction coefficient's range, kMinFrictionCoefficient to
+//    kMaxFrictionCoefficient;
+//  - with a velocity column: the distance it integrates to differs from the
+//    position's span by more than kMaxVelocitySpanRatio either way (a unit
+//    prefix is a factor 1000).
+inline constexpr double kMinFrictionCoefficient = 1e-4;
+inline constexpr double kMaxFrictionCoefficient = 10;
+inline constexpr double kMaxVelocitySpanRatio = 100;
+std::string implausible_csv_series(const MeasuredSeries& series, const ColumnMapping& columns);
+
 // Recorded tribo samples (a run directory's, or a closed loop's in-process):
 // time, lateral position, lateral force, normal force, lateral setpoint as
 // reference, segment index. Samples taken while unloading after a stop or

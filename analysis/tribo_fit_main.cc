@@ -142,8 +142,13 @@ int diagnose_command(const DiagnoseArgs& a) {
     columns.force_unit = a.force_unit;
     columns.force_scale = a.force_sign;
     series = read_csv_series(input, columns, error);
+    if (series) {
+      if (const std::string why = implausible_csv_series(*series, columns); !why.empty()) {
+        error = input.string() + ": refused before fitting: " + why;
+      }
+    }
   }
-  if (!series) {
+  if (!series || !error.empty()) {
     std::cerr << "tribo-fit: " << error << "\n";
     return 1;
   }

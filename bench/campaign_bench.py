@@ -3,9 +3,16 @@
   - simulated seconds per CPU second in-process (tribo_client.sim.simulate);
   - runs per second on a Dask LocalCluster of 1 and 2 workers, and the
     scaling efficiency rate(2) / (2 rate(1));
-  - Dask's per-run overhead against an in-process loop over the same runs.
+  - Dask's per-run overhead against an in-process loop over the same runs;
+  - sub-second runs (--sub-second): `tribo-campaign SPEC` (the local
+    default) against a serial loop over the same runs, and against one Dask
+    task per run on a 2-worker LocalCluster (the runner without batching),
+    each a whole command in its own process (interpreter, spec, runs, run
+    folders, results table), in runs per minute, on 40-run specs of three
+    workloads.
 
     PYTHONPATH=client/python:build/python /usr/bin/python3 bench/campaign_bench.py [--runs 8] [--json out.json]
+    PYTHONPATH=client/python:build/python /usr/bin/python3 bench/campaign_bench.py --sub-second-only [--repeat 3]
 """
 
 import argparse
@@ -82,16 +89,145 @@ def diagnosis_figures(protocol):
     return d
 
 
+# The sub-second workloads: (name, protocol, compute), 40 runs each (seeds 1-40).
+SUB_SECOND_WORKLOADS = (("3 s scratch, metrics", "short_scratch", ["metrics"]),
+                        ("19 s identification cut, metrics", "tiny", ["metrics"]),
+                        ("19 s identification cut, diagnosis (2 candidates)", "tiny", ["diagnosis"]))
+
+
+def sub_second_spec(directory, protocol, compute, runs):
+    """A spec of `runs` seeds of one protocol: the 3 s scratch or the tiny
+    reliability spec's 19 s cut of the identification protocol (with its
+    base overrides and diagnosis options)."""
+    import tomllib
+    with open(os.path.join(SOURCE_DIR, "config/campaigns/identification_reliability_tiny.toml"), "rb") as f:
+        tiny = tomllib.load(f)
+    lines = [f'name = "{protocol}-{"-".join(compute)}"',
+             f'config = "{os.path.join(SOURCE_DIR, "config/tribod.textproto")}"',
+             f"seeds = {{first = 1, count = {runs}}}", f"compute = {json.dumps(compute)}", "[overrides]"]
+    lines += [f'"{k}" = {json.dumps(v)}' for k, v in tiny["overrides"].items()]
+    lines += ["[diagnosis]"] + [f"{k} = {json.dumps(v)}" for k, v in tiny["diagnosis"].items()]
+    lines += ["[[protocols]]"]
+    if protocol == "tiny":
+        lines += ['name = "identification-short"', "text = " + json.dumps(tiny["protocols"][0]["text"])]
+    else:
+        from support_protocols import short_scratch_path
+        lines += [f'path = "{short_scratch_path()}"']
+    path = os.path.join(directory, f"{protocol}-{'-'.join(compute)}.toml")
+    with open(path, "w", encoding="utf-8") as f:
+        f.write("\n".join(lines) + "\n")
+    return path
+
+
+def serial_loop(spec, out):
+    """What a user's plain loop does: every run in this process, its folder,
+    the table."""
+    from tribo_client.campaign import worker
+    from tribo_client.campaign.results import write_results
+    from tribo_client.campaign.runner import record_result
+    from tribo_client.campaign.spec import load_spec
+    campaign = load_spec(spec)
+    os.makedirs(os.path.join(out, "runs"), exist_ok=True)
+    for task in campaign.tasks:
+        record_result(out, task, worker.execute(task))
+    write_results(out, campaign.name, campaign.spec_path)
+
+
+def one_task_per_run(spec, out, workers=2):
+    """The campaign runner without batching: a LocalCluster started first,
+    one Dask task per run."""
+    from distributed import as_completed
+    from tribo_client.campaign import worker
+    from tribo_client.campaign.results import write_results
+    from tribo_client.campaign.runner import record_result, start_client
+    from tribo_client.campaign.spec import load_spec
+    campaign = load_spec(spec)
+    os.makedirs(os.path.join(out, "runs"), exist_ok=True)
+    client, cluster = start_client(workers=workers, local_directory=os.path.join(out, ".dask-worker-space"))
+    try:
+        by_key = {}
+        for task in campaign.tasks:
+            future = client.submit(worker.execute, task, pure=False)
+            by_key[future.key] = (future, task)
+        for future in as_completed([f for f, _ in by_key.values()], loop=client.loop):
+            record_result(out, by_key[future.key][1], future.result())
+    finally:
+        client.close()
+        cluster.close()
+    write_results(out, campaign.name, campaign.spec_path)
+
+
+def timed_command(args):
+    """(wall seconds, stderr) of one command in its own process."""
+    import subprocess
+    started = time.perf_counter()
+    result = subprocess.run(args, capture_output=True, text=True, timeout=900)
+    wall = time.perf_counter() - started
+    if result.returncode != 0:
+        raise RuntimeError(f"{' '.join(args)}: exit {result.returncode}: {result.stderr[-2000:]}")
+    return wall, result.stderr
+
+
+def sub_second_figures(runs, repeat, workers):
+    """Runs per minute of the three ways on each workload, the median of
+    `repeat` rounds (the ways alternate within a round), and where the local
+    default put the runs (its `runs:` line)."""
+    import statistics
+    import tempfile
+    figures = []
+    me = os.path.abspath(__file__)
+    for name, protocol, compute in SUB_SECOND_WORKLOADS:
+        with tempfile.TemporaryDirectory() as tmp:
+            spec = sub_second_spec(tmp, protocol, compute, runs)
+            ways = {"serial loop": [sys.executable, me, "--serial-loop", spec],
+                    "tribo-campaign": [sys.executable, "-m", "tribo_client.campaign", spec,
+                                       *(["--workers", str(workers)] if workers else []), "--out"],
+                    "one task per run": [sys.executable, me, "--one-task-per-run", spec]}
+            walls = {way: [] for way in ways}
+            where = []
+            for round_ in range(repeat):
+                for i, (way, command) in enumerate(ways.items()):
+                    wall, stderr = timed_command(command + [os.path.join(tmp, f"out-{round_}-{i}")])
+                    walls[way].append(wall)
+                    where += [line for line in stderr.splitlines() if line.startswith("runs: ")]
+            entry = {"workload": name, "runs": runs, "load_after": os.getloadavg(), "local_default_where": where}
+            for way, values in walls.items():
+                median = statistics.median(values)
+                entry[way] = {"wall_s": values, "median_wall_s": median, "runs_per_min": 60 * runs / median}
+            figures.append(entry)
+            print(f"{name}, {runs} runs: " + "; ".join(
+                f"{way} {entry[way]['runs_per_min']:.0f} runs/min ({entry[way]['median_wall_s']:.2f} s)"
+                for way in ways))
+            print(f"  walls {json.dumps({w: [round(v, 2) for v in walls[w]] for w in walls})}; tribo-campaign {where}")
+    return figures
+
+
 def main():
+    if len(sys.argv) == 4 and sys.argv[1] in ("--serial-loop", "--one-task-per-run"):
+        (serial_loop if sys.argv[1] == "--serial-loop" else one_task_per_run)(sys.argv[2], sys.argv[3])
+        return 0
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=8, help="runs of the identification protocol per measurement")
     parser.add_argument("--short-runs", type=int, default=40, help="runs of a 3 s scratch for the overhead")
     parser.add_argument("--diagnosis", action="store_true",
                         help="also: one diagnosis of a 198 s identification run (wall, CPU, peak memory)")
+    parser.add_argument("--sub-second", action="store_true", help="also: the local default against a serial loop")
+    parser.add_argument("--sub-second-only", action="store_true", help="only that comparison")
+    parser.add_argument("--sub-second-runs", type=int, default=40)
+    parser.add_argument("--repeat", type=int, default=3, help="rounds of the sub-second comparison (median)")
+    parser.add_argument("--workers", type=int, help="the local default's --workers (default: one per core)")
     parser.add_argument("--json")
     args = parser.parse_args()
     from tribo_client import sim
     figures = {"software_version": sim.software_version, "cpus": os.cpu_count(), "load_before": os.getloadavg()}
+    if args.sub_second or args.sub_second_only:
+        figures["sub_second"] = sub_second_figures(args.sub_second_runs, args.repeat, args.workers)
+    if args.sub_second_only:
+        figures["load_after"] = os.getloadavg()
+        if args.json:
+            with open(args.json, "w", encoding="utf-8") as f:
+                json.dump(figures, f, indent=2)
+        return 0
 
     identification = os.path.join(SOURCE_DIR, "config/protocols/identification.textproto")
     long_tasks = tasks_for(identification, args.runs)

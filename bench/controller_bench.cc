@@ -1,15 +1,21 @@
 // Cost of the controller and the supervisor per tick (goal: at most 1 µs),
-// the whole tick with the simulated plant for context, and the wake-up
-// jitter of the wall-clock pacer at 10 kHz (a histogram, reported only).
+// with and without the friction compensation (argument 1: the identified
+// model of tests/data/friction_reports/identification.json fed forward), the
+// friction observer alone, the whole tick with the simulated plant for
+// context, and the wake-up jitter of the wall-clock pacer at 10 kHz (a
+// histogram, reported only).
 #include <benchmark/benchmark.h>
 #include <sys/prctl.h>
 
 #include <algorithm>
 #include <cstdio>
+#include <variant>
 #include <vector>
 
 #include "daemon/controller.h"
 #include "daemon/daemon_config.h"
+#include "daemon/friction_observer.h"
+#include "daemon/friction_report.h"
 #include "daemon/protocol_validator.h"
 #include "daemon/run_loop.h"
 #include "daemon/safety_supervisor.h"
@@ -33,6 +39,16 @@ v1::Protocol standard() {
     throw std::runtime_error(*e);
   }
   return p;
+}
+
+// The identified model the compensated benchmarks feed forward.
+const IdentifiedFriction& identified_model() {
+  static const IdentifiedFriction m = [] {
+    const auto text = wire::read_file(TRIBO_SOURCE_DIR "/tests/data/friction_reports/identification.json");
+    if (!text) throw std::runtime_error("the friction model report is missing");
+    return std::get<FrictionReport>(read_friction_report(*text)).model;
+  }();
+  return m;
 }
 
 // What one tick sees: the reading, the setpoints of the load function and
@@ -78,11 +94,19 @@ SupervisorInput supervisor_input(const hal::SensorFrame& f, const TickSetpoints&
   return in;
 }
 
+// The recorded setpoints, with the compensation's model (argument 1) or not.
+std::vector<TickSetpoints> setpoints_of(const benchmark::State& state) {
+  std::vector<TickSetpoints> out = recorded().setpoints;
+  for (TickSetpoints& sp : out) sp.friction_model = state.range(0) ? &identified_model() : nullptr;
+  return out;
+}
+
 // Supervisor check plus controller step: the compute of a tick between the
-// read and the write.
+// read and the write (with the compensation, its check before the write).
 void BM_ControllerAndSupervisorTick(benchmark::State& state) {
   const v1::DaemonConfig c = config();
   const Recorded& r = recorded();
+  const std::vector<TickSetpoints> setpoints = setpoints_of(state);
   auto controller = std::make_unique<Controller>(controller_params_from_config(c));
   auto supervisor = std::make_unique<SafetySupervisor>(supervisor_params_from_config(c));
   std::size_t i = 0;
@@ -90,9 +114,12 @@ void BM_ControllerAndSupervisorTick(benchmark::State& state) {
   bool tripped = false;
   for (auto _ : state) {
     const hal::SensorFrame& f = r.frames[i];
-    const TickSetpoints& sp = r.setpoints[i];
-    benchmark::DoNotOptimize(supervisor->check(supervisor_input(f, sp, *controller), tick++));
-    benchmark::DoNotOptimize(controller->step(sp, f));
+    const TickSetpoints& sp = setpoints[i];
+    benchmark::DoNotOptimize(supervisor->check(supervisor_input(f, sp, *controller), tick));
+    const ControlOutput out = controller->step(sp, f);
+    if (out.friction_compensated) benchmark::DoNotOptimize(supervisor->compensation_allowed(out.friction_compensation_n, tick));
+    benchmark::DoNotOptimize(out);
+    ++tick;
     if (++i == r.frames.size()) {
       // The recording wraps (the position jumps back): a fresh controller
       // and supervisor, outside the timing.
@@ -106,7 +133,7 @@ void BM_ControllerAndSupervisorTick(benchmark::State& state) {
   }
   if (tripped || supervisor->tripped()) state.SkipWithError("the supervisor tripped on the recording");
 }
-BENCHMARK(BM_ControllerAndSupervisorTick);
+BENCHMARK(BM_ControllerAndSupervisorTick)->Arg(0)->Arg(1);
 
 void BM_SupervisorCheck(benchmark::State& state) {
   const v1::DaemonConfig c = config();
@@ -130,14 +157,35 @@ BENCHMARK(BM_SupervisorCheck);
 void BM_ControllerStep(benchmark::State& state) {
   const v1::DaemonConfig c = config();
   const Recorded& r = recorded();
+  const std::vector<TickSetpoints> setpoints = setpoints_of(state);
   Controller controller(controller_params_from_config(c));
   std::size_t i = 0;
   for (auto _ : state) {
-    benchmark::DoNotOptimize(controller.step(r.setpoints[i], r.frames[i]));
+    benchmark::DoNotOptimize(controller.step(setpoints[i], r.frames[i]));
     if (++i == r.frames.size()) i = 0;
   }
 }
-BENCHMARK(BM_ControllerStep);
+BENCHMARK(BM_ControllerStep)->Arg(0)->Arg(1);
+
+// The friction observer's step alone, on the recorded readings.
+void BM_FrictionObserverStep(benchmark::State& state) {
+  const Recorded& r = recorded();
+  const IdentifiedFriction& m = identified_model();
+  const ObserverSettings settings = controller_params_from_config(config()).friction_observer;
+  ObserverState s = observer_at_rest(m);
+  std::size_t i = 0;
+  for (auto _ : state) {
+    ObserverInput in;
+    in.position_m = r.frames[i].lateral_position_m;
+    in.position_error_m = r.frames[i].lateral_position_m - r.setpoints[i].lateral;
+    in.normal_force_n = r.frames[i].normal_force_n;
+    in.commanded_velocity_m_per_s = r.setpoints[i].lateral_rate;
+    in.period_s = 1e-4;
+    benchmark::DoNotOptimize(observer_step(m, settings, in, s));
+    if (++i == r.frames.size()) i = 0;
+  }
+}
+BENCHMARK(BM_FrictionObserverStep);
 
 // The whole tick of the run loop with the simulated plant stepped in
 // lock-step (read, supervise, control, write, record, plant step): the

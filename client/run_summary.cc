@@ -49,6 +49,13 @@ v1::RunSummary summary_header(const RunDocuments& run, std::uint64_t sample_coun
   s.set_seed(run.start.seed());
   s.set_segment_count(static_cast<std::uint32_t>(
       run.start.segments_size() > 0 ? run.start.segments_size() : run.descriptor.segment_names_size()));
+  for (const auto& use : run.start.friction_models()) {
+    v1::CompensationSummary* c = s.add_friction_compensation();
+    c->set_report_file(use.report_file());
+    c->set_report_sha256(use.report_sha256());
+    c->set_contact(use.contact());
+    c->set_segments(static_cast<std::uint32_t>(use.segments_size()));
+  }
   return s;
 }
 
@@ -182,6 +189,10 @@ std::string summary_text(const v1::RunSummary& s) {
                         fmt::format("segment {}/{}", s.tilt_segment() + 1, s.segment_count()));
   } else {
     text += "  tip tilt   not measured: no loaded hold before sliding; friction not tilt-corrected\n";
+  }
+  for (const auto& c : s.friction_compensation()) {
+    text += fmt::format("  compensated {}, model {} (SHA-256 {}), {} of {} segments\n", c.contact(), c.report_file(),
+                        c.report_sha256().substr(0, 12), c.segments(), s.segment_count());
   }
   if (s.scratches_size() == 0 && s.oscillations_size() == 0) {
     text += "  no loaded sliding segment: no friction to report\n";

@@ -28,6 +28,7 @@
 #include "client/run_annotations.h"
 #include "client/control_loops.h"
 #include "client/hdf5_export.h"
+#include "client/friction_model_files.h"
 #include "client/protocol_check.h"
 #include "client/run_progress.h"
 #include "client/run_stream_writer.h"
@@ -174,12 +175,20 @@ std::optional<std::string> refuse_overwrite(const Options& o, const std::string&
   return path + " exists already; choose another --out or add --force to replace it";
 }
 
-// The protocol file, or the loader's message with a hint for the syntax
-// errors protobuf reports tersely.
-std::variant<tribo::v1::Protocol, std::string> load_protocol(const std::string& path) {
+// The protocol file with the friction model reports it names read in (and
+// --friction-model's in place of its own), or the loader's message with a
+// hint for the syntax errors protobuf reports tersely.
+std::variant<tribo::v1::Protocol, std::string> load_protocol(const Options& o) {
+  const std::string& path = o.positional;
   tribo::v1::Protocol protocol;
   if (auto error = tribo::wire::load_text_proto_file(path, protocol)) {
     return tribo::client::with_syntax_hint(*error);
+  }
+  if (auto error = tribo::client::read_friction_reports(protocol, std::filesystem::path(path).parent_path())) {
+    return path + ": " + *error;
+  }
+  if (const auto report = o.value("friction-model")) {
+    if (auto error = tribo::client::set_friction_model(protocol, *report)) return *error;
   }
   return protocol;
 }
@@ -245,7 +254,7 @@ int run_command(const Options& o) {
     seed = parse_uint(*text);
     if (!seed) return fail(o, "--seed " + *text + " is not a number", kUsage);
   }
-  const auto loaded = load_protocol(o.positional);
+  const auto loaded = load_protocol(o);
   if (const auto* error = std::get_if<std::string>(&loaded)) return fail(o, *error, kUsage);
   const auto& protocol = std::get<tribo::v1::Protocol>(loaded);
   const auto out = o.value("out");
@@ -479,7 +488,7 @@ int export_command(const Options& o) {
 }
 
 int check_command(const Options& o) {
-  const auto loaded = load_protocol(o.positional);
+  const auto loaded = load_protocol(o);
   if (const auto* error = std::get_if<std::string>(&loaded)) return fail(o, *error, kUsage);
   const auto& protocol = std::get<tribo::v1::Protocol>(loaded);
   // The daemon's dry run: it validates against its own config and limits and
@@ -695,6 +704,9 @@ void define_commands(CLI::App& app, Options& o, std::map<CLI::App*, Command>& co
   run->add_option("PROTOCOL", o.positional, "protocol file (protobuf text format)")->required();
   value_option(run, o, "out", "also save the run to this directory (refused if it exists, unless --force)");
   value_option(run, o, "seed", "noise seed of the simulated instrument");
+  value_option(run, o, "friction-model",
+               "compensate friction with this identified model: a `tribo-fit diagnose --json` report "
+               "(docs/friction_compensation.md); replaces the protocol's own friction_compensation");
   run->add_flag("--progress,!--no-progress", o.progress, "draw the live progress line (default: on a terminal)");
   run->add_flag("--force", o.force, "replace an existing --out directory");
   value_option(run, o, "sample", "the sample, recorded with the run (shown by `tribo list`)");
@@ -709,6 +721,7 @@ void define_commands(CLI::App& app, Options& o, std::map<CLI::App*, Command>& co
                         "warning, before anything moves (the protocol stays loaded)",
                         check_command);
   check->add_option("PROTOCOL", o.positional, "protocol file (protobuf text format)")->required();
+  value_option(check, o, "friction-model", "check with this friction model report, as `run --friction-model`");
   value_option(check, o, "plot", "also plot the planned normal and lateral setpoints to this PNG");
   check->add_flag("--force", o.force, "replace an existing --plot file");
   value_option(check, o, "config", "the daemon's config, for the plot's loop rate (default config/tribod.textproto)");

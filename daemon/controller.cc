@@ -66,6 +66,11 @@ ControllerParams controller_params_from_config(const v1::ControllerConfig& c) {
   p.normal_force = pid_gains_from_proto(c.normal_force());
   p.normal_displacement = pid_gains_from_proto(c.normal_displacement());
   p.period_s = 1.0 / c.loop_rate_hz();
+  p.friction_observer.observer_gain_per_s = c.friction_compensation().observer_gain_per_s();
+  p.friction_observer.velocity_filter_hz = c.friction_compensation().velocity_filter_hz();
+  p.friction_observer.velocity = c.friction_compensation().velocity_source() == v1::MEASURED
+                                     ? ObserverVelocity::kMeasured
+                                     : ObserverVelocity::kCommanded;
   return p;
 }
 
@@ -185,6 +190,37 @@ double Controller::lateral_hold(const hal::SensorFrame& f, ControlOutput& out) {
   return u;
 }
 
+double Controller::friction_compensation(const TickSetpoints& sp, const hal::SensorFrame& f, ControlOutput& out) {
+  const bool switched = sp.friction_model != compensating_;
+  if (switched && !sp.friction_model) {  // off: the integrator takes over the share
+    pid_shift_added(compensation_n_, 0.0, lateral_displacement_);
+    compensating_ = nullptr;
+    compensation_n_ = 0;
+    return 0.0;
+  }
+  if (!sp.friction_model) return 0.0;
+  if (!compensating_) observer_ = observer_at_rest(*sp.friction_model);
+  compensating_ = sp.friction_model;
+  ObserverInput in;
+  in.position_m = f.lateral_position_m;
+  in.position_error_m = f.lateral_position_m - sp.lateral;
+  in.normal_force_n = f.normal_force_n;
+  in.commanded_velocity_m_per_s = sp.lateral_rate;
+  in.period_s = params_.period_s;
+  const ObserverOutput o = observer_step(*compensating_, params_.friction_observer, in, observer_);
+  // A reading that is not finite leaves the state and the share as they
+  // were (the PID holds its drive too); a model that yields a non-finite
+  // force passes it on, and the supervisor refuses the command.
+  const double share = o.advanced ? o.force_n : compensation_n_;
+  // Switched on, or to another model: the integrator gives up the new share.
+  if (switched && std::isfinite(share)) pid_shift_added(compensation_n_, share, lateral_displacement_);
+  compensation_n_ = share;
+  out.friction_compensation_n = share;
+  out.friction_compensated = true;
+  out.flags |= v1::FRICTION_COMPENSATED;
+  return share;
+}
+
 double Controller::lateral_step(const TickSetpoints& sp, const hal::SensorFrame& f,
                                 ControlOutput& out) {
   const double k = params_.lateral_spring_n_per_m;
@@ -202,8 +238,13 @@ double Controller::lateral_step(const TickSetpoints& sp, const hal::SensorFrame&
     case LateralMode::kDisplacement: {
       const PidGains& g = params_.lateral;
       const double ff = k * sp.lateral;
-      if (enter) pid_reset(g, sp.lateral, std::isfinite(x) ? x : sp.lateral, ff, drive_.lateral_force_n, lateral_displacement_);
-      const double u = pid_update(g, lateral_terms_, sp.lateral, x, ff, params_.period_s, lateral_displacement_);
+      if (enter) {
+        pid_reset(g, sp.lateral, std::isfinite(x) ? x : sp.lateral, ff, drive_.lateral_force_n, lateral_displacement_,
+                  compensation_n_);
+      }
+      const double compensation = friction_compensation(sp, f, out);
+      const double u =
+          pid_update(g, lateral_terms_, sp.lateral, x, ff, params_.period_s, lateral_displacement_, compensation);
       if (lateral_displacement_.input_invalid) out.flags |= v1::SENSOR_INVALID;
       if (lateral_displacement_.saturated) out.flags |= v1::LATERAL_OUTPUT_SATURATED;
       out.lateral_setpoint_m = sp.lateral;
@@ -211,6 +252,11 @@ double Controller::lateral_step(const TickSetpoints& sp, const hal::SensorFrame&
     }
     case LateralMode::kForce: {
       out.flags |= v1::LATERAL_FORCE_CONTROL;
+      if (compensating_) {  // no compensation in force control: the integrator takes its share
+        pid_shift_added(compensation_n_, 0.0, lateral_displacement_);
+        compensating_ = nullptr;
+        compensation_n_ = 0;
+      }
       out.lateral_setpoint_m = x;
       if (!breakaway_ && std::isfinite(x) && std::isfinite(excursion_origin_m_) &&
           std::fabs(x - excursion_origin_m_) > sp.max_excursion_m) {
@@ -236,6 +282,8 @@ double Controller::lateral_step(const TickSetpoints& sp, const hal::SensorFrame&
     }
     case LateralMode::kOpenLoopDrive:
       out.lateral_setpoint_m = x;
+      compensating_ = nullptr;
+      compensation_n_ = 0;
       return sp.lateral;
   }
   return drive_.lateral_force_n;

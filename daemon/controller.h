@@ -10,7 +10,10 @@
 // Lateral (X) axis:
 //   displacement          PID on the measured position (the dissertation's
 //                         I-PD loop), feed-forward = k_spring * setpoint
-//                         (feedforward_gain 0 in the default config)
+//                         (feedforward_gain 0 in the default config); with a
+//                         friction model in the setpoints, plus the friction
+//                         the observer predicts (daemon/friction_observer.h),
+//                         added to the PID's output before its clamp
 //   force                 PID on the measured lateral force, feed-forward =
 //                         setpoint + k_spring * position (the drive whose
 //                         inferred force is the setpoint). Once the tip has
@@ -21,13 +24,17 @@
 // k_spring are the nominal transducer constants of the config.
 //
 // Every change of mode (and the first tick) resets the new loop bumplessly:
-// its output continues from the present drive. Gain changes are bumpless too
+// its output continues from the present drive. So does switching the
+// friction compensation on or off: the integrator gives up, or takes over,
+// the compensation's share at that tick. The observer starts from a contact
+// at rest each time the compensation is switched on. Gain changes are bumpless too
 // (daemon/pid.h). A loop whose measurement is not finite holds its drive and
 // flags SENSOR_INVALID; NaN never reaches the drive.
 #pragma once
 
 #include <cstdint>
 
+#include "daemon/friction_observer.h"
 #include "daemon/load_function.h"
 #include "daemon/pid.h"
 #include "hal/transducer.h"
@@ -51,6 +58,7 @@ struct ControllerParams {
   double period_s = 0;
   double lateral_spring_n_per_m = 0;
   double normal_spring_n_per_m = 0;
+  ObserverSettings friction_observer;  // controller.friction_compensation
 };
 
 PidGains pid_gains_from_proto(const v1::PidGains& gains);
@@ -66,6 +74,9 @@ struct ControlOutput {
   std::uint32_t flags = 0;  // tribo.v1.StatusFlag bits
   double lateral_setpoint_m = 0;  // the position recorded as the lateral setpoint
   double normal_setpoint_n = 0;   // the force recorded as the normal setpoint
+  // The friction compensation's share of drive.lateral_force_n (0 when off).
+  double friction_compensation_n = 0;
+  bool friction_compensated = false;
 };
 
 // Setpoints of the default modes (open-loop normal force, lateral
@@ -91,6 +102,9 @@ class Controller {
   const hal::DriveCommand& last_drive() const { return drive_; }
   bool breakaway_hold() const { return breakaway_; }
   double hold_position_m() const { return hold_position_m_; }
+  const ObserverState& friction_observer() const { return observer_; }
+  // The friction compensation's share of the last lateral drive (0 when off).
+  double last_compensation_n() const { return compensation_n_; }
 
  private:
   PidGains& gains_ref(Loop loop);
@@ -98,6 +112,7 @@ class Controller {
   double normal_step(const TickSetpoints& sp, const hal::SensorFrame& f, ControlOutput& out);
   double lateral_step(const TickSetpoints& sp, const hal::SensorFrame& f, ControlOutput& out);
   double lateral_hold(const hal::SensorFrame& f, ControlOutput& out);
+  double friction_compensation(const TickSetpoints& sp, const hal::SensorFrame& f, ControlOutput& out);
 
   PidTerms& terms_ref(Loop loop);
 
@@ -112,6 +127,9 @@ class Controller {
   bool breakaway_ = false;
   double excursion_origin_m_ = 0;
   double hold_position_m_ = 0;
+  const IdentifiedFriction* compensating_ = nullptr;  // the model in use, null: none
+  double compensation_n_ = 0;                         // its last share of the drive
+  ObserverState observer_;
   hal::DriveCommand drive_;
 };
 

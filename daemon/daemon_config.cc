@@ -71,7 +71,8 @@ std::optional<std::string> validate_supervisor(const v1::DaemonConfig& c) {
       {"tracking_lag_s", {s.tracking_lag_s(), 0, 100}},
       {"unload_rate_n_per_s", {s.unload_rate_n_per_s(), 1e-9, 10}},
       {"hold_s", {s.hold_s(), 0, 60}},
-      {"retract_speed_m_per_s", {s.retract_speed_m_per_s(), 1e-9, 1e-3}}};
+      {"retract_speed_m_per_s", {s.retract_speed_m_per_s(), 1e-9, 1e-3}},
+      {"max_friction_compensation_n", {s.max_friction_compensation_n(), 0, 1}}};
   for (const auto& [name, f] : fields) {
     if (auto e = out_of_range(at + name, f[0], f[1], f[2])) return e;
   }
@@ -118,6 +119,13 @@ std::optional<std::string> validate_daemon_config(const v1::DaemonConfig& c) {
   if (auto e = validate_pid_gains("controller.lateral_force", ctl.lateral_force())) return e;
   if (auto e = validate_pid_gains("controller.normal_force", ctl.normal_force())) return e;
   if (auto e = validate_pid_gains("controller.normal_displacement", ctl.normal_displacement())) return e;
+  const auto& fc = ctl.friction_compensation();
+  if (auto e = out_of_range("controller.friction_compensation.observer_gain_per_s", fc.observer_gain_per_s(), 0, 1e6)) return e;
+  if (auto e = out_of_range("controller.friction_compensation.velocity_filter_hz", fc.velocity_filter_hz(), 0,
+                            ctl.loop_rate_hz())) return e;
+  if (!v1::FrictionObserverVelocity_IsValid(fc.velocity_source())) {
+    return "controller.friction_compensation.velocity_source is not a known value";
+  }
   if (auto e = out_of_range("limits.max_normal_force_n", lim.max_normal_force_n(), 1e-9, 1)) return e;
   if (auto e = out_of_range("limits.max_lateral_force_n", lim.max_lateral_force_n(), 1e-9, 1)) return e;
   if (auto e = out_of_range("limits.max_lateral_travel_m", lim.max_lateral_travel_m(), 1e-9, 1e-3)) return e;

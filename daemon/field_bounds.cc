@@ -119,7 +119,8 @@ class Walker {
 }  // namespace
 
 std::size_t max_string_bytes(std::string_view name) {
-  for (std::string_view free_text : {"description", "note", "reason", "message", "detail"}) {
+  if (name == "report_json") return kMaxReportBytes;
+  for (std::string_view free_text : {"description", "note", "reason", "message", "detail", "report_file"}) {
     if (name == free_text) return kMaxTextBytes;
   }
   return kMaxNameBytes;

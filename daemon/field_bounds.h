@@ -17,7 +17,8 @@
 namespace tribo::daemon {
 
 inline constexpr std::size_t kMaxNameBytes = 256;        // names, keys, short labels
-inline constexpr std::size_t kMaxTextBytes = 4096;       // descriptions, notes, reasons
+inline constexpr std::size_t kMaxTextBytes = 4096;       // descriptions, notes, reasons, file paths
+inline constexpr std::size_t kMaxReportBytes = 1 << 20;  // an identification report (report_json)
 inline constexpr std::size_t kMaxMapEntries = 64;        // free-form key=value maps
 
 struct FieldBoundsIssue {
@@ -31,7 +32,9 @@ std::vector<FieldBoundsIssue> check_field_bounds(const google::protobuf::Message
                                                  std::size_t max_issues = 20);
 
 // The limit for a string field of this name: kMaxTextBytes for free text
-// (description, note, reason, message), kMaxNameBytes otherwise.
+// (description, note, reason, message) and report_file, kMaxReportBytes for
+// report_json (a friction model report, docs/friction_compensation.md),
+// kMaxNameBytes otherwise.
 std::size_t max_string_bytes(std::string_view field_name);
 
 // The first bytes of text, cut at a UTF-8 boundary, with control characters

@@ -79,8 +79,9 @@ double path_rate(const AxisPath& p, double begin, double end, double t_s, double
   return 0;
 }
 
-LoadFunction::LoadFunction(std::vector<SegmentPlan> segments, double loop_rate_hz)
-    : segments_(std::move(segments)), loop_rate_hz_(loop_rate_hz) {
+LoadFunction::LoadFunction(std::vector<SegmentPlan> segments, double loop_rate_hz,
+                           std::vector<FrictionReport> friction_models)
+    : segments_(std::move(segments)), friction_models_(std::move(friction_models)), loop_rate_hz_(loop_rate_hz) {
   for (const SegmentPlan& s : segments_) total_ticks_ += s.tick_count;
 }
 
@@ -126,6 +127,7 @@ TickSetpoints SegmentRunner::at(std::uint64_t tick, const MeasuredStart& measure
   sp.lateral_rate = path_rate(s.lateral, lateral_begin_, lateral_end_, t, duration_s_);
   sp.max_excursion_m = s.max_excursion_m;
   sp.segment_start = start;
+  if (s.friction_model >= 0) sp.friction_model = &lf_.friction_models()[static_cast<std::size_t>(s.friction_model)].model;
   return sp;
 }
 

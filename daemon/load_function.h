@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "daemon/friction_report.h"
+
 namespace tribo::daemon {
 
 enum class NormalMode : std::uint8_t { kOpenLoopForce, kClosedLoopForce, kDisplacement };
@@ -51,20 +53,27 @@ struct SegmentPlan {
   LateralMode lateral_mode = LateralMode::kDisplacement;
   AxisPath lateral;
   double max_excursion_m = 0;  // LATERAL_FORCE: hold once moved this far
+  // The friction model the lateral displacement loop compensates with: an
+  // index into LoadFunction::friction_models(), -1 for none.
+  int friction_model = -1;
 };
 
 class LoadFunction {
  public:
   LoadFunction() = default;
-  LoadFunction(std::vector<SegmentPlan> segments, double loop_rate_hz);
+  LoadFunction(std::vector<SegmentPlan> segments, double loop_rate_hz,
+               std::vector<FrictionReport> friction_models = {});
 
   std::uint64_t total_ticks() const { return total_ticks_; }
+  // The identified friction models the segments compensate with (SegmentPlan::friction_model).
+  const std::vector<FrictionReport>& friction_models() const { return friction_models_; }
   double loop_rate_hz() const { return loop_rate_hz_; }
   const std::vector<SegmentPlan>& segments() const { return segments_; }
   std::uint64_t expected_samples() const;
 
  private:
   std::vector<SegmentPlan> segments_;
+  std::vector<FrictionReport> friction_models_;
   std::uint64_t total_ticks_ = 0;
   double loop_rate_hz_ = 0;
 };
@@ -89,6 +98,9 @@ struct TickSetpoints {
   double lateral_rate = 0;  // unit per second
   double max_excursion_m = 0;
   bool segment_start = false;  // first tick of a segment
+  // The model the lateral displacement loop compensates friction with
+  // (daemon/friction_observer.h); null: no compensation.
+  const IdentifiedFriction* friction_model = nullptr;
 };
 
 // Walks a LoadFunction tick by tick. Not thread-safe; allocation-free.

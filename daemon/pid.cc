@@ -27,10 +27,11 @@ double pid_tracking_time_s(const PidGains& g, double dt_s) {
 }
 
 void pid_reset(const PidGains& g, double setpoint, double measurement, double feedforward,
-               double output, PidState& s) {
+               double output, PidState& s, double added) {
   s.derivative = 0;
   s.previous_d_input = g.setpoint_weight_d * setpoint - measurement;
-  s.integral = output - proportional(g, setpoint, measurement) - g.feedforward_gain * feedforward;
+  s.integral = output - proportional(g, setpoint, measurement) - g.feedforward_gain * feedforward - added;
+  s.added = added;
   s.output = output;
   s.setpoint = setpoint;
   s.measurement = measurement;
@@ -55,9 +56,9 @@ double pid_update(const PidGains& g, double setpoint, double measurement, double
 }
 
 double pid_update(const PidGains& g, const PidTerms& t, double setpoint, double measurement,
-                  double feedforward, double dt_s, PidState& s) {
+                  double feedforward, double dt_s, PidState& s, double added) {
   if (!(dt_s > 0) || !std::isfinite(dt_s) || !std::isfinite(setpoint) ||
-      !std::isfinite(measurement) || !std::isfinite(feedforward)) {
+      !std::isfinite(measurement) || !std::isfinite(feedforward) || !std::isfinite(added)) {
     s.input_invalid = true;
     return s.output;
   }
@@ -74,7 +75,9 @@ double pid_update(const PidGains& g, const PidTerms& t, double setpoint, double 
   s.previous_d_input = d_input;
 
   const double candidate = s.integral + t.ki_dt * error;
-  const double unclamped = p + candidate + s.derivative + g.feedforward_gain * feedforward;
+  // Without an added term the sum is the one before there was one (same bits).
+  const double sum = p + candidate + s.derivative + g.feedforward_gain * feedforward;
+  const double unclamped = added == 0 ? sum : sum + added;
   const double output = std::clamp(unclamped, g.output_min, g.output_max);
   switch (g.anti_windup) {
     case AntiWindup::kNone:
@@ -95,14 +98,20 @@ double pid_update(const PidGains& g, const PidTerms& t, double setpoint, double 
   s.setpoint = setpoint;
   s.measurement = measurement;
   s.feedforward = feedforward;
+  s.added = added;
   return output;
+}
+
+void pid_shift_added(double from, double to, PidState& s) {
+  s.integral += from - to;
+  s.added = to;
 }
 
 void pid_change_gains(const PidGains& old_gains, const PidGains& new_gains, PidState& s) {
   s.derivative = old_gains.kd > 0 ? s.derivative * (new_gains.kd / old_gains.kd) : 0.0;
   s.previous_d_input = new_gains.setpoint_weight_d * s.setpoint - s.measurement;
   s.integral = s.output - proportional(new_gains, s.setpoint, s.measurement) - s.derivative -
-               new_gains.feedforward_gain * s.feedforward;
+               new_gains.feedforward_gain * s.feedforward - s.added;
 }
 
 }  // namespace tribo::daemon

@@ -11,7 +11,9 @@
 //                                              Tf = 1 / (2 pi derivative_filter_hz)
 //                                              (Tf = 0: the plain difference).
 //   I* = I' + ki dt e                          integration of the error (no offset)
-//   v  = P + I* + D + feedforward_gain f       unclamped output
+//   v  = P + I* + D + feedforward_gain f + a   unclamped output; a: a term added
+//                                              outside the gains (the friction
+//                                              compensation, daemon/controller.h)
 //   u  = clamp(v, output_min, output_max)      the output
 //
 // and the stored integral I depends on the anti-windup:
@@ -34,7 +36,7 @@
 //
 // Reset semantics (pid_reset): the derivative state is cleared, d' is set to
 // the present c r - y (no derivative kick on the next step) and the integral
-// is set so that, with the same r, y and f, the unclamped output is exactly
+// is set so that, with the same r, y, f and a, the unclamped output is exactly
 // `output` (plus the next step's ki dt e). pid_reset(..., 0, ...) is the
 // classic reset to zero; resetting to the present drive is bumpless.
 //
@@ -74,6 +76,7 @@ struct PidState {
   double setpoint = 0;          // the last valid inputs
   double measurement = 0;
   double feedforward = 0;
+  double added = 0;             // the last added term a
   bool saturated = false;       // the last output was clamped
   bool input_invalid = false;   // the last call held the output (invalid input)
 };
@@ -83,7 +86,7 @@ double pid_tracking_time_s(const PidGains& g, double dt_s);
 
 // Resets so that the output continues from `output` (see above).
 void pid_reset(const PidGains& g, double setpoint, double measurement, double feedforward,
-               double output, PidState& s);
+               double output, PidState& s, double added = 0);
 
 double pid_update(const PidGains& g, double setpoint, double measurement, double feedforward,
                   double dt_s, PidState& s);
@@ -99,9 +102,15 @@ struct PidTerms {
 };
 PidTerms pid_terms(const PidGains& g, double dt_s);
 
-// pid_update with the terms of pid_terms(g, dt_s).
+// pid_update with the terms of pid_terms(g, dt_s), and a term `added` to the
+// output before the clamp (a non-finite one is invalid input).
 double pid_update(const PidGains& g, const PidTerms& terms, double setpoint, double measurement,
-                  double feedforward, double dt_s, PidState& s);
+                  double feedforward, double dt_s, PidState& s, double added = 0);
+
+// Moves the term added to the output from `from` to `to` without a step in
+// the output: the integral takes the difference (a compensation switched on
+// or off hands its share to the integrator, or takes it over).
+void pid_shift_added(double from, double to, PidState& s);
 
 // Switches from old_gains to new_gains without a step in the output.
 void pid_change_gains(const PidGains& old_gains, const PidGains& new_gains, PidState& s);

@@ -5,6 +5,7 @@
 #include <numbers>
 #include <optional>
 #include <sstream>
+#include <variant>
 
 #include "daemon/electrostatic_drive.h"
 #include "daemon/field_bounds.h"
@@ -145,6 +146,11 @@ class Checker {
                              const Range& position_um, const Range& drive_extra_un);
   std::optional<double> lateral_distance_um(const AxisFields& f, const AxisState& previous,
                                             bool start_fresh) const;
+  int friction_model(const v1::FrictionCompensation& c, const std::string& field, const std::string& label);
+  int segment_friction_model(const v1::Segment& seg, const std::string& at, const std::string& label,
+                             bool lateral_force_mode);
+  void check_compensation_bound(int model, const std::string& field, const std::string& label,
+                                double max_load_un, double max_speed_um_per_s);
 
   const v1::DaemonConfig& config_;
   double loop_hz_;
@@ -159,13 +165,18 @@ class Checker {
   AxisState lateral_{v1::LATERAL_DISPLACEMENT, Range::point(0)};     // at the neutral point
   Range lateral_position_um_ = Range::point(0);
   Range normal_drive_un_ = Range::point(0);
+  double max_compensation_n_;                    // supervisor.max_friction_compensation_n, or its default
+  std::vector<FrictionReport> friction_models_;  // one per distinct report
+  int protocol_friction_model_ = -1;             // the protocol's, -1 none
+  std::string protocol_friction_field_ = "friction_compensation";
 };
 
 Checker::Checker(const v1::DaemonConfig& config)
     : config_(config),
       loop_hz_(config.controller().loop_rate_hz()),
       normal_axis_(electrostatic_axis_from_config(config.transducer().normal())),
-      lateral_axis_(electrostatic_axis_from_config(config.transducer().lateral())) {}
+      lateral_axis_(electrostatic_axis_from_config(config.transducer().lateral())),
+      max_compensation_n_(supervisor_params_from_config(config).max_friction_compensation_n) {}
 
 std::optional<double> Checker::lateral_distance_um(const AxisFields& f, const AxisState& previous,
                                                    bool start_fresh) const {
@@ -174,6 +185,72 @@ std::optional<double> Checker::lateral_distance_um(const AxisFields& f, const Ax
   Range begin = f.begin ? Range::point(*f.begin) : start_fresh ? lateral_position_um_ : previous.value;
   if (!begin.is_point()) return std::nullopt;
   return *f.end - begin.lo;
+}
+
+// The index of the compensation's model in friction_models_ (a report read
+// once however many segments use it), -1 for none or an error.
+int Checker::friction_model(const v1::FrictionCompensation& c, const std::string& field, const std::string& label) {
+  if (c.off()) {
+    if (!c.report_json().empty() || !c.report_file().empty()) {
+      error(field + ".off", label + ": friction_compensation.off and a report at once: give one");
+    }
+    return -1;
+  }
+  if (c.report_json().empty()) {
+    error(field + ".report_json", label + ": friction_compensation has no report" +
+                                      (c.report_file().empty() ? std::string()
+                                                               : " (report_file " + c.report_file() +
+                                                                     " was not read: the client sends its bytes in report_json)"));
+    return -1;
+  }
+  const std::string hash = sha256_hex(c.report_json());
+  for (std::size_t i = 0; i < friction_models_.size(); ++i) {
+    if (friction_models_[i].sha256 == hash) return static_cast<int>(i);
+  }
+  auto report = read_friction_report(c.report_json());
+  if (auto* why = std::get_if<std::string>(&report)) {
+    const std::string name = c.report_file().empty() ? std::string("the friction model report") : c.report_file();
+    error(field + ".report_json", label + ": friction compensation: " + name + ": " + *why);
+    return -1;
+  }
+  FrictionReport& r = std::get<FrictionReport>(report);
+  r.report_file = c.report_file();
+  friction_models_.push_back(std::move(r));
+  return static_cast<int>(friction_models_.size() - 1);
+}
+
+int Checker::segment_friction_model(const v1::Segment& seg, const std::string& at, const std::string& label,
+                                    bool lateral_force_mode) {
+  if (!seg.has_friction_compensation()) return lateral_force_mode ? -1 : protocol_friction_model_;
+  const std::string field = at + ".friction_compensation";
+  if (lateral_force_mode && !seg.friction_compensation().off()) {
+    error(field, label + ": friction_compensation applies to LATERAL_DISPLACEMENT segments only");
+    return -1;
+  }
+  return friction_model(seg.friction_compensation(), field, label);
+}
+
+// The most the model can ask of the drive along this segment: its static
+// level at the highest load (dwell at its full gain, the stronger direction),
+// the viscous and bristle-damping terms at the highest speed, the tilt's
+// push; beyond the supervisor's limit the run would trip, so it is refused here.
+void Checker::check_compensation_bound(int model, const std::string& field, const std::string& label,
+                                       double max_load_un, double max_speed_um_per_s) {
+  const FrictionReport& r = friction_models_[static_cast<std::size_t>(model)];
+  const IdentifiedFriction& m = r.model;
+  const double load_n = max_load_un * kMicro, speed = max_speed_um_per_s * kMicro;
+  double level = std::max(m.static_level, m.coulomb) + (m.dwell ? std::max(m.dwell_gain, 0.0) : 0.0);
+  if (m.load_scaled) level *= load_n;
+  if (m.direction_asymmetry) level *= 1 + std::fabs(m.asymmetry_levels);
+  const double viscous = std::fabs(m.viscous_n_s_per_m) * (m.direction_asymmetry ? 1 + std::fabs(m.asymmetry_viscous) : 1);
+  const double bound = level + (viscous + m.sigma1_n_s_per_m) * speed + std::fabs(m.tilt_tan) * load_n;
+  const double limit = max_compensation_n_;
+  if (!(bound <= limit)) {
+    error(field, label + ": friction compensation (" + (r.report_file.empty() ? r.contact : r.report_file) +
+                     ") may reach " + fmt(bound / kMicro) + " µN at " + fmt(max_load_un) + " µN and " +
+                     fmt(max_speed_um_per_s) + " µm/s, beyond supervisor.max_friction_compensation_n = " +
+                     fmt(limit / kMicro) + " µN");
+  }
 }
 
 PathSummary Checker::check_path(const AxisFields& f, const std::string& label, bool start_fresh,
@@ -540,6 +617,13 @@ void Checker::check_segment(const ExpandedSegment& e) {
     check_lateral_pull_in(label, at + ".lateral", position_um, extra);
   }
 
+  // Friction compensation: the segment's own, or the protocol's.
+  const int model = segment_friction_model(seg, at, label, lateral_force_mode);
+  if (model >= 0) {
+    check_compensation_bound(model, seg.has_friction_compensation() ? at + ".friction_compensation" : protocol_friction_field_,
+                             label, normal_force_un.hi, lp.max_rate);
+  }
+
   // Compile.
   SegmentPlan plan;
   plan.name = e.name;
@@ -562,6 +646,7 @@ void Checker::check_segment(const ExpandedSegment& e) {
   plan.normal = to_si(np.plan);
   plan.lateral = to_si(lp.plan);
   plan.max_excursion_m = seg.lateral().max_excursion_um() * kMicro;
+  plan.friction_model = model;
   plans_.push_back(std::move(plan));
   next_tick_ += ticks;
   result_.duration_s += duration;
@@ -599,6 +684,10 @@ ProtocolCheck Checker::run(const v1::Protocol& protocol) {
     error("segments", "the protocol has no segments");
     return std::move(result_);
   }
+  if (protocol.has_friction_compensation()) {
+    protocol_friction_model_ = friction_model(protocol.friction_compensation(), "friction_compensation", "the protocol");
+    if (!result_.errors.empty()) return std::move(result_);
+  }
   Expansion expansion = expand_protocol(protocol, kMaxSegments);
   for (auto& e : expansion.errors) error(std::move(e.field), std::move(e.message));
   if (!result_.errors.empty()) return std::move(result_);
@@ -608,7 +697,7 @@ ProtocolCheck Checker::run(const v1::Protocol& protocol) {
     error("segments", "the protocol lasts " + fmt(result_.duration_s) + " s, above the maximum " +
                           fmt(max_total) + " s");
   }
-  if (result_.ok()) result_.load_function = LoadFunction(std::move(plans_), loop_hz_);
+  if (result_.ok()) result_.load_function = LoadFunction(std::move(plans_), loop_hz_, std::move(friction_models_));
   return std::move(result_);
 }
 

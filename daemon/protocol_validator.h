@@ -25,7 +25,13 @@
 //   planning friction at the segment's highest load) keeps k_eff / k above
 //   supervisor.min_stiffness_ratio at every extreme of the path, and the
 //   normal drive voltage stays below the transducer's max_drive_v;
-// - LATERAL_FORCE needs max_excursion_um (the break-away hold).
+// - LATERAL_FORCE needs max_excursion_um (the break-away hold);
+// - friction compensation (the protocol's, or a segment's own; displacement
+//   segments only): the report reads as a model the compensation can
+//   evaluate (daemon/friction_report.h), and what it may add to the drive at
+//   the segment's highest load and speed stays within
+//   supervisor.max_friction_compensation_n. Each distinct report is read once
+//   and compiled into LoadFunction::friction_models().
 #pragma once
 
 #include <string>

@@ -33,6 +33,24 @@ v1::RunStart make_run_start(const v1::Protocol& protocol, const v1::DaemonConfig
                                                                           : v1::NORMAL_OPEN_LOOP_FORCE);
     seg->set_lateral_mode(plan.lateral_mode == LateralMode::kForce ? v1::LATERAL_FORCE : v1::LATERAL_DISPLACEMENT);
   }
+  // Which model compensated which segments: the reports' hashes and
+  // parameters, so the run says what it was compensated with.
+  for (const FrictionReport& r : load_function.friction_models()) {
+    v1::FrictionModelUse* use = start.add_friction_models();
+    use->set_report_file(r.report_file);
+    use->set_report_sha256(r.sha256);
+    use->set_contact(r.contact);
+    for (const ReportParameter& p : r.parameters) {
+      v1::ModelParameter* q = use->add_parameters();
+      q->set_name(p.name);
+      q->set_value(p.value);
+      q->set_unit(p.unit);
+    }
+  }
+  const auto& plans = load_function.segments();
+  for (std::size_t i = 0; i < plans.size(); ++i) {
+    if (plans[i].friction_model >= 0) start.mutable_friction_models(plans[i].friction_model)->add_segments(static_cast<std::uint32_t>(i));
+  }
   return start;
 }
 

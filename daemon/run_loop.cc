@@ -157,7 +157,9 @@ bool RunLoop::tick() {
   // backend, whatever the validator and the controller did. A refused
   // command trips the run; the backend keeps the last drive written, from
   // which the stop sequence unloads.
-  if (!supervisor_.command_allowed(out.drive, sp_.normal, sp_.lateral, !stopping_, tick_)) {
+  if (out.friction_compensated && !supervisor_.compensation_allowed(out.friction_compensation_n, tick_)) {
+    if (!stopping_) start_stopping(RunEnd::kTripped);
+  } else if (!supervisor_.command_allowed(out.drive, sp_.normal, sp_.lateral, !stopping_, tick_)) {
     if (!stopping_) start_stopping(RunEnd::kTripped);
   } else {
     written_ = out.drive;

@@ -29,6 +29,7 @@ std::string_view trip_reason_text(TripReason reason) {
     case TripReason::kSnapDownLateral: return "lateral axis snap-down margin";
     case TripReason::kCommandInvalid: return "command refused before the backend";
     case TripReason::kRecordingFailed: return "recording failed";
+    case TripReason::kFrictionCompensation: return "friction compensation refused";
   }
   return "unknown";
 }
@@ -76,6 +77,8 @@ SupervisorParams supervisor_params_from_config(const v1::DaemonConfig& c) {
   p.normal_drive_max_n = normal_max;
   p.lateral_drive_min_n = -lateral_max;
   p.lateral_drive_max_n = lateral_max;
+  p.max_friction_compensation_n =
+      s.max_friction_compensation_n() > 0 ? s.max_friction_compensation_n() : l.max_lateral_force_n();
   return p;
 }
 
@@ -133,6 +136,15 @@ bool SafetySupervisor::command_allowed(const hal::DriveCommand& d, double normal
     }
   }
   return drive_ok;  // a finite, in-range drive may still go out (the stop sequence's)
+}
+
+bool SafetySupervisor::compensation_allowed(double c, std::uint64_t tick) {
+  if (std::isfinite(c) && std::fabs(c) <= p_.max_friction_compensation_n) return true;
+  if (!tripped()) {
+    latch(TripReason::kFrictionCompensation, tick, "compensation %.6g N is not finite or beyond +-%.6g N", c,
+          p_.max_friction_compensation_n);
+  }
+  return false;
 }
 
 bool SafetySupervisor::overrun_trip(std::uint64_t overruns, std::uint64_t tick) {

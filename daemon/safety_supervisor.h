@@ -28,6 +28,9 @@
 //                       the rate a peak that decays with tracking_lag_s (the
 //                       loop still lags after a ramp ends); a stuck actuator
 //                       leaves the tip behind
+//   friction compensation (with the command, before it is written) the
+//                       compensation's share not finite or beyond
+//                       max_friction_compensation_n
 //   breakpoint          loaded (filtered contact force above contact_force_n)
 //                       within breakpoint_guard_m of x = 0 (§3.2.5)
 //   snap-down           k_eff / k below min_stiffness_ratio for the applied
@@ -77,6 +80,7 @@ enum class TripReason : std::uint8_t {
   kSnapDownLateral,
   kCommandInvalid,    // the last check before a write: a non-finite or out-of-range command
   kRecordingFailed,   // the recorder could not write: samples would be lost unseen
+  kFrictionCompensation,  // the compensation's share not finite or beyond its limit
 };
 
 std::string_view trip_reason_text(TripReason reason);
@@ -112,6 +116,8 @@ struct SupervisorParams {
   // not finite) the command is refused whatever the validator said.
   double normal_drive_min_n = 0, normal_drive_max_n = 0;
   double lateral_drive_min_n = 0, lateral_drive_max_n = 0;
+  // The most the friction compensation may add to the lateral drive, N.
+  double max_friction_compensation_n = 0;
 };
 
 SupervisorParams supervisor_params_from_config(const v1::DaemonConfig& config);
@@ -156,6 +162,11 @@ class SafetySupervisor {
   // Before a trip the first refusal is latched; after one, it only answers.
   bool command_allowed(const hal::DriveCommand& drive, double normal_setpoint, double lateral_setpoint,
                        bool setpoints_must_be_finite, std::uint64_t tick);
+  // The friction compensation's share of a command (daemon/controller.h),
+  // checked before the command itself: not finite, or beyond
+  // max_friction_compensation_n, latches kFrictionCompensation and returns
+  // false (the command must not be written).
+  bool compensation_allowed(double compensation_n, std::uint64_t tick);
   // Whether a drive is finite and within the drive range (no latch).
   bool drive_in_range(const hal::DriveCommand& drive) const;
 

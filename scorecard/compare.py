@@ -5,10 +5,19 @@ observation | dissertation | each configuration's value (error).
   /usr/bin/python3 scorecard/compare.py NAME=FILE.json ...
 
 Rows are matched by source and observation; a run without a row (e.g. an
-older scorecard's output, for a before/after table) shows "–" there.
+older scorecard's output, for a before/after table) shows "–" there. A row
+that carries a role (tribo-scorecard --split) is marked F (fit) or P
+(predicted), and the goals met are counted over each role.
 """
 import json
 import sys
+
+
+def micro(text):
+    """The older rows' keys say uN, um; the table writes µ."""
+    for a, b in ((" uN", " µN"), (" um", " µm"), ("(um", "(µm"), ("um/s^2", "µm/s²")):
+        text = text.replace(a, b)
+    return text if text not in ("uN", "um", "um/s") else "µ" + text[1:]
 
 
 def fmt(v):
@@ -26,6 +35,7 @@ def cell(s):
     else:
         err = f"{s['error']:+.1f} pt" if s["error_in_points"] else f"{100 * s['error']:+.0f} %"
     mark = (" ✓" if s["within_goal"] else " ✗") if s["goal"] else ""
+    mark += {"fit": " F", "predicted": " P"}.get(s.get("role"), "")
     return f"{fmt(s['simulated'])} ({err}){mark}", int(bool(s["goal"]) and s["within_goal"]), int(bool(s["goal"]))
 
 
@@ -42,18 +52,26 @@ def main():
     by_run = [{(r["source"], r["observation"]): r for r in rows} for _, rows in runs]
     print("| source | observation | unit | dissertation | " + " | ".join(names) + " |")
     print("|---|---|---|---|" + "---|" * len(names))
-    met = {n: [0, 0] for n in names}
+    met = {n: {} for n in names}  # role -> [met, with a goal]
     for key in order:
         r = first[key]
         cells = []
         for n, rows in zip(names, by_run):
-            text, ok, counted = cell(rows.get(key))
-            met[n][0] += ok
-            met[n][1] += counted
+            row = rows.get(key)
+            text, ok, counted = cell(row)
+            role = (row or {}).get("role") or "all"
+            count = met[n].setdefault(role, [0, 0])
+            count[0] += ok
+            count[1] += counted
             cells.append(text)
-        print(f"| {r['source']} | {r['observation']} | {r['unit']} | {fmt(r['dissertation'])} | " + " | ".join(cells) + " |")
+        print(f"| {r['source']} | {micro(r['observation'])} | {micro(r['unit'])} | {fmt(r['dissertation'])} | "
+              + " | ".join(cells) + " |")
     print()
-    print("Goals met (✓ of the rows with a goal): " + ", ".join(f"{n} {m}/{t}" for n, (m, t) in met.items()))
+
+    def counts(roles):
+        return ", ".join(f"{role} rows {m}/{t}" if role != "all" else f"{m}/{t}"
+                         for role, (m, t) in sorted(roles.items()) if t)
+    print("Goals met (✓ of the rows with a goal): " + "; ".join(f"{n} {counts(r)}" for n, r in met.items()))
 
 
 if __name__ == "__main__":

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numbers>
 #include <numeric>
+#include <stdexcept>
 
 #include "daemon/controller.h"
 #include "hal/sim_transducer.h"
@@ -63,39 +64,6 @@ double mean(const std::vector<double>& v, std::size_t from, std::size_t to) {
          static_cast<double>(to - from);
 }
 
-// Centred moving average over `half` samples each side.
-std::vector<double> smooth(const std::vector<double>& v, std::size_t half) {
-  std::vector<double> out(v.size());
-  double sum = 0;
-  std::size_t lo = 0, hi = 0;  // window [lo, hi)
-  for (std::size_t k = 0; k < v.size(); ++k) {
-    const std::size_t want_lo = k >= half ? k - half : 0, want_hi = std::min(v.size(), k + half + 1);
-    while (hi < want_hi) sum += v[hi++];
-    while (lo < want_lo) sum -= v[lo++];
-    out[k] = sum / static_cast<double>(hi - lo);
-  }
-  return out;
-}
-
-// The noise of the velocity a 1 kHz record (means of 1 ms of ticks) gives
-// by central differences, from the ticks [from, end): its RMS about its own
-// 21 ms moving average, so that the motion (the tip still settling after
-// break-away) is not counted as noise.
-double record_velocity_noise(const std::vector<double>& position, double dt, std::size_t from) {
-  const std::size_t per = static_cast<std::size_t>(std::max<long>(1, std::lround(1e-3 / dt)));
-  std::vector<double> record;
-  for (std::size_t k = from; k + per <= position.size(); k += per) record.push_back(mean(position, k, k + per));
-  if (record.size() < 3) return 0;
-  std::vector<double> v;
-  for (std::size_t k = 1; k + 1 < record.size(); ++k) {
-    v.push_back((record[k + 1] - record[k - 1]) / (2 * static_cast<double>(per) * dt));
-  }
-  const std::vector<double> trend = smooth(v, 10);
-  double ss = 0;
-  for (std::size_t k = 0; k < v.size(); ++k) ss += (v[k] - trend[k]) * (v[k] - trend[k]);
-  return std::sqrt(ss / static_cast<double>(v.size()));
-}
-
 // RMS about the mean of each block of `block` samples.
 double block_rms(const std::vector<double>& v, std::size_t block) {
   double ss = 0;
@@ -111,72 +79,54 @@ double block_rms(const std::vector<double>& v, std::size_t block) {
 }  // namespace
 
 Breakaway run_breakaway(const v1::DaemonConfig& config, const BreakawayProtocol& p, std::uint64_t seed) {
+  if (p.earlier_passes % 2 != 0) throw std::invalid_argument("run_breakaway: earlier_passes must be even");
   LockStep loop(config, seed);
-  const double go_s = kLoadAtS + kLoadRampS + p.rest_s;
-  prepare(loop, p.load_n, go_s - 0.05);
   const double dt = loop.dt_s(), tilt = tan_tilt(config);
-  // 50 ms before the onset give the position the motion starts from.
-  std::vector<double> before;
-  for (long k = 0; k < std::lround(0.05 / dt); ++k) {
-    loop.step(p.load_n, kStartM);
-    before.push_back(loop.measured().recorded_lateral_position_m());
-  }
-  const double x0 = mean(before, 0, before.size());
   const double move_s = std::min(p.travel_m / p.velocity_m_per_s, p.max_motion_s);
-  const auto ticks = static_cast<std::size_t>(std::lround(move_s / dt));
-  std::vector<double> force(ticks), position(ticks), lag(ticks);
-  for (std::size_t k = 0; k < ticks; ++k) {
+  const auto move_ticks = static_cast<std::size_t>(std::lround(move_s / dt));
+  const auto before_ticks = std::lround(0.05 / dt);
+  // The last rest ends with the 50 ms read before the onset.
+  prepare(loop, p.load_n, kLoadAtS + kLoadRampS + p.rest_s - (p.earlier_passes > 0 ? 0.0 : 0.05));
+  for (int pass = 0; pass < p.earlier_passes; ++pass) {
+    const double from = pass % 2 == 0 ? kStartM : kStartM + p.velocity_m_per_s * move_s;
+    const double direction = pass % 2 == 0 ? 1.0 : -1.0;
+    for (std::size_t k = 0; k < move_ticks; ++k) {
+      loop.step(p.load_n, from + direction * p.velocity_m_per_s * static_cast<double>(k + 1) * dt);
+    }
+    const bool last = pass + 1 == p.earlier_passes;
+    const auto rest_ticks = std::lround(p.rest_s / dt) - (last ? before_ticks : 0);
+    for (long k = 0; k < rest_ticks; ++k) loop.step(p.load_n, kStartM + (pass % 2 == 0 ? p.velocity_m_per_s * move_s : 0));
+  }
+  TransitionRecord r;
+  r.dt_s = dt;
+  r.velocity_m_per_s = p.velocity_m_per_s;
+  r.force_noise_n = config.sim().sensors().lateral_force_noise_n();
+  // 50 ms before the onset give the force and the position the motion starts from.
+  for (long k = 0; k < before_ticks; ++k) {
+    loop.step(p.load_n, kStartM);
+    const sim::Measurement& m = loop.measured();
+    r.force_before_n += m.lateral_force_n + m.normal_force_n * tilt;
+    r.position_before_m += m.recorded_lateral_position_m();
+    r.tip_position_before_m += loop.truth().lateral.position_m;
+  }
+  r.force_before_n /= static_cast<double>(before_ticks);
+  r.position_before_m /= static_cast<double>(before_ticks);
+  r.tip_position_before_m /= static_cast<double>(before_ticks);
+  r.force_n.resize(move_ticks);
+  r.position_m.resize(move_ticks);
+  r.setpoint_m.resize(move_ticks);
+  r.tip_position_m.resize(move_ticks);
+  for (std::size_t k = 0; k < move_ticks; ++k) {
     const double setpoint = kStartM + p.velocity_m_per_s * static_cast<double>(k + 1) * dt;
     loop.step(p.load_n, setpoint);
     const sim::Measurement& m = loop.measured();
-    force[k] = m.lateral_force_n + m.normal_force_n * tilt;
+    r.force_n[k] = m.lateral_force_n + m.normal_force_n * tilt;
     // The position as the instrument records it (with its readout noise).
-    position[k] = m.recorded_lateral_position_m();
-    lag[k] = setpoint - position[k];
+    r.position_m[k] = m.recorded_lateral_position_m();
+    r.setpoint_m[k] = setpoint;
+    r.tip_position_m[k] = loop.truth().lateral.position_m;
   }
-  // 5 ms windows: the force averaged as a 1 kHz record with a few points per
-  // feature would be, the velocity differenced over 5 ms of position.
-  const std::size_t half = static_cast<std::size_t>(std::lround(0.0025 / dt));
-  const std::vector<double> f = smooth(force, half);
-  Breakaway b;
-  b.steady_n = mean(force, ticks * 7 / 10, ticks);
-  b.lag_m = mean(lag, ticks * 8 / 10, ticks);
-  // A spike: the force falls by 2 % of its running maximum, and by at least
-  // four times the force noise left in the 5 ms average (at light loads 2 %
-  // is within the noise).
-  const double noise = config.sim().sensors().lateral_force_noise_n() / std::sqrt(static_cast<double>(2 * half + 1));
-  std::size_t peak = 0;
-  bool found = false;
-  for (std::size_t k = 0; k < ticks; ++k) {
-    if (f[k] > f[peak]) peak = k;
-    if (f[peak] > 0 && f[k] < f[peak] - std::max(0.02 * f[peak], 4 * noise) && f[peak] > 0.5 * b.steady_n) {
-      found = true;
-      break;
-    }
-  }
-  if (!found) {  // no spike: the end of the rise, 99 % of the steady friction
-    peak = 0;
-    while (peak + 1 < ticks && f[peak] < 0.99 * b.steady_n) ++peak;
-  }
-  b.spike = found;
-  b.peak_n = f[peak];
-  b.time_to_peak_s = static_cast<double>(peak + 1) * dt;
-  b.stretch_m = mean(position, peak > half ? peak - half : 0, std::min(ticks, peak + half + 1)) - x0;
-  const std::size_t w = 2 * half;
-  double vmax = 0, amax = 0;
-  for (std::size_t k = w; k < ticks; ++k) {
-    vmax = std::max(vmax, (position[k] - position[k - w]) / (static_cast<double>(w) * dt));
-  }
-  // Acceleration from velocities 5 ms apart.
-  for (std::size_t k = 2 * w; k < ticks; ++k) {
-    const double v1 = (position[k] - position[k - w]) / (static_cast<double>(w) * dt);
-    const double v0 = (position[k - w] - position[k - 2 * w]) / (static_cast<double>(w) * dt);
-    amax = std::max(amax, (v1 - v0) / (static_cast<double>(w) * dt));
-  }
-  b.overshoot = vmax / p.velocity_m_per_s;
-  b.peak_acceleration_m_per_s2 = amax;
-  b.velocity_noise_m_per_s = record_velocity_noise(position, dt, ticks / 2);
-  return b;
+  return measure_transition(r);
 }
 
 Passes run_passes(const v1::DaemonConfig& config, double load_n, double velocity, std::uint64_t seed) {

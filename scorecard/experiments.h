@@ -11,25 +11,10 @@
 #include <cstdint>
 #include <vector>
 
+#include "scorecard/transition_metrics.h"
 #include "tribo/v1/daemon_config.pb.h"
 
 namespace tribo::scorecard {
-
-// Fig. 5.14's quantities of one static-to-kinetic transition (Table 5.1).
-struct Breakaway {
-  double peak_n = 0;           // Fs: the stiction peak (or the end of the rise, if no peak)
-  bool spike = false;          // the force fell >= 2 % below the peak afterwards
-  double time_to_peak_s = 0;   // ts, from motion onset
-  double stretch_m = 0;        // ds: measured position change from onset to the peak
-  double lag_m = 0;            // dl: setpoint - measured position in steady sliding
-  double steady_n = 0;         // mean friction over the last 30 % of the motion
-  double overshoot = 0;        // peak measured velocity / commanded velocity
-  double peak_acceleration_m_per_s2 = 0;
-  // Noise of the recorded velocity over the last half of the motion: a 1 kHz
-  // record (1 ms means of the ticks) differenced centrally, RMS about its
-  // 21 ms moving average.
-  double velocity_noise_m_per_s = 0;
-};
 
 struct BreakawayProtocol {
   double load_n = 9810e-6;
@@ -37,8 +22,16 @@ struct BreakawayProtocol {
   double rest_s = 2.0;
   double travel_m = 10e-6;
   double max_motion_s = 8.0;
+  // Passes before the measured transition, alternately towards +x and back
+  // (travel and velocity as the measured one), each followed by rest_s of
+  // rest: transitions after earlier passes, a protocol the contact was not
+  // fitted on. Even, so that the measured transition starts where the first
+  // pass did and moves towards +x.
+  int earlier_passes = 0;
 };
 
+// Loads, rests, runs the earlier passes, then records the transition and
+// reads it (measure_transition).
 Breakaway run_breakaway(const v1::DaemonConfig& config, const BreakawayProtocol& p, std::uint64_t seed);
 
 // Forward and backward passes (§4.4): friction (F+ - F-)/2, tilt offset

@@ -1,34 +1,46 @@
 #!/usr/bin/python3
-"""Fits the rate-and-state contact of the simulated instrument to the
-dissertation's break-away measurements (Table 5.1, §5.3.1), rerunnably.
+"""Fits a split of the scorecard: the parameters it declares fitted, on its fit
+rows only, and writes the split's config (scorecard/splits.json).
 
-  /usr/bin/python3 scorecard/fit_contact.py [--evaluations N] [--start a,b,Dc,phi0,r]
+  /usr/bin/python3 scorecard/fit_contact.py --split NAME [--evaluations N] [--dwell-evaluations N]
 
-Each evaluation writes a config (config/tribod.textproto with the fitted
-fields replaced, scorecard/make_config.py) and runs
-`build/scorecard/tribo-scorecard --group table_5_1 --json` on it. The loss is
-a penalty on friction falling with velocity (b > a) plus
-the sum of squared natural-log errors of the eight Fs, ts and dl values, the
-eight ds values at half weight and the three velocity overshoots (about 3x,
-§5.3.1) at half weight. Nelder-Mead (scipy) in log-parameters from the start
-point. Fixed, not fitted: the loop gains (from Table 5.1, see
-docs/simulated_instrument.md), sigma0 (Appendix C), the dwell effect (Fig. 4.22), and the
-Coulomb level, which is set from the others so that steady sliding at
-13.5 um/s keeps mu = 0.0996 (§4.4), and the state of a fresh contact
-(D_c / V*, the state a contact at rest relaxes to):
-  coulomb = 0.0996 - (a - b) ln(1 + 13.5 um/s / V*)
-Fitted: a, b, D_c, V*, and the breakaway ratio r of the elasto-plastic
-presliding.
-Prints every evaluation and, at the end, the best parameters as field=value
-arguments for make_config.py.
+Starts from config/tribod.textproto with the split's "fixed" fields, then fits
+its parameter groups in this order, each on the rows tribo-scorecard --split
+NAME marks "fit" (seed 1):
+
+  loop_gains  ki = mean of eq. 28's 2 Fs / (v ts^2) over the fit rows of
+              Table 5.1 at 4 µm/s and above (at 0.2 µm/s the tip creeps before
+              the peak); kp = ki x mean(dl / v) - k over those at 18 µm/s and
+              above (eq. 33: the lag time of the I-PD loop is (kp + k) / ki).
+              From the dissertation's values alone, no simulation.
+  contact     a, b, Dc, V* of the rate-and-state law and the elasto-plastic
+              breakaway ratio r: Nelder-Mead (scipy) in log-parameters (r
+              through a logit) on the sum of squared natural-log errors of the
+              fit rows' Fs, ts and dl, their ds and velocity overshoots at half
+              weight, plus a penalty when steady friction changes from 0.2 to
+              10 µm/s by less than 0 or more than 5 % (§4.4.3). The Coulomb
+              level follows from mu(13.5 µm/s) = 0.0996 (§4.4), the rest state
+              is Dc / V*.
+  dwell       Armstrong's dwell gain and time constant: Nelder-Mead in
+              log-parameters on the squared point errors of the fit rows of
+              Fig. 4.22 (the full figure: about 9 s of CPU per evaluation).
+
+A group the split does not fit must be fixed by it (its "fixed" entries):
+otherwise its values would be the default's, fitted on every row. Prints each
+evaluation; writes config/instruments/cross_validation/NAME.textproto (the
+split's "config") with the fitted values, the fit rows and the loss in its
+header. Parameter groups are data below (GROUPS): a new contact law's
+parameters are a new group (its config fields, start values and transforms).
 """
 import argparse
+import datetime
 import json
 import math
 import os
 import subprocess
 import sys
 import tempfile
+import textwrap
 
 import numpy as np
 from scipy.optimize import minimize
@@ -36,33 +48,47 @@ from scipy.optimize import minimize
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCORECARD = os.path.join(ROOT, "build", "scorecard", "tribo-scorecard")
 BASE = os.path.join(ROOT, "config", "tribod.textproto")
-MU_13_5 = 0.0996
-NAMES = ["direct_coeff", "state_coeff", "memory_length_m", "reference_velocity_m_per_s", "breakaway_ratio"]
-
-# Fixed by the derivations in docs/simulated_instrument.md.
-FIXED = [
-    "controller.lateral_displacement.kp=420",
-    "controller.lateral_displacement.ki=7116",
-    "sim.friction.rate_state.enabled=true",
-    # Fig. 4.22: slow strengthening with rest (Armstrong's dwell, eq. 5), gamma
-    # 200 s from the shape of the figure's series, lost over vs = 10 um/s.
-    "sim.friction.dwell_stiction.enabled=true",
-    "sim.friction.dwell_stiction.gain=0.15",
-    "sim.friction.dwell_stiction.time_constant_s=200",
-    # memory 10 um: the held tip's position wander (~6 nm/s) must not cap the
-    # contact's age below Fig. 4.22's 1000 s (D_c / |v| ~ 1700 s).
-    "sim.friction.dwell_stiction.memory_length_m=10e-6",
-    # §4.4: five runs spread by 1.3 %, spot to spot on the sample.
-    "sim.sample.heterogeneity.enabled=true",
-    "sim.friction.stribeck_velocity_m_per_s=10e-6",
-    "sim.lateral.sensing.excitation_voltage_v=3.5",
-]
+SPLITS = os.path.join(ROOT, "scorecard", "splits.json")
+MAKE_CONFIG = os.path.join(ROOT, "scorecard", "make_config.py")
+MU_13_5 = 0.0996          # §4.4: Amontons mu at 13.5 µm/s
+LATERAL_SPRING_N_PER_M = 116.0  # config/tribod.textproto: the transducer's lateral spring k
 
 
-def assignments(p):
+def logit(p):
+    return math.log(p / (1 - p))
+
+
+def sigmoid(u):
+    return 1 / (1 + math.exp(-u))
+
+
+# The fitted groups: their config fields, start values (the default's), and
+# how the optimiser sees each one (log: positive; logit: in (0, 1)).
+GROUPS = {
+    "loop_gains": {
+        "fields": ["controller.lateral_displacement.kp", "controller.lateral_displacement.ki"],
+    },
+    "contact": {
+        "fields": ["sim.friction.rate_state.direct_coeff", "sim.friction.rate_state.state_coeff",
+                   "sim.friction.rate_state.memory_length_m", "sim.friction.rate_state.reference_velocity_m_per_s",
+                   "sim.friction.breakaway_ratio"],
+        "start": [0.0218378, 0.0191429, 1.88265e-07, 2.11532e-06, 0.917056],
+        "transforms": ["log", "log", "log", "log", "logit"],
+    },
+    "dwell": {
+        "fields": ["sim.friction.dwell_stiction.gain", "sim.friction.dwell_stiction.time_constant_s",
+                   "sim.friction.dwell_stiction.enabled"],
+        "start": [0.15, 200.0],
+        "transforms": ["log", "log"],
+    },
+}
+
+
+def contact_assignments(p):
     a, b, dc, v_star, r = p
     coulomb = MU_13_5 - (a - b) * math.log1p(13.5e-6 / v_star)
-    return FIXED + [
+    return [
+        "sim.friction.rate_state.enabled=true",
         f"sim.friction.rate_state.direct_coeff={a:.6g}",
         f"sim.friction.rate_state.state_coeff={b:.6g}",
         f"sim.friction.rate_state.memory_length_m={dc:.6g}",
@@ -74,13 +100,19 @@ def assignments(p):
     ]
 
 
-def scorecard_rows(p, groups=("table_5_1",)):
+def dwell_assignments(p):
+    gain, gamma = p
+    return ["sim.friction.dwell_stiction.enabled=true", f"sim.friction.dwell_stiction.gain={gain:.6g}",
+            f"sim.friction.dwell_stiction.time_constant_s={gamma:.6g}"]
+
+
+def scorecard_rows(split, assignments, groups, seed=1):
+    """tribo-scorecard --split SPLIT on the base config with the assignments."""
     with tempfile.NamedTemporaryFile("w", suffix=".textproto", delete=False) as f:
         path = f.name
     try:
-        subprocess.run([sys.executable, os.path.join(ROOT, "scorecard", "make_config.py"), BASE, path, *assignments(p)],
-                       check=True)
-        cmd = [SCORECARD, "--config", path, "--json"]
+        subprocess.run([sys.executable, MAKE_CONFIG, BASE, path, *assignments], check=True)
+        cmd = [SCORECARD, "--config", path, "--split", split, "--seed", str(seed), "--json"]
         for g in groups:
             cmd += ["--group", g]
         out = subprocess.run(cmd, check=True, capture_output=True, text=True).stdout
@@ -89,35 +121,33 @@ def scorecard_rows(p, groups=("table_5_1",)):
     return json.loads(out)["rows"]
 
 
-def loss(p):
-    rows = scorecard_rows(p)
-    # §4.4.3: steady friction flat to slightly rising with velocity: the
-    # steady mu changes by (a - b) [ln(1 + 10/V*) - ln(1 + 0.2/V*)] from 0.2
-    # to 10 um/s; outside 0 to +5 % of mu it costs as much as a 2.5 % miss is
-    # worth in a squared log error of 0.0025 per 2.5 %.
-    rise = (p[0] - p[1]) * (math.log1p(10e-6 / p[3]) - math.log1p(0.2e-6 / p[3])) / MU_13_5
-    total = (max(0.0, abs(rise - 0.025) - 0.025) / 0.025) ** 2
-    for r in rows:
-        o = r["observation"]
-        w = 1.0 if o.split()[0] in ("Fs", "ts", "dl") else (0.5 if o.startswith(("ds", "velocity overshoot")) else 0.0)
-        if w and r["simulated"] and r["simulated"] > 0:
-            total += w * math.log(r["simulated"] / r["dissertation"]) ** 2
-        elif w:
-            total += w * 4.0
-    return total
+def fit_rows_of(rows, quantities):
+    return [r for r in rows if r["role"] == "fit" and r["quantity"] in quantities]
 
 
-def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--evaluations", type=int, default=120)
-    ap.add_argument("--start", default="0.0265,0.0186,0.24e-6,1.3e-6,0.916")
-    args = ap.parse_args()
-    x0 = np.array([float(v) for v in args.start.split(",")])
-    # log-parameters; the ratio r maps through logit to stay in (0, 1)
+def fit_loop_gains(split, assignments):
+    # The fit rows' dissertation values (any config gives them).
+    rows = scorecard_rows(split, assignments, ["table_5_1"])
+    by = {(r["quantity"], r["load_uN"], r["velocity_um_per_s"]): r["dissertation"]
+          for r in fit_rows_of(rows, ("Fs", "ts", "dl"))}
+    mki = [2 * fs * 1e-6 / (v * 1e-6 * by[("ts", load, v)] ** 2)
+           for (q, load, v), fs in by.items() if q == "Fs" and v >= 4 and ("ts", load, v) in by]
+    lag_s = [dl / v for (q, load, v), dl in by.items() if q == "dl" and v >= 18]
+    if not mki or not lag_s:
+        sys.exit(f"fit_contact.py: split {split}: loop_gains needs fit rows of Table 5.1's Fs and ts at >= 4 µm/s "
+                 f"and dl at >= 18 µm/s")
+    ki = float(np.mean(mki))
+    kp = ki * float(np.mean(lag_s)) - LATERAL_SPRING_N_PER_M
+    print(f"loop_gains: ki = mean of {len(mki)} eq. 28 values = {ki:.1f} N/(m s); lag time {np.mean(lag_s):.4f} s "
+          f"over {len(lag_s)} rows: kp = {kp:.1f} N/m", flush=True)
+    return [f"controller.lateral_displacement.kp={kp:.6g}", f"controller.lateral_displacement.ki={ki:.6g}"], \
+        {"kp": kp, "ki": ki, "eq28_rows": len(mki), "lag_rows": len(lag_s)}
+
+
+def nelder_mead(name, transforms, start, loss, evaluations, xatol=1e-3, fatol=1e-4):
     def unpack(u):
-        p = np.exp(u[:4]).tolist()
-        return p + [1 / (1 + math.exp(-u[4]))]
-    u0 = np.concatenate([np.log(x0[:4]), [math.log(x0[4] / (1 - x0[4]))]])
+        return [math.exp(x) if t == "log" else sigmoid(x) for x, t in zip(u, transforms)]
+    u0 = np.array([math.log(x) if t == "log" else logit(x) for x, t in zip(start, transforms)])
     best = [math.inf, None]
 
     def f(u):
@@ -125,13 +155,143 @@ def main():
         value = loss(p)
         if value < best[0]:
             best[0], best[1] = value, p
-        print(f"loss {value:8.4f}  " + "  ".join(f"{n}={v:.4g}" for n, v in zip(NAMES, p)), flush=True)
+        print(f"{name} loss {value:9.5f}  " + "  ".join(f"{v:.4g}" for v in p), flush=True)
         return value
 
-    minimize(f, u0, method="Nelder-Mead",
-             options={"maxfev": args.evaluations, "initial_simplex": None, "xatol": 1e-3, "fatol": 1e-4})
-    print("best loss", best[0])
-    print(" ".join(assignments(best[1])))
+    minimize(f, u0, method="Nelder-Mead", options={"maxfev": evaluations, "xatol": xatol, "fatol": fatol})
+    return best[1], best[0]
+
+
+def contact_loss(split, assignments):
+    def loss(p):
+        rows = scorecard_rows(split, assignments + contact_assignments(p), ["table_5_1"])
+        # §4.4.3: steady friction flat to slightly rising with velocity: the
+        # steady mu changes by (a - b) [ln(1 + 10/V*) - ln(1 + 0.2/V*)] from 0.2
+        # to 10 µm/s; outside 0 to +5 % of mu it costs as much as a 2.5 % miss
+        # is worth in a squared log error of 0.0025 per 2.5 %.
+        rise = (p[0] - p[1]) * (math.log1p(10e-6 / p[3]) - math.log1p(0.2e-6 / p[3])) / MU_13_5
+        total = (max(0.0, abs(rise - 0.025) - 0.025) / 0.025) ** 2
+        for r in fit_rows_of(rows, ("Fs", "ts", "dl", "ds", "overshoot")):
+            w = 1.0 if r["quantity"] in ("Fs", "ts", "dl") else 0.5
+            if r["simulated"] and r["simulated"] > 0:
+                total += w * math.log(r["simulated"] / r["dissertation"]) ** 2
+            else:
+                total += w * 4.0
+        return total
+    return loss
+
+
+def dwell_loss(split, assignments):
+    def loss(p):
+        rows = scorecard_rows(split, assignments + dwell_assignments(p), ["fig_4_22"])
+        spikes = fit_rows_of(rows, ("spike",))
+        if not spikes:
+            sys.exit(f"fit_contact.py: split {split}: dwell needs fit rows of Fig. 4.22's spikes")
+        return sum((r["simulated"] - r["dissertation"]) ** 2 for r in spikes)
+    return loss
+
+
+def load_split(name):
+    doc = json.load(open(SPLITS))
+    split = next((s for s in doc["splits"] if s["name"] == name), None)
+    if split is None:
+        sys.exit(f"fit_contact.py: no split '{name}' in {SPLITS}")
+    if split.get("refit", True) is False:
+        sys.exit(f"fit_contact.py: split '{name}' is not refitted (its 'refit' is false): {split.get('about', '')}")
+    fitted = split.get("fitted", [])
+    for g in fitted:
+        if g not in GROUPS:
+            sys.exit(f"fit_contact.py: split {name}: fitted: unknown group '{g}' (known: {', '.join(GROUPS)})")
+    fixed_fields = {f["field"] for f in split.get("fixed", [])}
+    for g, spec in GROUPS.items():
+        if g not in fitted and not fixed_fields & set(spec["fields"]):
+            sys.exit(f"fit_contact.py: split {name}: group {g} is neither fitted nor fixed: its values would be the "
+                     f"default's, fitted on every row")
+    return split
+
+
+def without_comments(text):
+    """The textproto without its comments (they describe the default's fit)."""
+    out = []
+    for line in text.splitlines():
+        in_string, cut = False, len(line)
+        for i, c in enumerate(line):
+            if c == '"':
+                in_string = not in_string
+            elif c == "#" and not in_string:
+                cut = i
+                break
+        kept = line[:cut].rstrip()
+        if kept or not line.strip():
+            out.append(kept)
+    text = "\n".join(out) + "\n"
+    while "\n\n\n" in text:
+        text = text.replace("\n\n\n", "\n\n")
+    return text.lstrip("\n")
+
+
+def header(split, report, loss_values, fit_rows):
+    def selector(s):
+        return " ".join(f"{k} {v}" for k, v in s.items())
+    paragraphs = [
+        f'Instrument configuration of the scorecard\'s split "{split["name"]}" (scorecard/splits.json). '
+        + split.get("about", ""),
+        f"Written by `/usr/bin/python3 scorecard/fit_contact.py --split {split['name']}` "
+        f"({datetime.date.today().isoformat()}): config/tribod.textproto with the fields below fitted on the "
+        "split's fit rows only (seed 1). Everything else is config/tribod.textproto's, whose comments give the "
+        "sources (left out here: they describe the default's fit). Score it with "
+        f"`tribo-scorecard --split {split['name']}` (docs/simulated_instrument.md, "
+        "\"The cross-validated scorecard\").",
+        "Fit rows (besides splits.json's calibration rows): " + "; ".join(selector(s) for s in fit_rows) + ".",
+    ]
+    for f in split.get("fixed", []):
+        paragraphs.append(f"Fixed: {f['field']} = {f['value']} ({f['why']}).")
+    for group, values in report.items():
+        paragraphs.append(f"Fitted {group}: " + ", ".join(
+            f"{k} {v:.6g}" if isinstance(v, float) else f"{k} {v}" for k, v in values.items())
+            + (f" (loss {loss_values[group]:.5g})" if group in loss_values else "") + ".")
+    out = []
+    for p in paragraphs:
+        out.append(textwrap.fill(p, width=100, initial_indent="# ", subsequent_indent="# "))
+    return "\n#\n".join(out) + "\n\n"
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--split", required=True)
+    ap.add_argument("--evaluations", type=int, default=80, help="of the contact fit")
+    ap.add_argument("--dwell-evaluations", type=int, default=24)
+    args = ap.parse_args()
+    split = load_split(args.split)
+    name = split["name"]
+    assignments = [f"{f['field']}={f['value']}" for f in split.get("fixed", [])]
+    report, losses = {}, {}
+    if "loop_gains" in split["fitted"]:
+        gains, report["loop_gains"] = fit_loop_gains(name, assignments)
+        assignments += gains
+    if "contact" in split["fitted"]:
+        spec = GROUPS["contact"]
+        p, losses["contact"] = nelder_mead("contact", spec["transforms"], spec["start"],
+                                           contact_loss(name, assignments), args.evaluations)
+        assignments += contact_assignments(p)
+        report["contact"] = dict(zip(["a", "b", "Dc_m", "V*_m_per_s", "breakaway_ratio"], p))
+    if "dwell" in split["fitted"]:
+        spec = GROUPS["dwell"]
+        p, losses["dwell"] = nelder_mead("dwell", spec["transforms"], spec["start"], dwell_loss(name, assignments),
+                                         args.dwell_evaluations, xatol=1e-2, fatol=1e-3)
+        assignments += dwell_assignments(p)
+        report["dwell"] = dict(zip(["gain", "time_constant_s"], p))
+    out = os.path.join(ROOT, split["config"])
+    os.makedirs(os.path.dirname(out), exist_ok=True)
+    tmp = out + ".tmp"
+    subprocess.run([sys.executable, MAKE_CONFIG, BASE, tmp, *assignments], check=True)
+    body = without_comments(open(tmp).read())
+    os.unlink(tmp)
+    own_rows = json.load(open(SPLITS))["splits"]
+    fit_rows = next(s for s in own_rows if s["name"] == name)["fit_rows"]
+    open(out, "w").write(header(split, report, losses, fit_rows) + body)
+    print("wrote", os.path.relpath(out, ROOT))
+    print(" ".join(assignments))
 
 
 if __name__ == "__main__":

@@ -7,6 +7,7 @@ import glob
 import os
 import shutil
 import subprocess
+import tempfile
 
 from setuptools import Distribution, setup
 from setuptools.command.build_py import build_py
@@ -17,6 +18,20 @@ SOURCE_DIR = os.path.normpath(os.path.join(HERE, "..", ".."))
 
 def build_dir():
     return os.environ.get("TRIBO_BUILD_DIR", os.path.join(SOURCE_DIR, "build"))
+
+
+def out_of_tree(name, fresh=False):
+    """setuptools' scratch space (build/, *.egg-info) under the CMake build
+    tree rather than in the checkout, which `pip install client/python`
+    leaves as it was; a temporary directory when there is no build tree.
+    fresh: emptied first, so that no module removed from the sources stays
+    in the wheel."""
+    base = build_dir() if os.path.isdir(build_dir()) else tempfile.mkdtemp(prefix="tribo-pip-")
+    path = os.path.join(base, "python-package", name)
+    if fresh:
+        shutil.rmtree(path, ignore_errors=True)
+    os.makedirs(path, exist_ok=True)
+    return path
 
 
 class BuildWithTriboModules(build_py):
@@ -49,4 +64,5 @@ class BinaryDistribution(Distribution):
         return bool(glob.glob(os.path.join(build_dir(), "python", "tribo_native*.so")))
 
 
-setup(cmdclass={"build_py": BuildWithTriboModules}, distclass=BinaryDistribution)
+setup(cmdclass={"build_py": BuildWithTriboModules}, distclass=BinaryDistribution,
+      options={"build": {"build_base": out_of_tree("build", fresh=True)}, "egg_info": {"egg_base": out_of_tree("egg-info")}})

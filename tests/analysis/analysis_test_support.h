@@ -21,7 +21,9 @@ inline bool accepted(const analysis::Diagnosis& d, analysis::Effect e) {
 inline std::string accepted_names(const analysis::Diagnosis& d) {
   std::string out;
   for (const auto& a : d.accepted) out += std::string(analysis::effect_name(a.effect)) + " ";
-  return out.empty() ? "(none)" : out;
+  if (out.empty()) out = "(none)";
+  for (const auto& r : d.adequacy.reasons) out += "; not describing the record: " + r;
+  return out;
 }
 
 inline analysis::MeasuredSeries read_or_throw(const std::string& path, const analysis::ColumnMapping& columns) {

@@ -91,7 +91,15 @@ TEST(MeasuredBackslashDamper, DiagnosisFindsTheDeadZoneAfterReversals) {
   c.velocity = "v_from_x_m_s";
   MeasuredSeries s = testing::read_or_throw(measured_data("brfd_0.5Hz30lbtension1amplitude.csv"), c);
   derive_motion(s, 0);
-  const Diagnosis d = diagnose(s);
+  // As the contract command diagnoses a CSV (tribo-fit diagnose): each pass's
+  // start chosen on held-out passes. With the holds modelled alone the final
+  // model's static level falls below a fifth of the Coulomb level with a
+  // viscous coefficient of -1.75e4 N s/m: a model that does not describe the
+  // record, which names no effect.
+  DiagnosisOptions options;
+  options.choose_state_from_rest = true;
+  const Diagnosis d = diagnose(s, options);
+  EXPECT_TRUE(d.adequacy.describes_record) << accepted_names(d);
   ASSERT_TRUE(accepted(d, Effect::kBacklash)) << accepted_names(d);
   EXPECT_EQ(d.accepted.front().effect, Effect::kBacklash);
   for (const auto& p : d.accepted.front().parameters) {

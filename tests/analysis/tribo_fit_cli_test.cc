@@ -1,7 +1,14 @@
 // The tribo-fit command: usage, exit codes and the JSON contract.
 #include <array>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <sstream>
 #include <string>
+#include <vector>
+
+#include <unistd.h>
 
 #include <gtest/gtest.h>
 
@@ -106,6 +113,90 @@ TEST(TriboFitCli, StribeckDiagnoseJsonCarriesTheContractFields) {
   EXPECT_EQ(run("stribeck " + testing::measured_data("emps_plateaus.csv") + " --x v_m_s --y friction_n --load v_m_s")
                 .exit_code, 2);
   EXPECT_EQ(run("stribeck " + testing::measured_data("emps_plateaus.csv") + " --x v_m_s --y nope --diagnose").exit_code, 1);
+}
+
+// A copy of a measured-data file with one column rewritten, in a temporary
+// directory that goes with it.
+class AlteredCopy {
+ public:
+  AlteredCopy(const std::string& file, const std::string& column, const std::function<double(double)>& change)
+      : path_(std::filesystem::temp_directory_path() /
+              ("tribo_fit_cli_" + std::to_string(::getpid()) + "_" + column + "_" + file)) {
+    std::ifstream in(testing::measured_data(file));
+    std::ofstream out(path_);
+    std::string line;
+    std::getline(in, line);
+    out << line << "\n";
+    std::vector<std::string> header = split(line);
+    std::size_t index = 0;
+    while (index < header.size() && header[index] != column) ++index;
+    while (std::getline(in, line)) {
+      std::vector<std::string> fields = split(line);
+      char text[32];
+      std::snprintf(text, sizeof text, "%.17g", change(std::stod(fields.at(index))));
+      fields[index] = text;
+      for (std::size_t i = 0; i < fields.size(); ++i) out << (i ? "," : "") << fields[i];
+      out << "\n";
+    }
+  }
+  ~AlteredCopy() { std::filesystem::remove(path_); }
+  std::string path() const { return path_.string(); }
+
+ private:
+  static std::vector<std::string> split(const std::string& line) {
+    std::vector<std::string> fields;
+    std::stringstream in(line);
+    for (std::string field; std::getline(in, field, ',');) fields.push_back(field);
+    return fields;
+  }
+  std::filesystem::path path_;
+};
+
+constexpr const char* kBasalt = "velstep7_BRAVA_expb819_basalt_Giacomel_et_al_2021.csv";
+constexpr const char* kBasaltColumns =
+    " --time t_s --position x_m --force shear_stress_Pa --normal normal_stress_eff_Pa --force-unit Pa --json";
+
+void expect_refused(const Output& o, const std::vector<std::string>& said) {
+  EXPECT_EQ(o.exit_code, 1) << o.text;
+  EXPECT_NE(o.text.find("refused before fitting"), std::string::npos) << o.text;
+  EXPECT_EQ(o.text.find("accepted_effects"), std::string::npos) << "a report was printed";
+  for (const auto& s : said) EXPECT_NE(o.text.find(s), std::string::npos) << s << " not in: " << o.text;
+}
+
+// The shear stress 1e12 times too large: µ would be 6e11 (the fit goes on to report it).
+TEST(TriboFitCliRefusesImplausibleInput, ForceFarBeyondAnyFrictionCoefficient) {
+  const AlteredCopy copy(kBasalt, "shear_stress_Pa", [](double f) { return f * 1e12; });
+  expect_refused(run("diagnose " + copy.path() + kBasaltColumns),
+                 {"force column 'shear_stress_Pa'", "normal column 'normal_stress_eff_Pa'", "6.08e+11 times",
+                  "not a friction coefficient (0.0001 to 10)", "different units"});
+}
+
+TEST(TriboFitCliRefusesImplausibleInput, ForceZeroInEveryRow) {
+  const AlteredCopy copy(kBasalt, "shear_stress_Pa", [](double) { return 0.0; });
+  expect_refused(run("diagnose " + copy.path() + kBasaltColumns),
+                 {"force column 'shear_stress_Pa' has the same value, 0, in every row", "the wrong column"});
+}
+
+TEST(TriboFitCliRefusesImplausibleInput, ForceGivenTheSameColumnAsThePosition) {
+  expect_refused(run("diagnose " + testing::measured_data(kBasalt) +
+                     " --time t_s --position x_m --force x_m --normal normal_stress_eff_Pa --json"),
+                 {"force column 'x_m' holds the same values as position column 'x_m'"});
+}
+
+TEST(TriboFitCliRefusesImplausibleInput, TimeThatDoesNotIncrease) {
+  expect_refused(run("diagnose " + testing::measured_data(kBasalt) +
+                     " --time x_m --position t_s --force shear_stress_Pa --json"),
+                 {"the time column 'x_m' does not increase at sample"});
+}
+
+// The EMPS position in µm read as m: its velocity column integrates to a
+// span a million times shorter.
+TEST(TriboFitCliRefusesImplausibleInput, PositionUnitAgainstTheVelocity) {
+  const AlteredCopy copy("emps_train_DATA_EMPS.csv", "x_m", [](double x) { return x * 1e6; });
+  expect_refused(run("diagnose " + copy.path() +
+                     " --time t_s --position x_m --motor-force force_motor_N --velocity v_derived_m_s --json"),
+                 {"velocity column 'v_derived_m_s'", "position column 'x_m'", "(1e-06 times)",
+                  "a position in µm given as m"});
 }
 
 }  // namespace

@@ -34,7 +34,7 @@ TEST(ShippedProtocols, AllPassTheDryRunWithoutWarnings) {
       "velocity_sweep.textproto",    "stop_start.textproto",
       "velocity_reversal.textproto", "oscillation_amplitudes.textproto", "repeated_scratch.textproto",
       "breakaway.textproto",         "zero_load.textproto",              "identification.textproto",
-      "creep_holds.textproto"};
+      "creep_holds.textproto",       "breakaway_velocities.textproto"};
   std::set<std::string> found;
   for (const auto& entry : std::filesystem::directory_iterator(std::string(TRIBO_SOURCE_DIR) + "/config/protocols")) {
     found.insert(entry.path().filename().string());

@@ -1,7 +1,8 @@
 // The real-time tick allocates nothing: this test binary replaces the global
 // operator new and counts the allocations made while RunLoop::tick() runs —
 // control, supervision, a safety trip, the stop sequence, gain changes, the
-// simulated plant and its fault injection included.
+// simulated plant and its fault injection included, with the friction
+// compensation off and on (its observer, its switch-off at the trip).
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -52,31 +53,40 @@ TEST(TickAllocation, TheTickPathAllocatesNothing) {
     freeze->set_start_s(13);
     freeze->set_duration_s(0.1);
   }
-  const ProtocolCheck check = validate_protocol(testing::load_protocol_file("standard_scratch.textproto"), config);
-  ASSERT_TRUE(check.ok());
-  auto transducer = hal::make_transducer(config, 3);
-  SpscQueue<Sample> queue(1 << 16);
-  RunControl control;
-  RunTelemetry telemetry;
-  RunLoop loop(*transducer, check.load_function, run_loop_config_from(config), queue, control, telemetry);
-  PidGains stiffer = pid_gains_from_proto(config.controller().lateral_displacement());
-  stiffer.kp = 2000;
-
-  std::uint64_t ticks = 0, counted = 0;
-  Sample drained;
-  for (;; ++ticks) {
-    if (ticks == 120000) control.gain_updates.try_push({Loop::kLateralDisplacement, stiffer});
-    counting.store(true);
-    const bool more = loop.tick();
-    counting.store(false);
-    counted += allocations.exchange(0);
-    if (!more) break;
-    while (queue.try_pop(drained)) {
+  v1::Protocol protocol = testing::load_protocol_file("standard_scratch.textproto");
+  for (const bool compensated : {false, true}) {
+    if (compensated) {
+      const auto report = wire::read_file(std::string(TRIBO_SOURCE_DIR) + "/tests/data/friction_reports/identification.json");
+      ASSERT_TRUE(report);
+      protocol.mutable_friction_compensation()->set_report_json(*report);
     }
+    const ProtocolCheck check = validate_protocol(protocol, config);
+    ASSERT_TRUE(check.ok());
+    ASSERT_EQ(check.load_function.friction_models().size(), compensated ? 1u : 0u);
+    auto transducer = hal::make_transducer(config, 3);
+    SpscQueue<Sample> queue(1 << 16);
+    RunControl control;
+    RunTelemetry telemetry;
+    RunLoop loop(*transducer, check.load_function, run_loop_config_from(config), queue, control, telemetry);
+    PidGains stiffer = pid_gains_from_proto(config.controller().lateral_displacement());
+    stiffer.kp = 2000;
+
+    std::uint64_t ticks = 0, counted = 0;
+    Sample drained;
+    for (;; ++ticks) {
+      if (ticks == 120000) control.gain_updates.try_push({Loop::kLateralDisplacement, stiffer});
+      counting.store(true);
+      const bool more = loop.tick();
+      counting.store(false);
+      counted += allocations.exchange(0);
+      if (!more) break;
+      while (queue.try_pop(drained)) {
+      }
+    }
+    EXPECT_EQ(counted, 0u) << "allocations during " << ticks << " ticks" << (compensated ? ", compensated" : "");
+    EXPECT_EQ(loop.outcome().end, RunEnd::kTripped) << "the trip and the stop sequence ran";
+    EXPECT_GT(ticks, 130000u);
   }
-  EXPECT_EQ(counted, 0u) << "allocations during " << ticks << " ticks";
-  EXPECT_EQ(loop.outcome().end, RunEnd::kTripped) << "the trip and the stop sequence ran";
-  EXPECT_GT(ticks, 130000u);
 
   // The counter works: an allocation while counting is seen.
   counting.store(true);

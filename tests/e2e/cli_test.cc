@@ -259,6 +259,66 @@ TEST(TriboCli, RearmAfterAnEmergencyStopLetsARunStartAgain) {
   EXPECT_EQ(parse_json<v1::RunSummary>(ran.out).exit_status(), "SUCCESS");
 }
 
+// docs/friction_compensation.md: `tribo run --friction-model REPORT` turns the
+// compensation on and the run records which report it used; a protocol file
+// names its report relative to itself; a report the compensation cannot
+// represent is refused before anything moves.
+TEST(TriboCli, RunWithAFrictionModelRecordsWhichReport) {
+  TempDir data, out, files;
+  DaemonProcess daemon(data.path());
+  const Cli tribo{"127.0.0.1:" + std::to_string(daemon.port())};
+  const std::string report = std::string(TRIBO_SOURCE_DIR) + "/tests/data/friction_reports/identification.json";
+  const auto ran = tribo({"run", kStandardProtocolPath, "--friction-model", report, "--out",
+                          (out.path() / "run").string(), "--json"});
+  ASSERT_EQ(ran.exit_code, 0) << ran.err;
+  const auto summary = parse_json<v1::RunSummary>(ran.out);
+  EXPECT_EQ(summary.exit_status(), "SUCCESS");
+  ASSERT_EQ(summary.friction_compensation_size(), 1);
+  EXPECT_EQ(summary.friction_compensation(0).report_sha256(),
+            "8e97474e04076d74d1d9601fbd005e21276ec9f28ec6427ff41f64d99bba46bf");
+  EXPECT_EQ(summary.friction_compensation(0).segments(), 5u);
+  std::string error;
+  const auto metadata = wire::read_run_metadata(out.path() / "run", error);
+  ASSERT_TRUE(metadata) << error;
+  ASSERT_EQ(metadata->start().friction_models_size(), 1);
+  const v1::FrictionModelUse& use = metadata->start().friction_models(0);
+  EXPECT_EQ(use.report_file(), report);
+  EXPECT_EQ(use.report_sha256(), "8e97474e04076d74d1d9601fbd005e21276ec9f28ec6427ff41f64d99bba46bf");
+  EXPECT_EQ(use.parameters(3).name(), "sigma0");
+  EXPECT_EQ(metadata->start().protocol().friction_compensation().report_json(), slurp(report));
+  // The record says which samples the compensation drove: all of them here.
+  const std::string csv = slurp(out.path() / "run" / "samples.csv");
+  std::istringstream rows(csv);
+  std::string row;
+  std::getline(rows, row);
+  int compensated = 0, total = 0;
+  while (std::getline(rows, row)) {
+    ++total;
+    if (std::stoul(row.substr(row.rfind(',') + 1)) & v1::FRICTION_COMPENSATED) ++compensated;
+  }
+  EXPECT_EQ(compensated, total);
+  EXPECT_EQ(total, 32000);
+
+  // A protocol that names its report, relative to the protocol file.
+  std::filesystem::copy_file(report, files.path() / "model.json");
+  const std::filesystem::path protocol = files.path() / "scratch.textproto";
+  std::ofstream(protocol) << slurp(kStandardProtocolPath) << "\nfriction_compensation { report_file: \"model.json\" }\n";
+  const auto checked = tribo({"check", protocol.string()});
+  EXPECT_EQ(checked.exit_code, 0) << checked.err;
+
+  // Refused, naming the field and the effect.
+  std::string text = slurp(report);
+  text.replace(text.find("\"tilt_offset\"", text.find("\"final_model\"")), 13, "\"drift\"");
+  std::ofstream(files.path() / "drift.json") << text;
+  const auto refused = tribo({"run", kStandardProtocolPath, "--friction-model", (files.path() / "drift.json").string()});
+  EXPECT_EQ(refused.exit_code, 2) << refused.err;
+  EXPECT_NE(refused.err.find("friction_compensation.report_json"), std::string::npos) << refused.err;
+  EXPECT_NE(refused.err.find("final_model.effects has drift"), std::string::npos) << refused.err;
+  const auto missing = tribo({"run", kStandardProtocolPath, "--friction-model", "/no/such/report.json"});
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_NE(missing.err.find("--friction-model: cannot read /no/such/report.json"), std::string::npos) << missing.err;
+}
+
 TEST(TriboCli, AutotuneAppliesTheProposedGainsOnRequest) {
   TempDir data;
   DaemonProcess daemon(data.path());

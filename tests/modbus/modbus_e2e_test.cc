@@ -17,6 +17,7 @@
 #include "tests/modbus/modbus_support.h"
 #include "tests/sim/sim_test_support.h"
 #include "tests/support/safe_sequence.h"
+#include "tests/support/compensation_runs.h"
 #include "tests/support/daemon_process.h"
 
 namespace tribo {
@@ -169,6 +170,45 @@ TEST(ModbusEndToEnd, ScratchGivesTheSimulatedBackendsFrictionWithinQuantisation)
 // in the default suite. Run with --gtest_also_run_disabled_tests.
 TEST(ModbusEndToEnd, DISABLED_FullStandardScratchGivesTheSimulatedBackendsFriction) {
   compare_with_simulated_backend(standard_scratch(), 1);
+}
+
+// The friction compensation (docs/friction_compensation.md) through tribod on
+// the Modbus backend and tribo-bench: the run records its model, and the
+// break-away at 36 µm/s is what the simulated backend gives with it, well
+// below the uncompensated one. A shortened pass of breakaway_velocities.
+TEST(ModbusEndToEnd, FrictionCompensationBehavesAsOnTheSimulatedBackend) {
+  const v1::Protocol protocol = testing::protocol_from_text(R"(
+    name: "breakaway-36"
+    acquisition_rate_hz: 1000
+    segments { name: "approach" duration_s: 0.5 normal { end_uN: 0 } lateral { end_um: 2 } }
+    segments { name: "settle" duration_s: 1 normal { shape: HOLD } lateral { shape: HOLD } }
+    segments { name: "load" duration_s: 0.5 normal { end_uN: 9810 } lateral { shape: HOLD } }
+    segments { name: "rest" duration_s: 2 normal { shape: HOLD } lateral { shape: HOLD } }
+    segments { name: "slide" normal { shape: HOLD } lateral { end_um: 12 speed_um_per_s: 36 } }
+    segments { name: "stop" duration_s: 0.2 normal { shape: HOLD } lateral { shape: HOLD } }
+  )", "breakaway-36");
+  const auto report = wire::read_file(std::string(TRIBO_SOURCE_DIR) + "/tests/data/friction_reports/identification.json");
+  ASSERT_TRUE(report);
+  const v1::Protocol compensated = testing::with_friction_model(protocol, *report, "identification.json");
+  v1::DaemonConfig config = testing::modbus_daemon_config();
+  config.mutable_modbus()->set_response_timeout_s(1.0);  // equality is the point, not timing
+  ModbusRig rig(config);
+  const client::RunResult b = run(rig.daemon, compensated, 1);
+  ASSERT_EQ(b.stop.exit_status(), v1::SUCCESS) << b.stop.reason();
+  ASSERT_EQ(b.start.friction_models_size(), 1);
+  EXPECT_EQ(b.start.friction_models(0).report_sha256(),
+            "8e97474e04076d74d1d9601fbd005e21276ec9f28ec6427ff41f64d99bba46bf");
+  const testing::InProcessRun modbus = testing::recorded_run(b.start, b.samples, b.stop);
+  const testing::InProcessRun with = testing::run_in_process(testing::sim_daemon_config(), compensated, 1);
+  const testing::InProcessRun without = testing::run_in_process(testing::sim_daemon_config(), protocol, 1);
+  const std::uint32_t slide = testing::segments_named(with, "slide").at(0);
+  const auto over_modbus = testing::breakaway_figures(modbus, slide);
+  const auto over_with = testing::breakaway_figures(with, slide);
+  const auto over_without = testing::breakaway_figures(without, slide);
+  EXPECT_NEAR(over_modbus.overshoot, over_with.overshoot, 0.05);
+  EXPECT_NEAR(over_modbus.stiction_peak_n, over_with.stiction_peak_n, 3e-6);
+  EXPECT_LT(over_modbus.overshoot, 0.8 * over_without.overshoot);
+  for (const Sample& s : modbus.samples) ASSERT_TRUE(s.status_flags & v1::FRICTION_COMPENSATED) << s.time_s;
 }
 
 // ------------------------------------------------------------------ faults

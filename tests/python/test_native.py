@@ -161,5 +161,63 @@ class GilReleased(unittest.TestCase):
         self.assertGreater(during[0], 100)
 
 
+class FrictionCompensation(unittest.TestCase):
+    """docs/friction_compensation.md from Python: a report compensates the
+    run, the run says which one, and a report the compensation cannot
+    represent is refused naming the field."""
+
+    def setUp(self):
+        self.report = os.path.join(ARGS.source_dir, "tests/data/friction_reports/identification.json")
+        self.protocol = os.path.join(ARGS.source_dir, "config/protocols/standard_scratch.textproto")
+
+    def test_simulate_with_a_friction_model_compensates_and_records_it(self):
+        config = sim.load_config(os.path.join(ARGS.source_dir, "config/tribod.textproto"))
+        without = sim.simulate(config, self.protocol, seed=1)
+        run = sim.simulate(config, self.protocol, seed=1, friction_model=self.report)
+        self.assertEqual(run.exit_status, "SUCCESS")
+        self.assertTrue(np.all(run.samples["flags"] & 1024), "every sample carries FRICTION_COMPENSATED")
+        self.assertFalse(np.any(without.samples["flags"] & 1024))
+        model = run.metadata["start"]["friction_models"][0]
+        # sha256sum tests/data/friction_reports/identification.json
+        self.assertEqual(model["report_sha256"], "8e97474e04076d74d1d9601fbd005e21276ec9f28ec6427ff41f64d99bba46bf")
+        self.assertEqual(model["contact"], "lugre + tilt_offset")
+        with open(self.report, encoding="utf-8") as f:
+            reported = {p["name"]: p["value"] for p in json.load(f)["final_model"]["parameters"]}
+        self.assertEqual({p["name"]: p["value"] for p in model["parameters"]}, reported)
+        # The drive changed, the friction read in steady sliding did not (its noise: 0.036 µN).
+        window = (run.samples["t"] >= 16) & (run.samples["t"] < 24)
+        self.assertFalse(np.array_equal(run.samples["lateral_position"], without.samples["lateral_position"]))
+        self.assertAlmostEqual(run.samples["lateral_force"][window].mean() * 1e6,
+                               without.samples["lateral_force"][window].mean() * 1e6, delta=0.036)
+
+    def test_a_protocol_file_names_its_report_relative_to_itself(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            with open(self.protocol, encoding="utf-8") as f:
+                text = f.read()
+            path = os.path.join(tmp, "scratch.textproto")
+            with open(path, "w", encoding="utf-8") as f:
+                f.write(text + '\nfriction_compensation { report_file: "model.json" }\n')
+            with open(self.report, encoding="utf-8") as f, open(os.path.join(tmp, "model.json"), "w") as g:
+                g.write(f.read())
+            checked = sim.check(sim.load_config(os.path.join(ARGS.source_dir, "config/tribod.textproto")),
+                                sim.load_protocol(path))
+            self.assertEqual(checked["friction_models"][0]["report_file"], "model.json")
+            self.assertEqual(checked["friction_models"][0]["segments"], [0, 1, 2, 3, 4])
+
+    def test_a_model_it_cannot_represent_is_refused_naming_the_field(self):
+        with open(self.report, encoding="utf-8") as f:
+            report = json.load(f)
+        report["final_model"]["effects"].append("drift")
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "drift.json")
+            with open(path, "w", encoding="utf-8") as f:
+                json.dump(report, f)
+            with self.assertRaises(sim.ValidationError) as e:
+                sim.check(sim.load_config(os.path.join(ARGS.source_dir, "config/tribod.textproto")),
+                          sim.load_protocol(self.protocol, friction_model=path))
+        self.assertEqual(e.exception.field, "friction_compensation.report_json")
+        self.assertIn("final_model.effects has drift", e.exception.message)
+
+
 if __name__ == "__main__":
     support.main()

@@ -94,6 +94,32 @@ py::dict protocol_summary(const daemon::ProtocolCheck& check) {
   py::list names;
   for (const daemon::SegmentPlan& plan : check.load_function.segments()) names.append(plan.name);
   out["segment_names"] = names;
+  // The friction models the run compensates with, as its start document records them.
+  py::list models;
+  for (std::size_t i = 0; i < check.load_function.friction_models().size(); ++i) {
+    const daemon::FrictionReport& r = check.load_function.friction_models()[i];
+    py::dict model;
+    model["report_file"] = r.report_file;
+    model["report_sha256"] = r.sha256;
+    model["contact"] = r.contact;
+    py::list parameters;
+    for (const daemon::ReportParameter& p : r.parameters) {
+      py::dict q;
+      q["name"] = p.name;
+      q["value"] = p.value;
+      q["unit"] = p.unit;
+      parameters.append(q);
+    }
+    model["parameters"] = parameters;
+    py::list segments;
+    const auto& plans = check.load_function.segments();
+    for (std::size_t k = 0; k < plans.size(); ++k) {
+      if (plans[k].friction_model == static_cast<int>(i)) segments.append(k);
+    }
+    model["segments"] = segments;
+    models.append(model);
+  }
+  out["friction_models"] = models;
   return out;
 }
 

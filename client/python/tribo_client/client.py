@@ -11,6 +11,7 @@ from google.protobuf import text_format
 
 from .channels import CHANNELS, INTEGER_CHANNELS, NAMES
 from .framing import encode_frame, read_frame
+from .friction_models import read_friction_reports, set_friction_model
 from .records import as_record
 
 try:
@@ -54,10 +55,15 @@ class TriboError(Exception):
         super().__init__(f"{self.code}: {self.field + ': ' if self.field else ''}{self.message}")
 
 
-def load_protocol_file(path):
-    """Parses a protocol file (protobuf text format, tribo.v1.Protocol)."""
+def load_protocol_file(path, friction_model=None):
+    """Parses a protocol file (protobuf text format, tribo.v1.Protocol), with
+    the friction model reports it names read in (relative to its directory);
+    friction_model: a `tribo-fit diagnose --json` report that compensates
+    every displacement segment instead (as `tribo run --friction-model`)."""
     with open(path, encoding="utf-8") as f:
-        return text_format.Parse(f.read(), protocol_pb2.Protocol())
+        protocol = text_format.Parse(f.read(), protocol_pb2.Protocol())
+    read_friction_reports(protocol, os.path.dirname(os.path.abspath(path)))
+    return set_friction_model(protocol, friction_model)
 
 
 def _parse_address(address):
@@ -229,9 +235,15 @@ class Client:
 
     # -- runs
 
-    def run(self, protocol, seed=None, decimation=1, on_document=None):
+    def run(self, protocol, seed=None, decimation=1, on_document=None, friction_model=None):
         """Loads and runs a protocol (needs the controller role), streams its
-        samples into a Run; fetches any range the stream missed (decimation 1)."""
+        samples into a Run; fetches any range the stream missed (decimation 1).
+        friction_model: a `tribo-fit diagnose --json` report that compensates
+        every displacement segment (as `tribo run --friction-model`)."""
+        if friction_model is not None:
+            copy = protocol_pb2.Protocol()
+            copy.CopyFrom(protocol)
+            protocol = set_friction_model(copy, friction_model)
         self.load_protocol(protocol)
         self.subscribe(decimation)
         run = Run(self.start_run(seed))

@@ -17,6 +17,7 @@ import os
 from google.protobuf import json_format, text_format
 
 from .channels import NAMES
+from .friction_models import read_friction_reports, set_friction_model
 from .runs import RunData
 
 try:
@@ -77,13 +78,26 @@ def load_config(source="config/tribod.textproto"):
     return config
 
 
-def load_protocol(source):
-    """A tribo.v1.Protocol (parsed only; check() validates it against a config)."""
-    return _message(source, protocol_pb2.Protocol)
+def load_protocol(source, friction_model=None):
+    """A tribo.v1.Protocol (parsed only; check() validates it against a
+    config). From a path, the friction model reports it names are read in
+    (relative to its directory); friction_model: a `tribo-fit diagnose --json`
+    report that compensates every displacement segment instead (as `tribo run
+    --friction-model`, docs/friction_compensation.md)."""
+    protocol = _message(source, protocol_pb2.Protocol)
+    if isinstance(source, (str, os.PathLike)) and os.path.exists(source):
+        protocol = read_friction_reports(protocol, os.path.dirname(os.path.abspath(source)))
+    if friction_model is not None:
+        copy = protocol_pb2.Protocol()
+        copy.CopyFrom(protocol)
+        protocol = set_friction_model(copy, friction_model)
+    return protocol
 
 
 def check(config, protocol):
-    """The daemon's dry run: {duration_s, expected_samples, warnings, segment_names}."""
+    """The daemon's dry run: {duration_s, expected_samples, warnings,
+    segment_names, friction_models} (friction_models: the models the run would
+    compensate with, as its start document records them)."""
     return _native_call(_native.validate_protocol, load_protocol(protocol).SerializeToString(),
                         _message(config, daemon_config_pb2.DaemonConfig).SerializeToString())
 
@@ -93,13 +107,15 @@ class SimulatedRun(RunData):
     document's essentials: seed, config, protocol, software version)."""
 
 
-def simulate(config, protocol, seed=None):
+def simulate(config, protocol, seed=None, friction_model=None):
     """Runs the protocol on the simulated instrument unpaced, in this process,
     through the daemon's real-time loop; the GIL is released meanwhile. The
     samples are those tribod records for the same config, protocol and seed
-    (seed None: the config's sim.seed, as tribod)."""
+    (seed None: the config's sim.seed, as tribod). friction_model: a
+    `tribo-fit diagnose --json` report (path) whose model the lateral loop
+    compensates (as `tribo run --friction-model`)."""
     config = _message(config, daemon_config_pb2.DaemonConfig)
-    protocol = load_protocol(protocol)
+    protocol = load_protocol(protocol, friction_model)
     if seed is None:
         seed = config.sim.seed
     result = _native_call(_native.simulate, config.SerializeToString(), protocol.SerializeToString(), int(seed))
@@ -107,7 +123,8 @@ def simulate(config, protocol, seed=None):
     metadata = {
         "start": {"seed": str(seed), "software_version": software_version,
                   "protocol": json_format.MessageToDict(protocol, preserving_proto_field_name=True),
-                  "config": json_format.MessageToDict(config, preserving_proto_field_name=True)},
+                  "config": json_format.MessageToDict(config, preserving_proto_field_name=True),
+                  "friction_models": summary["friction_models"]},
         "run_descriptor": {"segment_names": summary["segment_names"]},
         "stop": {"exit_status": result["exit_status"], "reason": result["trip_reason"],
                  "sample_count": str(len(result["samples"]["t"])), "cycle_count": str(result["cycles"])},

@@ -25,20 +25,23 @@ model's systematic part in it; with --motion-estimator rts_loop_force the
 servo's yield is found and presliding on the seed-2 file kept.
 
 A drift in time is not taken for a tilt (the load ramps at rest refuse the
-tilt; seed 5) and is named first on the seed-2 file, and on the seed-8 file
-with the knot count chosen by the record; the tilt of the tilt seed-2 file is
-kept. The lag of the seed-2 file is named first (each held-out
+tilt; seed 5); on the seed-2 file the final model keeps a Stribeck spike past
+its bounds and the report says the model does not describe the record, naming
+nothing; drift is named first on the seed-8 file with the knot count chosen by
+the record; the tilt of the tilt seed-2 file is kept. The lag of the seed-2 file is named first (each held-out
 pass votes in the block agreement with the candidate's change there).
 Velocity strengthening at three times the default, fitted and not accepted on
 seed 7, has a minimum detectable strength above the injected one, set by injection
 and recovery (the linearised figure was below it), and it
-is named first on seeds 8 and 9 since the holds are held; on seed 4, fitted
+is named first on seed 8; on seed 9 the final model keeps a static spike
+(mu_s 3.2e16), does not describe the record and names nothing; on seed 4, fitted
 with the opposite sign, no figure calls the missed strength identifiable; on seed 10,
 whose fit leaves the static level at 1e-4, it is named first (its strength
-bound is taken against the friction level). Where the final base is past
-its bounds (drift seed 2) no velocity-dependent figure is given. At six times the default, on
-seed 3, whose base fit takes the rise into a rising Stribeck curve, it is
-named first (fitted a second time from that rise moved into the log term);
+bound is taken against the friction level). Where the final model is past
+its bounds (drift seed 2) it does not describe the record: nothing is named,
+and no minimum detectable figure is given. At six times the default, on
+seed 3, whose base fit takes the rise into a rising Stribeck curve, the final
+model keeps a static spike (mu_s 3.2e8) and names nothing;
 on seed 8, missed with a final curve that still rises, no figure calls the
 missed strength identifiable.
 
@@ -84,6 +87,21 @@ def check_first(tribo_fit, work, effect, seed, failures, strength=None):
     if accepted[:1] != [effect]:
         failures.append(f"{effect} seed {seed}: accepted {accepted}, {effect} not first")
     print(f"{effect}, seed {seed}: accepted {accepted}")
+
+
+def check_not_describing(tribo_fit, work, effect, seed, failures, strength=None):
+    """The final model of this file is past its bounds (a static level more than
+    5 times the Coulomb level): the report says it does not describe the record,
+    names nothing, and lists the injected effect as rejected with that reason."""
+    report = diagnose(tribo_fit, work, effect, seed, strength=strength)
+    accepted = [a["name"] for a in report["accepted_effects"]]
+    reasons = report["base_model"]["not_describing_reasons"]
+    mine = next((r for r in report["rejected_effects"] if r["name"] == effect), {})
+    if report["base_model"]["describes_record"] or accepted or not any("more than 5 times" in r for r in reasons) \
+            or "does not describe the record" not in mine.get("reason", ""):
+        failures.append(f"{effect} seed {seed}: describes_record {report['base_model']['describes_record']}, "
+                        f"accepted {accepted}, reasons {reasons}")
+    print(f"{effect}, seed {seed}: accepted {accepted}; not describing: {'; '.join(reasons)[:100]}")
 
 
 def check_no_overclaim(tribo_fit, work, seed, c, failures):
@@ -197,9 +215,9 @@ def main():
     # A reading that drifts in time, with loads that rise with time, fits
     # like a tilt in sliding; the load ramps at rest tell them apart (a tilt
     # reads there too). Seed 5: tilt_offset was accepted first (tan 0.0186);
-    # refused now by the load changes at rest. Seed 2: drift named first
-    # (tilt before the knots at quantiles and the refit from the default
-    # Stribeck shape). The tilt file of seed 2 keeps its tilt.
+    # refused now by the load changes at rest. Seed 2: the rounds accept
+    # drift, on a final model past its bounds, which names nothing. The tilt
+    # file of seed 2 keeps its tilt.
     report = diagnose(tribo_fit, work, "drift", 5)
     accepted = [a["name"] for a in report["accepted_effects"]]
     tilt = next((r for r in report["rejected_effects"] if r["name"] == "tilt_offset"), {})
@@ -208,17 +226,18 @@ def main():
     print(f"drift, seed 5: accepted {accepted}; tilt_offset {tilt.get('reason', '')[:100]}")
     report = diagnose(tribo_fit, work, "drift", 2)
     accepted = [a["name"] for a in report["accepted_effects"]]
-    if accepted[:1] != ["drift"]:
-        failures.append(f"drift seed 2: accepted {accepted}, drift not first")
-    # Its final base keeps a Stribeck spike past the bounds (static level
-    # over 5 times the Coulomb level): the velocity-dependent effects'
-    # figures are withheld there, not linearised on a flat Stribeck curve.
-    past_bounds = any("out of bounds" in w for w in report["warnings"])
+    # Its final model keeps a Stribeck spike past the bounds (static level
+    # over 5 times the Coulomb level): the report says the model does not
+    # describe the record and names no effect (the rounds' drift is listed
+    # as rejected with that reason), and gives no minimum detectable figure.
+    describes = report["base_model"]["describes_record"]
+    drift = next((r for r in report["rejected_effects"] if r["name"] == "drift"), {})
     vs = next((r for r in report["rejected_effects"] if r["name"] == "velocity_strengthening"), {})
-    withheld = ((vs.get("minimum_detectable") or {}).get("withheld") or "")
-    if past_bounds and not withheld:
-        failures.append("drift seed 2: final base past its bounds, yet a velocity_strengthening figure is given")
-    print(f"drift, seed 2: accepted {accepted}; base past bounds {past_bounds}, figure withheld: {withheld[:60]}")
+    if describes or accepted or "does not describe the record" not in drift.get("reason", "") \
+            or vs.get("minimum_detectable") or not report.get("unexplained"):
+        failures.append(f"drift seed 2: describes_record {describes}, accepted {accepted}, drift: "
+                        f"{drift.get('reason', '')[:120]}")
+    print(f"drift, seed 2: describes_record {describes}, accepted {accepted}; drift: {drift.get('reason', '')[:100]}")
     check_first(tribo_fit, work, "tilt_offset", 2, failures)
     # The drift spline's knot count from the record (leave-one-pass-out
     # cross-validation): with the fixed 12 intervals the drift file of seed 8
@@ -254,7 +273,10 @@ def main():
     # then raised by injection and recovery, seed 9's withheld past the
     # bounds; those paths are checked on seed 7 above and drift seed 2.
     check_first(tribo_fit, work, "velocity_strengthening", 8, failures, strength=0.09)
-    check_first(tribo_fit, work, "velocity_strengthening", 9, failures, strength=0.09)
+    # Seed 9: the rounds take it, on a final model whose static level is a
+    # spike (mu_s 3.2e16): the report says the model does not describe the
+    # record and names nothing.
+    check_not_describing(tribo_fit, work, "velocity_strengthening", 9, failures, strength=0.09)
     # Seed 4: fitted with the opposite sign (-0.0018) at -16.6 % held-out, and
     # refused; its figure, 0.0024 by injection and recovery, called the missed
     # 0.0106 identifiable. A trial that takes the velocity dependence the
@@ -269,8 +291,10 @@ def main():
     # At six times the default (c = 0.18) the base fit takes the rise into a
     # Stribeck curve that rises (seed 3: mu_s 0.082 below mu_c 0.117), and
     # the candidate fitted from there found 0.005 +- 0.005 of the injected
-    # 0.015. The rise moved into the log term is its second start.
-    check_first(tribo_fit, work, "velocity_strengthening", 3, failures, strength=0.18)
+    # 0.015. The rise moved into the log term is its second start; the final
+    # model keeps a static spike (mu_s 3.2e8): it does not describe the
+    # record, and nothing is named.
+    check_not_describing(tribo_fit, work, "velocity_strengthening", 3, failures, strength=0.18)
     # Seed 8 at six times is missed: its final model's curve still rises
     # (mu_s 0.113 below mu_c 0.162), and its figure, 0.0012 by injection and
     # recovery, called the missed 0.0168 identifiable. A final model whose

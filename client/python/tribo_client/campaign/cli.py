@@ -4,8 +4,12 @@
     tribo-campaign SPEC --scheduler tcp://10.0.0.5:8786     # an existing cluster
     tribo-campaign SPEC --dry-run                            # expand and validate only
 
-Exit codes: 0 every run done; 1 some runs failed (rerun to retry them);
-2 the spec was refused (nothing ran).
+    tribo-campaign SPEC --limit 3                            # a trial: at most 3 new runs
+
+Exit codes: 0 every run done, or --limit reached (the tables are then
+results.partial.csv, ...: results.csv is written once every run is done);
+1 some runs failed (rerun to retry them); 2 the spec was refused (nothing
+ran); 130 interrupted (Ctrl-C: the runs done are kept, rerun to finish).
 """
 
 import argparse
@@ -21,15 +25,24 @@ def main(argv=None):
     parser.add_argument("--out", help="results directory (default: campaigns/<name> in the current directory)")
     parser.add_argument("--scheduler", help="address of a running Dask scheduler, e.g. tcp://HOST:8786 "
                                             "(default: a local cluster on 127.0.0.1)")
-    parser.add_argument("--workers", type=int, help="local cluster: worker processes (default: one per core)")
-    parser.add_argument("--limit", type=int, help="run at most this many new runs, then stop (resumable)")
+    parser.add_argument("--workers", type=int, help="local cluster: worker processes (default: one per core), "
+                                                    "started once the runs left would take over 3 s in this "
+                                                    "process; 1: every run in this process")
+    parser.add_argument("--limit", type=int, help="run at most this many new runs, then stop (resumable; the "
+                                                  "tables are then named *.partial.*)")
     parser.add_argument("--dry-run", action="store_true", help="expand and validate the spec, run nothing")
     parser.add_argument("--version", action="version", version=_version())
     args = parser.parse_args(argv)
 
+    try:
+        return _campaign(args)
+    except KeyboardInterrupt:  # the runs handle their own (runner.py); this is before or after them
+        print("\ntribo-campaign: interrupted", file=sys.stderr)
+        return 130
+
+
+def _campaign(args):
     from tribo_client import sim
-    from .results import write_results
-    from .runner import run_campaign
     from .spec import SpecError, load_spec
 
     def validate(config_bytes, protocol_bytes):
@@ -48,22 +61,55 @@ def main(argv=None):
     print(f"campaign {campaign.name}: {len(campaign.tasks)} runs -> {out_dir}", file=sys.stderr)
     if args.dry_run:
         return 0
-    done, skipped, failed = run_campaign(campaign, out_dir, scheduler=args.scheduler, workers=args.workers,
-                                         limit=args.limit)
-    frame = write_results(out_dir, campaign.name, campaign.spec_path)
+    return _run(campaign, out_dir, args)
+
+
+def _run(campaign, out_dir, args):
+    from .results import output_path, remove_partial_outputs, write_results
+    from .runner import run_campaign
+    outcome = run_campaign(campaign, out_dir, scheduler=args.scheduler, workers=args.workers, limit=args.limit)
+    kept = len(campaign.tasks) - outcome.left
+    if outcome.interrupted:
+        print(f"tribo-campaign: interrupted: {kept} of {len(campaign.tasks)} runs done, kept in "
+              f"{os.path.join(out_dir, 'runs')} ({kept - outcome.skipped} this time, {outcome.skipped} before); "
+              f"{outcome.left} not run; no table written: rerun the same command to finish (runs done are "
+              "skipped)", file=sys.stderr)
+        return 130
+    partial = outcome.left > 0
+    frame = write_results(out_dir, campaign.name, campaign.spec_path, partial)
     if campaign.report.get("kind") == "identification_reliability" and len(frame):
         from .reliability import write_reliability
-        write_reliability(frame, out_dir, campaign.report, campaign.name)
+        write_reliability(frame, out_dir, campaign.report, campaign.name, partial)
     if campaign.tasks and "scorecard" in campaign.tasks[0].compute and len(frame):
         from .scorecard_sweep import write_scorecard_sweep
-        write_scorecard_sweep(campaign, out_dir)
-    if failed and "error" in frame:
+        write_scorecard_sweep(campaign, out_dir, partial)
+    if not partial:
+        remove_partial_outputs(out_dir)
+    if outcome.failed and "error" in frame:
         errors = frame.loc[frame["status"] != "ok", "error"]
         if len(errors):
             print(f"first failure: {errors.iloc[0]}", file=sys.stderr)
-    print(f"{done} runs now, {skipped} done before, {failed} failed; table: "
-          f"{os.path.join(out_dir, 'results.csv')} and results.h5", file=sys.stderr)
-    return 1 if failed else 0
+    print(f"{outcome.attempted} runs now, {outcome.skipped} done before, {outcome.failed} failed; table: "
+          f"{output_path(out_dir, 'results.csv', partial)} and .h5", file=sys.stderr)
+    if outcome.attempted:
+        print(_where(outcome), file=sys.stderr)
+    if partial:
+        why = f"--limit {args.limit}" if args.limit is not None and not outcome.failed else "runs failed"
+        print(f"partial campaign ({why}): {kept} of {len(campaign.tasks)} runs done, {outcome.left} left. "
+              "Its tables and figures are named *.partial.*; results.csv is written once every run is "
+              "done: rerun the same command" + (" without --limit" if args.limit is not None else ""),
+              file=sys.stderr)
+    return 1 if outcome.failed else 0
+
+
+def _where(outcome):
+    """Where the runs went: the local default does small campaigns in this process."""
+    parts = [f"{outcome.in_process} in this process"] if outcome.in_process or not outcome.task_sizes else []
+    if outcome.task_sizes:
+        sizes = outcome.task_sizes
+        span = f"{min(sizes)}-{max(sizes)}" if min(sizes) != max(sizes) else f"{sizes[0]}"
+        parts.append(f"{sum(sizes)} on the cluster in {len(sizes)} tasks of {span} runs")
+    return "runs: " + ", ".join(parts)
 
 
 def config_bytes_message(data):

@@ -13,7 +13,8 @@ them is right, not a false positive. Writes
   confusion.csv    injected effect (rows) against the first effect the
                    diagnosis accepts that is not a base effect ("nothing"
                    when none), as fractions of the runs
-  confusion.png    the same as a heat map (200 dpi)"""
+  confusion.png    the same as a heat map (200 dpi)
+(NAME.partial.EXT when runs are left: results.py)"""
 
 import os
 
@@ -77,11 +78,12 @@ def plot_confusion(confusion, path, title):
     plt.close(fig)
 
 
-def write_reliability(frame, out_dir, report, campaign_name):
+def write_reliability(frame, out_dir, report, campaign_name, partial=False):
+    from .results import output_path
     noise_column = report.get("noise_column")
     table, confusion = reliability_tables(frame, noise_column, report.get("base_effects", ()))
-    table.to_csv(os.path.join(out_dir, "reliability.csv"), index=False)
-    confusion.to_csv(os.path.join(out_dir, "confusion.csv"))
-    plot_confusion(confusion, os.path.join(out_dir, "confusion.png"),
-                   f"{campaign_name}: {int((frame['status'] == 'ok').sum())} runs")
+    table.to_csv(output_path(out_dir, "reliability.csv", partial), index=False)
+    confusion.to_csv(output_path(out_dir, "confusion.csv", partial))
+    plot_confusion(confusion, output_path(out_dir, "confusion.png", partial),
+                   f"{campaign_name}: {int((frame['status'] == 'ok').sum())} runs" + (" (partial)" if partial else ""))
     return table, confusion

@@ -38,11 +38,34 @@ def results_frame(out_dir):
     return frame
 
 
-def write_results(out_dir, campaign_name, spec_path):
-    """OUT/results.csv and OUT/results.h5; returns the DataFrame."""
+# The files a campaign writes from its run folders. A campaign that ends
+# with runs left (--limit, runs lost) writes them as NAME.partial.EXT
+# instead, so that the complete campaign's files are never replaced by a
+# part of it; a complete campaign removes the partial ones.
+OUTPUT_FILES = ("results.csv", "results.h5", "reliability.csv", "confusion.csv", "confusion.png", "scorecard.csv",
+                "scorecard_sweep.png")
+PARTIAL = ".partial"
+
+
+def output_path(out_dir, filename, partial=False):
+    """OUT/filename, or OUT/stem.partial.ext for a partial campaign."""
+    stem, ext = os.path.splitext(filename)
+    return os.path.join(out_dir, stem + (PARTIAL if partial else "") + ext)
+
+
+def remove_partial_outputs(out_dir):
+    for filename in OUTPUT_FILES:
+        path = output_path(out_dir, filename, partial=True)
+        if os.path.exists(path):
+            os.remove(path)
+
+
+def write_results(out_dir, campaign_name, spec_path, partial=False):
+    """OUT/results.csv and OUT/results.h5 (.partial: see OUTPUT_FILES);
+    returns the DataFrame."""
     frame = results_frame(out_dir)
-    frame.to_csv(os.path.join(out_dir, "results.csv"), index=False)
-    _write_hdf5(os.path.join(out_dir, "results.h5"), frame, campaign_name, spec_path)
+    frame.to_csv(output_path(out_dir, "results.csv", partial), index=False)
+    _write_hdf5(output_path(out_dir, "results.h5", partial), frame, campaign_name, spec_path)
     return frame
 
 

@@ -9,7 +9,8 @@
                        observations against the grid column `x`, one line per
                        value of the grid column `lines` (optional), the
                        dissertation's value dashed, the base config's x dotted;
-                       the last panel counts the rows within issue 14's goals"""
+                       the last panel counts the rows within the scorecard's goals
+(NAME.partial.EXT when runs are left: results.py)"""
 
 import json
 import os
@@ -41,12 +42,14 @@ def scorecard_frame(campaign, out_dir):
     return pd.DataFrame(records)
 
 
-def write_scorecard_sweep(campaign, out_dir):
+def write_scorecard_sweep(campaign, out_dir, partial=False):
+    from .results import output_path
     frame = scorecard_frame(campaign, out_dir)
-    frame.to_csv(os.path.join(out_dir, "scorecard.csv"), index=False)
+    frame.to_csv(output_path(out_dir, "scorecard.csv", partial), index=False)
     report = campaign.report
     if report.get("kind") == "scorecard_sweep" and len(frame):
-        plot_sweep(frame, report, os.path.join(out_dir, "scorecard_sweep.png"), campaign.name,
+        plot_sweep(frame, report, output_path(out_dir, "scorecard_sweep.png", partial),
+                   campaign.name + (" (partial)" if partial else ""),
                    _base_value(campaign.base_config_path, report["x"]))
     return frame
 

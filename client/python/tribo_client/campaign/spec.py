@@ -19,6 +19,12 @@ bad path or value is refused up front, naming the field.
     tags = {effect = "direction_asymmetry", strength = 0.05}
     overrides = {"sim.friction.direction_asymmetry.enabled" = true}
 
+friction_model = "report.json" (a `tribo-fit diagnose --json` report, relative
+to the spec file) compensates friction in every run (as `tribo run
+--friction-model`, docs/friction_compensation.md); a [[protocols]] entry or a
+[[variants]] entry may set its own (a variant's "" runs without), and the
+model's file is a row label (friction_model).
+
 compute = ["scorecard"] alone runs the reproduction scorecard (tribo-scorecard)
 on each config and seed and takes no [[protocols]] (its experiments are its
 own); [scorecard] groups = [...] and quick = true choose its experiments.
@@ -35,6 +41,8 @@ from google.protobuf import text_format
 from google.protobuf.descriptor import FieldDescriptor
 
 from tribo.v1 import daemon_config_pb2, protocol_pb2
+
+from ..friction_models import read_friction_reports, set_friction_model
 
 COMPUTATIONS = ("metrics", "diagnosis", "scorecard")
 SCORECARD_OPTIONS = ("groups", "quick")
@@ -161,14 +169,16 @@ def load_spec(path, validate=None):
     """Reads and expands a spec. validate(config_bytes, protocol_bytes) (the
     native validator, tribo_client.sim) checks every config and protocol
     pair; ValidationError propagates with its field."""
-    with open(path, "rb") as f:
-        try:
+    try:
+        with open(path, "rb") as f:
             spec = tomllib.load(f)
-        except tomllib.TOMLDecodeError as e:
-            raise SpecError(f"{path}: {e}") from None
+    except OSError as e:
+        raise SpecError(f"cannot read {path}: {e.strerror}") from None
+    except tomllib.TOMLDecodeError as e:
+        raise SpecError(f"{path}: {e}") from None
     base_dir = os.path.dirname(os.path.abspath(path))
     known = {"name", "config", "seeds", "compute", "overrides", "protocols", "grid", "variants", "diagnosis",
-             "report", "description", "scorecard"}
+             "report", "description", "scorecard", "friction_model"}
     unknown = sorted(set(spec) - known)
     if unknown:
         raise SpecError(f"{path}: unknown key(s) {', '.join(unknown)} (known: {', '.join(sorted(known))})",
@@ -200,12 +210,16 @@ def load_spec(path, validate=None):
             raise SpecError(f"protocols[{i}] ({source}): {e}", f"protocols[{i}]") from None
         for field_path, value in entry.get("overrides", {}).items():
             set_field(message, field_path, value)
-        protocols.append((entry.get("name", message.name), message.SerializeToString()))
+        try:
+            read_friction_reports(message, os.path.dirname(source) if "path" in entry else base_dir)
+        except OSError as e:
+            raise SpecError(f"protocols[{i}] ({source}): {e}", f"protocols[{i}]") from None
+        protocols.append((entry.get("name", message.name), message, entry.get("friction_model", spec.get("friction_model"))))
     if compute == ["scorecard"]:
         if protocols:
             raise SpecError("a scorecard-only campaign takes no [[protocols]]: the scorecard runs its own "
                             "experiments on each config", "protocols")
-        protocols = [("", b"")]
+        protocols = [("", None, None)]
     elif not protocols:
         raise SpecError("the spec declares no [[protocols]]", "protocols")
 
@@ -227,12 +241,16 @@ def load_spec(path, validate=None):
 
     tasks = []
     validated = set()
-    for protocol_name, protocol_bytes in protocols:
+    for protocol_name, message, protocol_model in protocols:
         for variant in variants:
+            model = variant.get("friction_model", protocol_model)
+            protocol_bytes = _with_friction_model(message, model, base_dir)
             for combination in itertools.product(*grid_values):
                 config = copy.deepcopy(base)
                 labels = {"protocol": protocol_name, "variant": variant.get("label", "")} if protocol_bytes \
                     else {"variant": variant.get("label", "")}
+                if model:
+                    labels["friction_model"] = model
                 labels.update(variant.get("tags", {}))
                 for field_path, value in variant.get("overrides", {}).items():
                     set_field(config, field_path, value)
@@ -250,6 +268,23 @@ def load_spec(path, validate=None):
                     tasks.append(RunTask(key, len(tasks), protocol_name, protocol_bytes, config_bytes, seed,
                                          dict(labels), compute, diagnosis, scorecard))
     return Campaign(name, tasks, os.path.abspath(path), spec.get("report", {}), config_path, grid_paths)
+
+
+def _with_friction_model(message, model, base_dir):
+    """The protocol's wire bytes, compensated with the report at model
+    (relative to the spec) unless model is None or "" (b"" for no protocol)."""
+    if message is None:
+        return b""
+    if not model:
+        return message.SerializeToString()
+    copy = protocol_pb2.Protocol()
+    copy.CopyFrom(message)
+    try:
+        set_friction_model(copy, os.path.join(base_dir, model))
+    except OSError as e:
+        raise SpecError(f"friction_model: cannot read {os.path.join(base_dir, model)}: {e.strerror}",
+                        "friction_model") from None
+    return copy.SerializeToString()
 
 
 def _scorecard_options(spec, compute):

@@ -1,10 +1,27 @@
-"""What one Dask task does: simulate one run in-process and compute on it.
-Runs in the worker process; returns plain data (picklable, small): the row
-of the results table and the full reports for the run's folder."""
+"""What one run of a campaign does: simulate it in-process and compute on
+it. Runs in a Dask worker process (execute_batch: one task, several runs) or
+in the driver (runner.py); returns plain data (picklable, small): the row of
+the results table and the full reports for the run's folder."""
 
 import time
+import traceback
 
 import numpy as np
+
+
+def execute_batch(tasks):
+    """One Dask task of several runs (batches.py sizes them): one result per
+    run, in order, each as execute_safely gives it."""
+    return [execute_safely(task) for task in tasks]
+
+
+def execute_safely(task):
+    """execute(task), or {"exception": text} when it raises (a bug, not a
+    failed run: the driver records nothing, so a rerun retries the run)."""
+    try:
+        return execute(task)
+    except Exception as e:  # noqa: BLE001 - reported per run by the driver
+        return {"exception": f"{type(e).__name__}: {e}", "traceback": traceback.format_exc()}
 
 
 def execute(task):

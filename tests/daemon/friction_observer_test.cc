@@ -1,0 +1,251 @@
+// The friction compensation's parts: the identified model read from a
+// tribo-fit report (daemon/friction_report.h) and the observer that
+// evaluates it on line (daemon/friction_observer.h).
+#include "daemon/friction_observer.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <variant>
+
+#include <nlohmann/json.hpp>
+
+#include "daemon/friction_report.h"
+#include "proto/text_format_file.h"
+
+namespace tribo::daemon {
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+// A report of `tribo-fit diagnose --base-model choose --json` on the
+// identification protocol run on the default instrument
+// (tests/data/friction_reports/README.md).
+std::string identification_report() {
+  auto text = wire::read_file(std::string(TRIBO_SOURCE_DIR) + "/tests/data/friction_reports/identification.json");
+  if (!text) throw std::runtime_error("fixture missing");
+  return *text;
+}
+
+double value_of(const Json& report, const std::string& name) {
+  for (const Json& p : report.at("final_model").at("parameters")) {
+    if (p.at("name") == name) return p.at("value").get<double>();
+  }
+  throw std::runtime_error("no parameter " + name);
+}
+
+std::string error_of(const std::string& text) {
+  const auto r = read_friction_report(text);
+  return std::holds_alternative<std::string>(r) ? std::get<std::string>(r) : std::string("accepted");
+}
+
+// The report with an effect added to its final model and parameters.
+std::string with_effect(const std::string& text, const std::string& effect, const Json& parameters) {
+  Json j = Json::parse(text);
+  j["final_model"]["effects"].push_back(effect);
+  for (const auto& [name, value] : parameters.items()) {
+    j["final_model"]["parameters"].push_back({{"name", name}, {"value", value}, {"unit", "1"}});
+  }
+  return j.dump();
+}
+
+TEST(FrictionReport, LoadsTheIdentifiedModelAsTheReportGivesIt) {
+  const std::string text = identification_report();
+  const auto read = read_friction_report(text);
+  ASSERT_TRUE(std::holds_alternative<FrictionReport>(read)) << std::get<std::string>(read);
+  const FrictionReport& r = std::get<FrictionReport>(read);
+  const Json j = Json::parse(text);
+  EXPECT_EQ(r.model.load_scaled, j["base_model"]["load_scaled"].get<bool>());
+  EXPECT_EQ(r.model.coulomb, value_of(j, "mu_c"));
+  EXPECT_EQ(r.model.static_level, value_of(j, "mu_s"));
+  EXPECT_EQ(r.model.stribeck_velocity_m_per_s, value_of(j, "vs"));
+  EXPECT_EQ(r.model.sigma0_n_per_m, value_of(j, "sigma0"));
+  EXPECT_EQ(r.model.sigma1_n_s_per_m, value_of(j, "sigma1"));
+  EXPECT_EQ(r.model.viscous_n_s_per_m, value_of(j, "Fv"));
+  EXPECT_EQ(r.model.tilt_tan, value_of(j, "tilt_tan"));
+  EXPECT_EQ(r.contact, "lugre + tilt_offset");
+  ASSERT_EQ(r.parameters.size(), j["final_model"]["parameters"].size());
+  EXPECT_EQ(r.parameters[3].name, "sigma0");
+  EXPECT_EQ(r.parameters[3].unit, "N/m");
+  // `sha256sum tests/data/friction_reports/identification.json`
+  EXPECT_EQ(r.sha256, "8e97474e04076d74d1d9601fbd005e21276ec9f28ec6427ff41f64d99bba46bf");
+}
+
+TEST(FrictionReport, Sha256OfAKnownAnswer) {
+  // FIPS 180-2, appendix B.1.
+  EXPECT_EQ(sha256_hex("abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+}
+
+TEST(FrictionReport, ReadsTheExtensionsItEvaluates) {
+  std::string text = with_effect(identification_report(), "presliding_hysteresis", {{"breakaway_ratio", 0.9}});
+  text = with_effect(text, "dwell_stiction", {{"dwell_dFs", 0.01}, {"dwell_time", 200.0}, {"dwell_memory", 1e-5}});
+  text = with_effect(text, "direction_asymmetry", {{"asym_levels", 0.05}, {"asym_viscous", 0.1}});
+  const auto read = read_friction_report(text);
+  ASSERT_TRUE(std::holds_alternative<FrictionReport>(read)) << std::get<std::string>(read);
+  const IdentifiedFriction& m = std::get<FrictionReport>(read).model;
+  EXPECT_TRUE(m.elasto_plastic);
+  EXPECT_EQ(m.breakaway_ratio, 0.9);
+  EXPECT_TRUE(m.dwell);
+  EXPECT_EQ(m.dwell_time_s, 200.0);
+  EXPECT_TRUE(m.direction_asymmetry);
+  EXPECT_EQ(m.asymmetry_levels, 0.05);
+}
+
+TEST(FrictionReport, RefusesWhatTheCompensationCannotRepresentNamingIt) {
+  const std::string text = identification_report();
+  EXPECT_NE(error_of(with_effect(text, "rate_state", {{"rs_a", 0.01}, {"rs_b", 0.01}, {"rs_dc", 1e-7}}))
+                .find("rate_state: its log-velocity terms are referred to the identified record's median sliding speed"),
+            std::string::npos);
+  EXPECT_NE(error_of(with_effect(text, "backlash", {{"backlash_gap", 1e-8}})).find("final_model.effects has backlash"),
+            std::string::npos);
+  EXPECT_NE(error_of(with_effect(text, "load_dependence", {{"load_exponent", 0.3}})).find("median load"),
+            std::string::npos);
+  Json j = Json::parse(text);
+  j["input"]["force_unit"] = "Pa";
+  EXPECT_NE(error_of(j.dump()).find("input.force_unit is Pa"), std::string::npos);
+  j = Json::parse(text);
+  j["final_model"]["parameters"][3]["value"] = -1.0;
+  EXPECT_NE(error_of(j.dump()).find("final_model.parameters sigma0 = -1"), std::string::npos) << error_of(j.dump());
+  j = Json::parse(text);
+  j["final_model"]["parameters"][3]["value"] = nullptr;  // tribo-fit writes null for what it could not compute
+  EXPECT_NE(error_of(j.dump()).find("sigma0"), std::string::npos);
+  j = Json::parse(text);
+  j.erase("final_model");
+  EXPECT_NE(error_of(j.dump()).find("no final_model"), std::string::npos);
+  EXPECT_NE(error_of("{\"final_model\": ").find("not JSON"), std::string::npos);
+  EXPECT_NE(error_of("[1, 2]").find("not a JSON object"), std::string::npos);
+}
+
+// A plain load-scaled LuGre with a tilted tip, the form the fixture has.
+IdentifiedFriction plain_model() {
+  IdentifiedFriction m;
+  m.load_scaled = true;
+  m.coulomb = 0.09;
+  m.static_level = 0.12;
+  m.stribeck_velocity_m_per_s = 2e-6;
+  m.sigma0_n_per_m = 3000;
+  m.sigma1_n_s_per_m = 0.1;
+  m.viscous_n_s_per_m = 0.8;
+  m.tilt_tan = -0.026;
+  return m;
+}
+
+// F^ after sliding 20 µm at v (many times the bristle's deflection scale),
+// stepped with period dt.
+double steady_force(const IdentifiedFriction& m, double v, double normal, double dt) {
+  ObserverState s = observer_at_rest(m);
+  ObserverOutput o;
+  for (int k = 0; k < static_cast<int>(std::lround(20e-6 / std::fabs(v) / dt)); ++k) {
+    ObserverInput in;
+    in.commanded_velocity_m_per_s = v;
+    in.normal_force_n = normal;
+    in.period_s = dt;
+    o = observer_step(m, ObserverSettings{}, in, s);
+  }
+  return o.force_n;
+}
+
+TEST(FrictionObserver, SteadySlidingGivesTheModelsSteadyFrictionAtAnyLoopRate) {
+  const IdentifiedFriction m = plain_model();
+  for (const double v : {0.5e-6, 4e-6, -18e-6}) {
+    const double n = 9.81e-3;
+    const double level = (m.coulomb + (m.static_level - m.coulomb) * std::exp(-std::fabs(v) / 2e-6)) * n;
+    const double expected = (v > 0 ? level : -level) + m.viscous_n_s_per_m * v + m.tilt_tan * n;
+    EXPECT_NEAR(steady_force(m, v, n, 1e-4), expected, 1e-9 * level) << v;
+    // Each tick is integrated exactly: a 10 Hz loop reaches the same state.
+    EXPECT_NEAR(steady_force(m, v, n, 0.1), expected, 1e-9 * level) << v;
+  }
+}
+
+TEST(FrictionObserver, PreslidingIsElasticWithElastoPlasticity) {
+  IdentifiedFriction m = plain_model();
+  m.elasto_plastic = true;
+  m.breakaway_ratio = 0.9;
+  ObserverState s = observer_at_rest(m);
+  ObserverInput in;
+  in.commanded_velocity_m_per_s = 1e-6;
+  in.normal_force_n = 5e-3;
+  in.period_s = 1e-4;
+  ObserverOutput o;
+  for (int k = 0; k < 500; ++k) o = observer_step(m, ObserverSettings{}, in, s);  // 50 nm, within r g = 135 nm
+  EXPECT_NEAR(s.bristle_m, 50e-9, 1e-15);
+  EXPECT_NEAR(o.friction_n, m.sigma0_n_per_m * 50e-9 + m.sigma1_n_s_per_m * 1e-6 + m.viscous_n_s_per_m * 1e-6, 1e-12);
+  // Without it LuGre already slips within the elastic range.
+  m.elasto_plastic = false;
+  ObserverState plain = observer_at_rest(m);
+  for (int k = 0; k < 500; ++k) observer_step(m, ObserverSettings{}, in, plain);
+  EXPECT_LT(plain.bristle_m, 0.9 * 50e-9);
+}
+
+TEST(FrictionObserver, TheCorrectionCannotPushBeyondTheStaticFriction) {
+  const IdentifiedFriction m = plain_model();
+  ObserverSettings settings;
+  settings.observer_gain_per_s = 1e4;
+  ObserverState s = observer_at_rest(m);
+  ObserverInput in;
+  in.position_error_m = -5e-6;  // far behind: the correction wants ever more
+  in.normal_force_n = 5e-3;
+  in.period_s = 1e-4;
+  for (int k = 0; k < 1000; ++k) observer_step(m, settings, in, s);
+  EXPECT_NEAR(m.sigma0_n_per_m * s.bristle_m, m.static_level * in.normal_force_n, 1e-12);
+  // The correction works on the error's sign: behind, it pushes forward.
+  in.position_error_m = 5e-6;
+  for (int k = 0; k < 1000; ++k) observer_step(m, settings, in, s);
+  EXPECT_NEAR(m.sigma0_n_per_m * s.bristle_m, -m.static_level * in.normal_force_n, 1e-12);
+}
+
+TEST(FrictionObserver, AReadingThatIsNotFiniteLeavesTheStateAlone) {
+  const IdentifiedFriction m = plain_model();
+  ObserverState s = observer_at_rest(m);
+  ObserverInput in;
+  in.commanded_velocity_m_per_s = 1e-6;
+  in.normal_force_n = 5e-3;
+  in.period_s = 1e-4;
+  for (int k = 0; k < 100; ++k) observer_step(m, ObserverSettings{}, in, s);
+  const double z = s.bristle_m;
+  in.normal_force_n = std::nan("");
+  EXPECT_FALSE(observer_step(m, ObserverSettings{}, in, s).advanced);
+  EXPECT_EQ(s.bristle_m, z);
+}
+
+TEST(FrictionObserver, DwellStrengthensTheStaticLevelWithTheContactsAge) {
+  IdentifiedFriction m = plain_model();
+  m.dwell = true;
+  m.dwell_gain = 0.03;
+  m.dwell_time_s = 10;
+  m.dwell_memory_m = 1e-6;
+  ObserverState s = observer_at_rest(m);
+  ObserverInput in;
+  in.normal_force_n = 1e-3;
+  in.period_s = 0.1;
+  for (int k = 0; k < 100; ++k) observer_step(m, ObserverSettings{}, in, s);  // 10 s at rest
+  EXPECT_NEAR(s.contact_age_s, 10.0, 1e-9);
+  EXPECT_NEAR(identified_friction_level(m, 0, 1, 1e-3, 0, s.contact_age_s), (0.12 + 0.03 * 0.5) * 1e-3, 1e-15);
+  // Sliding ages it to D / |v|: 1 µm at 10 µm/s, 0.1 s.
+  in.commanded_velocity_m_per_s = 10e-6;
+  for (int k = 0; k < 100; ++k) observer_step(m, ObserverSettings{}, in, s);
+  EXPECT_NEAR(s.contact_age_s, 0.1, 1e-6);
+}
+
+TEST(FrictionObserver, RateAndStateSteadyFrictionFollowsItsVelocityDependence) {
+  IdentifiedFriction m = plain_model();
+  m.static_level = m.coulomb;  // no Stribeck drop: the log terms alone
+  m.rate_state = true;
+  m.rate_state_a = 0.012;
+  m.rate_state_b = 0.010;
+  m.rate_state_memory_m = 0.2e-6;
+  m.reference_speed_m_per_s = 2e-6;
+  for (const bool slip : {false, true}) {
+    m.rate_state_slip_law = slip;
+    const double n = 1e-3, v = 8e-6;
+    const double floor = 0.01 * m.reference_speed_m_per_s;
+    // Steady state theta = Dc / v: a ln((v + v_f)/v_ref) + b ln(v_ref / v).
+    const double level = (m.coulomb + m.rate_state_a * std::log((v + floor) / m.reference_speed_m_per_s) +
+                          m.rate_state_b * std::log(m.reference_speed_m_per_s / v)) *
+                         n;
+    EXPECT_NEAR(steady_force(m, v, n, 1e-4), level + m.viscous_n_s_per_m * v + m.tilt_tan * n, 1e-6 * level) << slip;
+  }
+}
+
+}  // namespace
+}  // namespace tribo::daemon
