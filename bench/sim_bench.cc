@@ -63,10 +63,11 @@ void run_scratch(benchmark::State& state, double max_h_lambda, tribo::v1::Integr
   run_scratch(state, config);
 }
 
-// Accurate: RK4 at h lambda <= 1 (the default). Coarse: the midpoint rule at
-// h lambda <= 1.2 (accuracy in tests/sim/integrator_accuracy_test.cc).
-// Both on the plain LuGre plant (the default config until issue 14), so the
-// figures compare with the earlier ones and with dissertation_fit's below.
+// Accurate: RK4 with the law at every stage at h lambda <= 1 (lugre_plain's
+// own integrator). Coarse: the midpoint rule at h lambda <= 1.2 (accuracy in
+// tests/sim/integrator_accuracy_test.cc). Both on the plain LuGre plant
+// (config/instruments/lugre_plain.textproto: LuGre with its Stribeck curve,
+// no rate-and-state, presliding or dwell terms), beside dissertation_fit's below.
 const char* const kPlainLugre = TRIBO_SOURCE_DIR "/config/instruments/lugre_plain.textproto";
 void BM_InstrumentAccurate(benchmark::State& state) {
   run_scratch(state, 1.0, tribo::v1::INTEGRATION_RK4, default_config(kPlainLugre));
@@ -84,7 +85,7 @@ void BM_InstrumentDissertationFitLawAtEveryStage(benchmark::State& state) {
   run_scratch(state, 1.0, tribo::v1::INTEGRATION_RK4, default_config(kDissertationFit));
 }
 
-// The new law's own cost (issue 14 limits it to 20 %): the fitted contact
+// The cost of the rate-and-state and elasto-plastic terms: the fitted contact
 // with rate-and-state and elasto-plastic presliding switched off (dwell, the
 // spot spread and the record noise kept), and plain LuGre with only the two
 // switched on at their fitted values.

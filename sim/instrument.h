@@ -135,7 +135,8 @@ class SimInstrument {
   const Measurement& measurement() const { return measurement_; }
   // friction_n and drive_force_n are evaluated here, on the first read after
   // a step, not in every step: only tests and diagnostics read them, and they
-  // cost ~6 % of a tick (issue 17). Same state, same inputs: the same values.
+  // cost ~6 % of a tick (bench/sim_bench.cc). Same state, same inputs: the
+  // same values.
   const InstrumentTruth& truth() const {
     if (friction_stale_) {
       truth_.friction_n = lateral_derivative(plant_, inputs_, truth_.lateral).friction_n;

@@ -115,7 +115,7 @@ struct LateralEvaluation {
 
 // stribeck_n_at_s, if given, is stribeck_n at s's contact point for these
 // inputs' levels, already computed (limit_to_static_friction returns it): the
-// same value, not evaluated twice (issue 17: each costs one to four
+// same value, not evaluated twice (for speed: each costs one to four
 // transcendental functions).
 LateralEvaluation lateral_derivative(const LateralPlant& plant, const LateralInputs& in,
                                      const LateralState& s, const double* stribeck_n_at_s = nullptr);

@@ -34,7 +34,7 @@ namespace {
 
 // alpha of the blend at u = z / g (r > 0). The divisions by parameters are
 // taken off the evaluation's dependency chain (multiplications by their
-// reciprocals), and the sine is sine_on_quarter's (issue 14: speed).
+// reciprocals), and the sine is sine_on_quarter's (for speed).
 double blend(double r, double v, double u) {
   if ((u > 0) != (v > 0) || u == 0) return 0.0;
   const double uabs = std::fabs(u);

@@ -211,7 +211,7 @@ bool sane(const LateralPlant& plant, const LateralInputs& in, const LateralState
   // The rate-and-state addition at 1 m/s and an age of 1e6 s: a bound, not a
   // state. It is at least 0 and only widens the bound, so its log1p and log
   // are taken only for a tick that the bound without it refuses: the same
-  // decision (issue 14: speed).
+  // decision, faster.
   return within(0.0) || within(std::max(0.0, rate_state_n(m, in.levels, 1.0, 1e6)));
 }
 

@@ -1,4 +1,4 @@
-// Numerical accuracy of the simulated instrument (issue 3). A closed-loop run
+// Numerical accuracy of the simulated instrument. A closed-loop run
 // (noise-free sensors, so that two runs differ only by their integration) is
 // repeated at a sub-step 100x finer than the accurate setting, as reference,
 // across loop rates 1-50 kHz and stress cases (stiff bristles, light
