@@ -24,6 +24,7 @@ void SimTransducer::begin_session(std::uint64_t seed) {
   faults_ = std::make_unique<sim::FaultInjector>(fault_specs_, seed);
   command_ = DriveCommand{};
   status_bits_ = 0;
+  report_ = {};
   ticks_ = 0;
   pacer_.reset();
   if (pace_to_wall_clock_) pacer_ = std::make_unique<WallClockPacer>(period_s_, &wake_);
@@ -52,12 +53,11 @@ IoResult SimTransducer::write(const DriveCommand& command) {
 
 void SimTransducer::wait_next_tick() {
   const sim::DriveInput commanded{command_.normal_force_n, command_.lateral_force_n};
-  const sim::StepReport report =
-      instrument_->step(faults_->empty() ? commanded : faults_->actuate(commanded), period_s_);
+  report_ = instrument_->step(faults_->empty() ? commanded : faults_->actuate(commanded), period_s_);
   ++ticks_;
   // Tick times as the controller counts them (k periods), not a running sum.
   if (!faults_->empty()) faults_->advance(static_cast<double>(ticks_) * period_s_, commanded);
-  status_bits_ = sensor_status_of(report);
+  status_bits_ = sensor_status_of(report_);
   if (pacer_) pacer_->wait();
 }
 

@@ -37,6 +37,8 @@ class SimTransducer : public Transducer {
 
   // The plant's true state: for tests and diagnostics, never for control.
   const sim::SimInstrument& instrument() const { return *instrument_; }
+  // What the last tick's step reported (sub-steps, evaluations of the contact law).
+  const sim::StepReport& last_report() const { return report_; }
 
  private:
   sim::InstrumentParams params_;
@@ -46,6 +48,7 @@ class SimTransducer : public Transducer {
   double period_s_;
   DriveCommand command_;
   std::uint32_t status_bits_ = 0;
+  sim::StepReport report_;
   TickWake wake_;  // outlives every pacer_: interrupt_wait() may come from any thread at any time
   std::unique_ptr<WallClockPacer> pacer_;
   std::unique_ptr<sim::FaultInjector> faults_;  // sim/fault_injection.h; empty: no faults

@@ -25,12 +25,14 @@ struct CompactPlant {
     const double v = s.v - in.sample_velocity_m_per_s;
     if (in.levels.in_contact()) {
       const ContactPoint c{v, kLag ? s.lag : v, s.x - in.sample_offset_m, s.age, s.phi};
-      const double g = stribeck_n(m, in.levels, c) / m.lugre.sigma0_n_per_m;
-      const LugreOutput out = lugre_bristle(m.lugre, g, v, s.z);
+      const LugreOutput out = lugre_bristle_at_inverse_scale(m.lugre, m.lugre.sigma0_n_per_m / stribeck_n(m, in.levels, c), v, s.z);
       r.z = out.dz_dt_m_per_s;
       friction_n = out.force_n;
-      if constexpr (kDwell) r.age = 1.0 - std::fabs(v) * s.age / m.dwell_stiction.memory_length_m;
-      if constexpr (kRateState) r.phi = rate_state_rate(m.rate_state, v - r.z, s.phi);
+      if constexpr (kDwell || kRateState) {
+        const ContactStateRates slow = contact_state_rates(m, c, v - r.z);
+        r.age = slow.contact_age;
+        r.phi = slow.rate_state;
+      }
     }
     if constexpr (kLag) r.lag = (v - s.lag) / m.frictional_lag.time_constant_s;
     const double plate_n = in.drive.force_n(s.x) - axis.spring_n_per_m * s.x - axis.damping_n_s_per_m * s.v;

@@ -1,4 +1,4 @@
-// The specialised path of integrate_lateral (issue 17: speed): for a plant
+// The specialised path of integrate_lateral, for speed: for a plant
 // without backlash and without Maxwell-slip elements (every named instrument
 // config), the RK4 or midpoint sub-steps run on the states in use only
 // (x, v, z, and the contact age and rate-and-state states where their

@@ -141,6 +141,15 @@ SlidingAndStatic stribeck_and_static_n(const FrictionModel& m, const FrictionLev
       stribeck_at(m, levels, t, kAtRest, direction)};
 }
 
+ContactStateRates contact_state_rates(const FrictionModel& m, const ContactPoint& c, double slip_rate) {
+  ContactStateRates r;
+  if (m.dwell_stiction.enabled) {
+    r.contact_age = 1.0 - std::fabs(c.velocity_m_per_s) * c.contact_age_s / m.dwell_stiction.memory_length_m;
+  }
+  if (m.rate_state.enabled) r.rate_state = rate_state_rate(m.rate_state, slip_rate, c.rate_state_s);
+  return r;
+}
+
 double modulation_floor(const FrictionModel& m) {
   double floor = 1.0;
   if (m.position_periodic.enabled) floor *= 1.0 - std::fabs(m.position_periodic.amplitude);

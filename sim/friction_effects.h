@@ -169,6 +169,17 @@ struct ContactPoint {
 // plain model when none is enabled.
 double stribeck_n(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c);
 
+// The rates of the contact's own slow states at the point, the bristles'
+// slip rate given (the tip's velocity less their elastic rate; sim/lateral_plant.cc):
+// d theta/dt of dwell_stiction and d phi/dt of rate_state (0 when off).
+// With stribeck_n this is the whole contact law the integrators call
+// (sim/step_size.h): a change of the law's formulas goes here and there.
+struct ContactStateRates {
+  double contact_age = 0;  // d theta/dt
+  double rate_state = 0;   // d phi/dt
+};
+ContactStateRates contact_state_rates(const FrictionModel& m, const ContactPoint& c, double slip_rate_m_per_s);
+
 // S at rest, pushed towards sgn(direction): the most the contact holds stuck.
 double static_friction_n(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c,
                          double direction);

@@ -95,6 +95,7 @@ StepReport SimInstrument::step(const DriveInput& drive, double dt_s) {
     lateral.slip_m = {};
     lateral.contact_age_s = 0;
     lateral.rate_state_s = params_.friction.rate_state.initial_state_s;
+    held_contact_ = {};
   }
   inputs_.tip_force_n = load * tan_tilt_;
   inputs_.sample_velocity_m_per_s = truth_.sample_velocity_m_per_s;
@@ -107,14 +108,15 @@ StepReport SimInstrument::step(const DriveInput& drive, double dt_s) {
   if (truth_.dead_time_s > 0) {
     LateralInputs dead = inputs_;
     dead.drive = dead_field;
-    report = advance_lateral(plant_, dead, params_.integrator, truth_.dead_time_s, lateral, &stribeck_now);
+    report = advance_lateral(plant_, dead, params_.integrator, truth_.dead_time_s, lateral, &stribeck_now,
+                             &held_contact_);
   }
   if (truth_.dead_time_s < dt_s) {
     const AdvanceReport rest = advance_lateral(plant_, inputs_, params_.integrator, dt_s - truth_.dead_time_s, lateral,
-                                               truth_.dead_time_s > 0 ? nullptr : &stribeck_now);
-    report = AdvanceReport{report.substeps + rest.substeps, report.split || rest.split,
-                           report.capped || rest.capped, report.stopped || rest.stopped,
-                           report.retried || rest.retried};
+                                               truth_.dead_time_s > 0 ? nullptr : &stribeck_now, &held_contact_);
+    report = AdvanceReport{report.substeps + rest.substeps, report.law_evaluations + rest.law_evaluations,
+                           report.split || rest.split, report.capped || rest.capped,
+                           report.stopped || rest.stopped, report.retried || rest.retried};
   } else {
     inputs_.drive = dead_field;
   }
@@ -134,7 +136,8 @@ StepReport SimInstrument::step(const DriveInput& drive, double dt_s) {
   }
 
   sample_sensors(drive, dt_s);
-  return StepReport{report.substeps, report.split, report.capped, stopped, truth_.handover, report.retried};
+  return StepReport{report.substeps, report.law_evaluations, report.split, report.capped, stopped, truth_.handover,
+                    report.retried};
 }
 
 void SimInstrument::sample_sensors(const DriveInput& drive, double dt_s) {

@@ -117,6 +117,7 @@ struct InstrumentTruth {
 
 struct StepReport {
   int substeps = 0;
+  int law_evaluations = 0;       // of S, by the held-contact scheme (sim/held_contact.h)
   bool split = false;            // the contact relaxation was integrated exactly
   bool substep_cap_hit = false;
   bool snapped = false;
@@ -134,7 +135,8 @@ class SimInstrument {
   const Measurement& measurement() const { return measurement_; }
   // friction_n and drive_force_n are evaluated here, on the first read after
   // a step, not in every step: only tests and diagnostics read them, and they
-  // cost ~6 % of a tick (issue 17). Same state, same inputs: the same values.
+  // cost ~6 % of a tick (bench/sim_bench.cc). Same state, same inputs: the
+  // same values.
   const InstrumentTruth& truth() const {
     if (friction_stale_) {
       truth_.friction_n = lateral_derivative(plant_, inputs_, truth_.lateral).friction_n;
@@ -170,6 +172,7 @@ class SimInstrument {
   NoiseSource lateral_position_record_noise_;
   FirstOrderGaussMarkov sample_creep_;
   WearTrack wear_;
+  HeldContactMemory held_contact_;  // the held-contact scheme's estimate of S's change
   double settled_force_n_ = 0, settled_surface_m_ = 0;
 };
 

@@ -100,7 +100,9 @@ InstrumentParams instrument_params_from_config(const v1::SimConfig& c) {
   p.sensors.normal_displacement_drift_m_per_s = sn.normal_displacement_drift_m_per_s();
   p.sensors.lateral_position_record_noise_m = sn.lateral_position_record_noise_m();
   p.integrator = {c.integrator().max_h_lambda(), static_cast<int>(c.integrator().max_substeps()),
-                  c.integrator().method() == v1::INTEGRATION_MIDPOINT};
+                  c.integrator().method() == v1::INTEGRATION_MIDPOINT,
+                  c.integrator().method() == v1::INTEGRATION_RK4_HELD_CONTACT,
+                  c.integrator().contact_law_tolerance_n()};
   return p;
 }
 
@@ -308,8 +310,9 @@ std::optional<std::string> validate_sim_config(const v1::SimConfig& c) {
       {"sensors.normal_displacement_drift_m_per_s", std::fabs(s.normal_displacement_drift_m_per_s()), 0, 1e-6, true},
       {"sensors.lateral_position_record_noise_m", s.lateral_position_record_noise_m(), 0, 1e-6, true},
       {"integrator.max_h_lambda", c.integrator().max_h_lambda(), 0,
-       c.integrator().method() == v1::INTEGRATION_MIDPOINT ? 1.8 : 2.5, false},
+       c.integrator().method() == v1::INTEGRATION_RK4 ? 2.5 : 1.8, false},
       {"integrator.max_substeps", static_cast<double>(c.integrator().max_substeps()), 1, 1e5, true},
+      {"integrator.contact_law_tolerance_n", c.integrator().contact_law_tolerance_n(), 0, 1e-6, true},
   });
 }
 

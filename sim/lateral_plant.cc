@@ -28,14 +28,14 @@ ContactPoint contact_point(const LateralPlant& plant, const LateralInputs& in, c
                       tip_position_m(plant, s) - in.sample_offset_m, s.contact_age_s, s.rate_state_s};
 }
 
-// Friction force of the bristle(s) at deflection scale g; fills their rates.
-double bristle_force_n(const FrictionModel& m, double g, double v, const LateralState& s,
+// Friction force of the bristle(s) at deflection scale g (1/g = q); fills their rates.
+double bristle_force_n(const FrictionModel& m, double g, double q, double v, const LateralState& s,
                        LateralEvaluation& e) {
   const LugreParams& p = m.lugre;
   const PreslidingHysteresisParams& h = m.presliding_hysteresis;
   LateralRate& r = e.rate;
   if (!h.enabled) {
-    const LugreOutput out = lugre_bristle(p, g, v, s.bristle_m);
+    const LugreOutput out = lugre_bristle_at_inverse_scale(p, q, v, s.bristle_m);
     r.bristle_m = out.dz_dt_m_per_s;
     e.plasticity = out.plasticity;
     return out.force_n;
@@ -73,14 +73,15 @@ LateralEvaluation lateral_derivative(const LateralPlant& plant, const LateralInp
   LateralRate& r = e.rate;
   const ContactPoint c = contact_point(plant, in, s);
   if (in.levels.in_contact()) {
-    const double g = (stribeck_n_at_s ? *stribeck_n_at_s : stribeck_n(m, in.levels, c)) / m.lugre.sigma0_n_per_m;
+    const double stribeck = stribeck_n_at_s ? *stribeck_n_at_s : stribeck_n(m, in.levels, c);
+    const double g = stribeck / m.lugre.sigma0_n_per_m;
     e.deflection_scale_m = g;
-    e.friction_n = bristle_force_n(m, g, c.velocity_m_per_s, s, e);
-    if (m.dwell_stiction.enabled) {
-      r.contact_age_s = 1.0 - std::fabs(c.velocity_m_per_s) * s.contact_age_s / m.dwell_stiction.memory_length_m;
-    }
-    if (m.rate_state.enabled) {
-      r.rate_state_s = rate_state_rate(m.rate_state, slip_rate_m_per_s(plant, c.velocity_m_per_s, r), s.rate_state_s);
+    e.inverse_scale_per_m = m.lugre.sigma0_n_per_m / stribeck;
+    e.friction_n = bristle_force_n(m, g, e.inverse_scale_per_m, c.velocity_m_per_s, s, e);
+    if (m.dwell_stiction.enabled || m.rate_state.enabled) {
+      const ContactStateRates slow = contact_state_rates(m, c, slip_rate_m_per_s(plant, c.velocity_m_per_s, r));
+      r.contact_age_s = slow.contact_age;
+      r.rate_state_s = slow.rate_state;
     }
   } else {
     for (int i = 0; i < slip_elements(plant); ++i) r.slip_m[i] = 0;  // out of contact nothing slips

@@ -109,12 +109,13 @@ struct LateralEvaluation {
   LateralRate rate;
   double friction_n = 0;
   double deflection_scale_m = 0;  // g at the evaluated point (0 out of contact)
+  double inverse_scale_per_m = 0; // 1/g (0 out of contact)
   double plasticity = 1;          // alpha of the single bristle (no Maxwell-slip elements)
 };
 
 // stribeck_n_at_s, if given, is stribeck_n at s's contact point for these
 // inputs' levels, already computed (limit_to_static_friction returns it): the
-// same value, not evaluated twice (issue 17: each costs one to four
+// same value, not evaluated twice (for speed: each costs one to four
 // transcendental functions).
 LateralEvaluation lateral_derivative(const LateralPlant& plant, const LateralInputs& in,
                                      const LateralState& s, const double* stribeck_n_at_s = nullptr);

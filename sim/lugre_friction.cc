@@ -34,7 +34,7 @@ namespace {
 
 // alpha of the blend at u = z / g (r > 0). The divisions by parameters are
 // taken off the evaluation's dependency chain (multiplications by their
-// reciprocals), and the sine is sine_on_quarter's (issue 14: speed).
+// reciprocals), and the sine is sine_on_quarter's (for speed).
 double blend(double r, double v, double u) {
   if ((u > 0) != (v > 0) || u == 0) return 0.0;
   const double uabs = std::fabs(u);
@@ -50,16 +50,15 @@ double plasticity(double r, double v, double z, double g) {
   return blend(r, v, z / g);
 }
 
-LugreOutput lugre_bristle(const LugreParams& p, double g, double v, double z) {
-  double alpha = 1.0, dz;
-  if (p.breakaway_ratio <= 0) {  // plain LuGre, its operations unchanged (sample pins)
-    dz = v - std::fabs(v) * z / g;
-  } else {
-    const double u = z / g;  // one division, shared by alpha and the slip rate
-    alpha = blend(p.breakaway_ratio, v, u);
-    dz = v - alpha * std::fabs(v) * u;
-  }
+LugreOutput lugre_bristle_at_inverse_scale(const LugreParams& p, double inverse_g, double v, double z) {
+  const double u = z * inverse_g;  // shared by alpha and the slip rate
+  const double alpha = p.breakaway_ratio <= 0 ? 1.0 : blend(p.breakaway_ratio, v, u);
+  const double dz = v - alpha * std::fabs(v) * u;
   return LugreOutput{dz, p.sigma0_n_per_m * z + p.sigma1_n_s_per_m * dz + p.sigma2_n_s_per_m * v, alpha};
+}
+
+LugreOutput lugre_bristle(const LugreParams& p, double g, double v, double z) {
+  return lugre_bristle_at_inverse_scale(p, 1.0 / g, v, z);
 }
 
 LugreOutput lugre_evaluate(const LugreParams& p, const FrictionLevels& levels, double v, double z) {

@@ -70,6 +70,11 @@ struct LugreOutput {
 // One bristle with deflection scale g: dz/dt and sigma0 z + sigma1 dz/dt + sigma2 v.
 LugreOutput lugre_bristle(const LugreParams& p, double g_m, double velocity_m_per_s, double z_m);
 
+// The same with 1/g given (an integrator that holds g over a sub-step
+// divides once, not at every stage).
+LugreOutput lugre_bristle_at_inverse_scale(const LugreParams& p, double inverse_g_per_m, double velocity_m_per_s,
+                                           double z_m);
+
 // The plain model at velocity v and bristle deflection z (g = S(v) / sigma0).
 // Out of contact the force is zero and the bristles do not move.
 LugreOutput lugre_evaluate(const LugreParams& p, const FrictionLevels& levels,

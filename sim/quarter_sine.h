@@ -1,4 +1,4 @@
-// sin x for |x| <= pi/2 without a branch (issue 14: speed of the fitted contact).
+// sin x for |x| <= pi/2 without a branch (the fitted contact's speed).
 // The elasto-plastic blend (sim/lugre_friction.h) takes a sine whose argument
 // pi (|z|/g - (1 + r)/2) / (1 - r) stays within [-pi/2, pi/2] and, on a
 // sliding contact under the loop's dither, mostly within 0.6 of +pi/2,

@@ -1,9 +1,12 @@
 #include "sim/step_size.h"
 
+#include "sim/held_contact.h"
 #include "sim/quarter_sine.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <numbers>
 
 namespace tribo::sim {
@@ -16,6 +19,13 @@ double second_order_rate(double damping, double stiffness) {
   return disc >= 0 ? 0.5 * damping + std::sqrt(disc) : std::sqrt(stiffness);
 }
 
+// An upper bound on |ln x| for a normal x > 0, within ln 2 of it, from its
+// binary exponent e (2^e <= x < 2^(e+1)): no call to log for a bound.
+double log_magnitude_bound(double x) {
+  const int e = static_cast<int>((std::bit_cast<std::uint64_t>(x) >> 52) & 0x7ff) - 1023;
+  return (e >= 0 ? e + 1 : -e) * std::numbers::ln2;
+}
+
 }  // namespace
 
 LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs& in,
@@ -25,7 +35,7 @@ LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs&
 
 LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs& in,
                                  const LateralState& s, const LateralEvaluation& now, double dt_s,
-                                 bool with_split) {
+                                 bool with_split, double enough_per_s) {
   const LateralAxisParams& axis = plant.axis;
   const BacklashParams& b = axis.backlash;
   const FrictionModel& m = plant.friction;
@@ -68,42 +78,51 @@ LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs&
   const PreslidingHysteresisParams& hy = m.presliding_hysteresis;
   const double share_min = hy.enabled ? 1.0 - hy.spread : 1.0;
   const double share_max = hy.enabled ? 1.0 + hy.spread : 1.0;
-  // |v| g'(v) / g, bounded over the Stribeck curve.
-  const double shape = (in.levels.static_n * dwell - in.levels.coulomb_n) /
-                           (std::numbers::e * in.levels.coulomb_n) +
-                       in.levels.strengthening_n / f_min +
-                       in.levels.rate_state_n * m.rate_state.direct_coeff / f_min;
+  // |v| g'(v) / g = |v| S'(v) / S: its numerator bounded over the Stribeck
+  // curve, (Fs D - Fc)/e + Fvs + a N; S at least the smaller of Fc and half
+  // its present value (no effect halves S within a tick at h lambda <= 1),
+  // and never below its floor f_min.
+  const double present_n = now.deflection_scale_m * p.sigma0_n_per_m;
+  const double shape = ((in.levels.static_n * dwell - in.levels.coulomb_n) / std::numbers::e +
+                        in.levels.strengthening_n + in.levels.rate_state_n * m.rate_state.direct_coeff) /
+                       std::max(f_min, std::min(in.levels.coulomb_n, 0.5 * present_n));
 
-  // The present deflection scale and how deep the bristle sits in it.
-  double g = now.deflection_scale_m * share_min, z_ratio = 0, d = 0;
+  // The present deflection scale (as 1/g, the evaluation's) and how deep the
+  // bristle sits in it.
+  const double q = hy.enabled ? now.inverse_scale_per_m / share_min : now.inverse_scale_per_m;
+  double z_ratio = 0, d = 0;
   const double r = hy.enabled ? hy.breakaway_ratio : p.breakaway_ratio;
+  // Within the elasto-plastic blend's elastic range for the whole tick
+  // (alpha = 0 wherever the bristle can be, with a factor 2 on its reach)
+  // dz/dt = v exactly: d = 1 and no relaxation, whatever g does.
+  bool elastic = false;
   if (!hy.enabled) {
-    z_ratio = std::fabs(s.bristle_m) / g;
+    z_ratio = std::fabs(s.bristle_m) * q;
+    elastic = r > 0 && z_ratio + 2.0 * v_reach * dt_s * q <= r;
     // alpha at g = the evaluation's own g (share_min is 1 here): the same value.
     const double alpha = now.plasticity;
-    const double along = v > 0 ? s.bristle_m / g : (v < 0 ? -s.bristle_m / g : 0.0);
-    d = may_reverse ? 1.0 + z_ratio * (1.0 + shape) : std::fabs(1.0 - alpha * along) + z_ratio * shape;
+    const double along = v > 0 ? s.bristle_m * q : (v < 0 ? -s.bristle_m * q : 0.0);
+    d = elastic ? 1.0
+        : may_reverse ? 1.0 + z_ratio * (1.0 + shape)
+                      : std::fabs(1.0 - alpha * along) + z_ratio * shape;
   } else {
-    for (int i = 0; i < hy.elements; ++i) z_ratio = std::max(z_ratio, std::fabs(s.slip_m[i]) / g);
+    for (int i = 0; i < hy.elements; ++i) z_ratio = std::max(z_ratio, std::fabs(s.slip_m[i]) * q);
     d = 1.0 + z_ratio * (1.0 + shape);
   }
   // |d(alpha |v| z / g)/dz| <= (|v| / g)(1 + (|z|/g) g dalpha/dz). The sine
   // blend's slope g dalpha/dz = pi / (2 (1 - r)) cos(pi (|z|/g - (1 + r)/2) / (1 - r))
-  // peaks mid-blend and is 0 at both ends; bound it over the |z|/g the tick
-  // can reach (the elastic contact at rest and steady sliding at |z| = g see
-  // little of it).
-  double steepness = 1.0;
-  if (r > 0) {
-    const double reach = v_reach * dt_s / g, lo = z_ratio - reach, hi = z_ratio + reach;
-    const double mid = 0.5 * (1.0 + r);
-    if (hi > r && lo < 1.0) {
-      const double nearest = std::clamp(mid, lo, hi);  // where the slope is largest within reach
-      // cos of an angle within [-pi/2, pi/2] (nearest lies between r and 1) as
-      // the sine of its distance to pi/2, by sim/quarter_sine.h.
-      const double angle = std::numbers::pi * (nearest - mid) / (1.0 - r);
-      const double slope = std::numbers::pi / (2.0 * (1.0 - r)) * sine_on_quarter(std::numbers::pi / 2 - std::fabs(angle));
-      steepness = 1.0 + std::min(hi, 1.0) * std::max(0.0, slope);
-    }
+  // peaks mid-blend at pi / (2 (1 - r)) and is 0 at both ends; where that
+  // peak keeps the estimate under enough_per_s it is taken, else the slope
+  // is bounded over the |z|/g the tick can reach (the elastic contact at rest
+  // and steady sliding at |z| = g see little of it).
+  double steepest = elastic ? 0.0 : 1.0, lo = 0, hi = 0;
+  bool in_blend = false;
+  if (r > 0 && !elastic) {
+    const double reach = v_reach * dt_s * q;
+    lo = z_ratio - reach;
+    hi = z_ratio + reach;
+    in_blend = hi > r && lo < 1.0;
+    if (in_blend) steepest = 1.0 + std::min(hi, 1.0) * std::numbers::pi / (2.0 * (1.0 - r));
   }
 
   double periodic = 0;  // times |z| / g
@@ -116,10 +135,20 @@ LateralRates lateral_rate_bounds(const LateralPlant& plant, const LateralInputs&
   if (m.rate_state.enabled) {  // |d(dphi/dt)/dphi| = r (ageing), r (|ln(r phi)| + 1) (slip); r = (|v| + V*)/D_c
     const double rate = (v_reach + m.rate_state.reference_velocity_m_per_s) / m.rate_state.memory_length_m;
     const double x = rate * s.rate_state_s;
-    const double slope = m.rate_state.law == StateLaw::kSlip && x > 0 ? std::fabs(std::log(x)) + 1.0 : 1.0;
+    const double slope = m.rate_state.law == StateLaw::kSlip && x > 0 ? log_magnitude_bound(x) + 1.0 : 1.0;
     ageing += rate * slope;
   }
-  const double full = mechanical(d) + v_reach / g * steepness + periodic * z_ratio + ageing + lag;
+  const double rest = mechanical(d) + (elastic ? 0.0 : periodic * z_ratio) + ageing + lag;
+  double full = rest + v_reach * q * steepest;
+  if (in_blend && full > enough_per_s) {
+    const double mid = 0.5 * (1.0 + r);
+    const double nearest = std::clamp(mid, lo, hi);  // where the slope is largest within reach
+    // cos of an angle within [-pi/2, pi/2] (nearest lies between r and 1) as
+    // the sine of its distance to pi/2, by sim/quarter_sine.h.
+    const double angle = std::numbers::pi * (nearest - mid) / (1.0 - r);
+    const double slope = std::numbers::pi / (2.0 * (1.0 - r)) * sine_on_quarter(std::numbers::pi / 2 - std::fabs(angle));
+    full = rest + v_reach * q * (1.0 + std::min(hi, 1.0) * std::max(0.0, slope));
+  }
   if (!with_split) return LateralRates{full, 0.0};
 
   // The split scheme's rate: d at its bound over the largest g the tick can reach.
@@ -173,6 +202,7 @@ bool sane(const LateralPlant& plant, const LateralInputs& in, const LateralState
     const double g_max = 4.0 * (std::max(in.levels.static_n * dwell, in.levels.coulomb_n) + in.levels.strengthening_n * 40.0 + rate_state) /
                          (modulation_floor(m) * m.lugre.sigma0_n_per_m);
     if (std::fabs(s.bristle_m) > g_max) return false;
+    if (!m.presliding_hysteresis.enabled) return true;
     for (double z : s.slip_m) {
       if (!std::isfinite(z) || std::fabs(z) > 2.0 * g_max) return false;
     }
@@ -181,7 +211,7 @@ bool sane(const LateralPlant& plant, const LateralInputs& in, const LateralState
   // The rate-and-state addition at 1 m/s and an age of 1e6 s: a bound, not a
   // state. It is at least 0 and only widens the bound, so its log1p and log
   // are taken only for a tick that the bound without it refuses: the same
-  // decision (issue 14: speed).
+  // decision, faster.
   return within(0.0) || within(std::max(0.0, rate_state_n(m, in.levels, 1.0, 1e6)));
 }
 
@@ -189,13 +219,15 @@ bool sane(const LateralPlant& plant, const LateralInputs& in, const LateralState
 
 AdvanceReport advance_lateral(const LateralPlant& plant, const LateralInputs& in,
                               const IntegratorSettings& settings, double dt_s, LateralState& s,
-                              const double* stribeck_n_at_s) {
+                              const double* stribeck_n_at_s, HeldContactMemory* memory) {
   const LateralState start = s;
-  const LateralEvaluation now = lateral_derivative(plant, in, s, stribeck_n_at_s);
+  const bool held = settings.held_contact && held_contact_applies(plant);
+  const LateralEvaluation now = held ? held_contact_start(plant, in, s, stribeck_n_at_s)
+                                     : lateral_derivative(plant, in, s, stribeck_n_at_s);
   // Most ticks need one RK4 sub-step, and then plan_substeps takes RK4 whatever
   // the split rate (1 <= kSplitAdvantage x at least 1): the split rate (a log1p
   // and a log with rate-and-state) is estimated only when the plan needs it.
-  LateralRates rates = lateral_rate_bounds(plant, in, s, now, dt_s, false);
+  LateralRates rates = lateral_rate_bounds(plant, in, s, now, dt_s, false, settings.max_h_lambda / dt_s);
   bool have_split = false;
   StepPlan plan;
   // wanted_substeps(...) == 1 exactly when the ratio is at most 1 (ceil(x) <= 1,
@@ -206,8 +238,17 @@ AdvanceReport advance_lateral(const LateralPlant& plant, const LateralInputs& in
     plan = plan_substeps(rates, dt_s, settings.max_h_lambda, settings.max_substeps);
   }
   const SubstepScheme scheme = settings.midpoint ? SubstepScheme::kMidpoint : SubstepScheme::kRk4;
-  bool stopped = plan.split ? integrate_lateral_split(plant, in, dt_s, plan.substeps, s, scheme)
-                            : integrate_lateral(plant, in, dt_s, plan.substeps, s, &now.rate, scheme);
+  int law_evaluations = 0;
+  bool stopped;
+  if (memory && (plan.split || !held)) *memory = {};  // the next held sub-step starts without an estimate
+  if (plan.split) {
+    stopped = integrate_lateral_split(plant, in, dt_s, plan.substeps, s, scheme);
+  } else if (held) {
+    stopped = integrate_lateral_held(plant, in, dt_s, plan.substeps, s, &now, settings.contact_law_tolerance_n, memory,
+                                     &law_evaluations);
+  } else {
+    stopped = integrate_lateral(plant, in, dt_s, plan.substeps, s, &now.rate, scheme);
+  }
   bool retried = false;
   if (!sane(plant, in, s)) {
     // The rate estimate was beaten (a violent transient): redo the tick with
@@ -220,12 +261,13 @@ AdvanceReport advance_lateral(const LateralPlant& plant, const LateralInputs& in
     plan = StepPlan{static_cast<int>(std::min<double>(n, settings.max_substeps)), true,
                     n > settings.max_substeps};
     stopped = integrate_lateral_split(plant, in, dt_s, plan.substeps, s, scheme);
+    if (memory) *memory = {};
   }
   if (!plant.axis.backlash.enabled) {  // without backlash the tip is the plate
     s.tip_position_m = s.position_m;
     s.tip_velocity_m_per_s = s.velocity_m_per_s;
   }
-  return AdvanceReport{plan.substeps, plan.split, plan.capped, stopped, retried};
+  return AdvanceReport{plan.substeps, law_evaluations, plan.split, plan.capped, stopped, retried};
 }
 
 }  // namespace tribo::sim

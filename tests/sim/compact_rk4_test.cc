@@ -3,7 +3,7 @@
 // serves (dwell and rate-and-state on and off, RK4 and midpoint, one and
 // several sub-steps, an ideal and an electrostatic drive with stops, in and
 // out of contact, across stick, the elasto-plastic blend and sliding), and
-// it stays out of the plants and states it does not serve (issue 17).
+// it stays out of the plants and states it does not serve.
 #include "sim/compact_rk4.h"
 
 #include <gtest/gtest.h>

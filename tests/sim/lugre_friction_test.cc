@@ -105,7 +105,7 @@ TEST(ElastoPlastic, UnloadingIsElasticAndSlidingIsUnchanged) {
   EXPECT_DOUBLE_EQ(lugre_evaluate(p, levels, 1e-6, g).dz_dt_m_per_s, 0.0);
 }
 
-// The blend's sine (sim/quarter_sine.h, issue 14: speed) is sin to within
+// The blend's sine (sim/quarter_sine.h, for speed) is sin to within
 // 3 units in the last place over the whole quarter wave its argument spans,
 // and the blend it gives is Dupont's sine blend to 1e-14 (the argument,
 // scaled by pi / (1 - r) = 38, carries the rounding of z / g): the polynomial

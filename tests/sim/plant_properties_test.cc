@@ -44,6 +44,28 @@ void rate_state_ageing(InstrumentParams& p) {
   rate_state(p);
   p.friction.rate_state.law = StateLaw::kAgeing;
 }
+// The held-contact scheme (sim/held_contact.h), with the default's tolerance
+// for holding S at a sub-step's start.
+void held(InstrumentParams& p) {
+  p.integrator.held_contact = true;
+  p.integrator.contact_law_tolerance_n = 1e-8;
+}
+void held_elasto_plastic(InstrumentParams& p) {
+  elasto_plastic(p);
+  held(p);
+}
+void held_dwell(InstrumentParams& p) {
+  dwell(p);
+  held(p);
+}
+void held_rate_state(InstrumentParams& p) {
+  rate_state(p);
+  held(p);
+}
+void held_rate_state_ageing(InstrumentParams& p) {
+  rate_state_ageing(p);
+  held(p);
+}
 void effects(InstrumentParams& p) {
   dwell(p);
   strengthening(p);
@@ -99,8 +121,9 @@ TEST_P(EnergyWithoutDrive, NeverGrows) {
     s.bristle_m = (2 * random.uniform() - 1) * g;
     for (double& z : s.slip_m) z = (2 * random.uniform() - 1) * g * (1 - params.friction.presliding_hysteresis.spread);
     double energy = stored_energy_j(plant, in, s);
+    HeldContactMemory memory;
     for (int k = 0; k < 1000; ++k) {
-      advance_lateral(plant, in, params.integrator, dt, s);
+      advance_lateral(plant, in, params.integrator, dt, s, nullptr, &memory);
       const double next = stored_energy_j(plant, in, s);
       const double growth = (next - energy) / std::max(std::fabs(energy), 1e-18);
       worst = std::max(worst, growth);
@@ -124,7 +147,14 @@ INSTANTIATE_TEST_SUITE_P(
                       EnergyCase{"asymmetry", 1e-3, asymmetry, false}, EnergyCase{"effects", 1e-3, effects, false},
                       EnergyCase{"rate_state_10mN", 10e-3, rate_state, false},
                       EnergyCase{"rate_state_ageing", 1e-3, rate_state_ageing, false},
-                      EnergyCase{"no_contact", 0.0, plain, true}),
+                      EnergyCase{"no_contact", 0.0, plain, true},
+                      EnergyCase{"held_lugre_1mN", 1e-3, held, false},
+                      EnergyCase{"held_light_load", 2e-6, held, false},
+                      EnergyCase{"held_biased_plates", 1e-3, held, true},
+                      EnergyCase{"held_elasto_plastic", 1e-3, held_elasto_plastic, false},
+                      EnergyCase{"held_dwell", 1e-3, held_dwell, false},
+                      EnergyCase{"held_rate_state_10mN", 10e-3, held_rate_state, false},
+                      EnergyCase{"held_rate_state_ageing", 1e-3, held_rate_state_ageing, false}),
     [](const ::testing::TestParamInfo<EnergyCase>& info) { return std::string(info.param.name); });
 
 // The loop gains for a loop rate: the default I-PD at 10 kHz and above; a

@@ -1,5 +1,5 @@
-// The record readout noise of the lateral position (issue 14,
-// sim.sensors.lateral_position_record_noise_m): the recorded position carries
+// The record readout noise of the lateral position
+// (sim.sensors.lateral_position_record_noise_m): the recorded position carries
 // Table 3.2's 10 nm floor, the position loop and the tip do not see it, it is
 // deterministic with the seed, and 0 records the loop's reading bit for bit.
 #include <gtest/gtest.h>
@@ -91,7 +91,7 @@ TEST(RecordNoise, ZeroRecordsTheLoopReadingBitForBit) {
   const Trace tr = rest_at_1mN(with_record_noise(0), 1);
   ASSERT_FALSE(tr.loop.empty());
   EXPECT_EQ(std::memcmp(tr.loop.data(), tr.recorded.data(), tr.loop.size() * sizeof(double)), 0);
-  // Since issue 14 the default records Table 3.2's 10 nm floor; plain LuGre
+  // The default records Table 3.2's 10 nm floor; plain LuGre
   // (config/instruments/lugre_plain.textproto) keeps the loop's reading, and its samples.
   EXPECT_EQ(testing::default_config().sim().sensors().lateral_position_record_noise_m(), 10e-9);
   EXPECT_EQ(testing::plain_lugre_config().sim().sensors().lateral_position_record_noise_m(), 0)

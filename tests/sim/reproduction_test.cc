@@ -139,7 +139,7 @@ TEST(Reproduction, FrictionIsLinearInLoadWithTheMeasuredMu) {
 // Seeds change only the noise in the simulated instrument, which spreads the
 // means by < 0.1 % (0.066 % with the 3 nm position wander the tip follows); the
 // rest comes from the sample, spot to spot (sample.heterogeneity, 1.3 % RMS,
-// on in the default since issue 14). The standard deviation of five draws lies within
+// on in the default). The standard deviation of five draws lies within
 // [0.35, 1.67] sigma with 95 % probability.
 TEST(Reproduction, FiveSeedsSpreadLikeTheDissertationsRuns) {
   v1::DaemonConfig config = default_config();
@@ -205,7 +205,7 @@ TEST(Reproduction, StictionRiseIsEarlierAtHigherVelocity) {
   for (std::size_t i = 1; i < rise.size(); ++i) EXPECT_LT(rise[i], rise[i - 1]) << "velocity index " << i;
   // The dissertation's spike grows with velocity (Table 5.1 at 9810 uN: +30,
   // +43, +56 % over the sliding friction at 4, 18, 36 um/s). The default
-  // contact (issue 14) reproduces the trend: +22.7, +28.9, +32.6 % measured
+  // contact (rate-and-state, presliding, dwell) reproduces the trend: +22.7, +28.9, +32.6 % measured
   // (+6.5 % at 0.2 um/s). Plain LuGre (Appendix C's form) under Appendix C's
   // loop gave a few %, falling with velocity (Breakaway.PlainLugreHasNoSpikeAt9810uN).
   for (std::size_t i = 2; i < spike.size(); ++i) EXPECT_GT(spike[i], spike[i - 1]) << "velocity index " << i;

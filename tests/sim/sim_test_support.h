@@ -23,10 +23,10 @@ inline v1::DaemonConfig default_config() {
   return config;
 }
 
-// The plain LuGre plant: config/instruments/lugre_plain.textproto (tribod's
-// default before issue 14, Appendix C's loop gains) with the default's position
+// The plain LuGre plant: config/instruments/lugre_plain.textproto (LuGre with
+// its Stribeck curve, Appendix C's loop gains) with the default's position
 // ADC range (excitation 3.5 V; lugre_plain keeps the 5 V that saturated at
-// +13.77 um), i.e. the old default bit for bit. Tests of the LuGre plant, of
+// +13.77 um). Tests of the LuGre plant, of
 // its optional effects one at a time and of the integrator use it: they test
 // the plant model on a declared plant, not the default instrument (whose
 // contact adds elasto-plastic presliding, rate-and-state and dwell:
