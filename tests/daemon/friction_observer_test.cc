@@ -155,6 +155,26 @@ TEST(FrictionReport, ReadsTheLogVelocityAndLoadTermsWithTheReferencesTheReportSt
                    .model.rate_state_slip_law);
 }
 
+// A report tribo-fit wrote with rate-and-state in its final model (the
+// break-away record's, tests/data/friction_reports/README.md) loads as it is.
+TEST(FrictionReport, LoadsARateAndStateModelTriboFitChose) {
+  auto text = wire::read_file(std::string(TRIBO_SOURCE_DIR) + "/tests/data/friction_reports/breakaway.json");
+  ASSERT_TRUE(text);
+  const auto read = read_friction_report(*text);
+  ASSERT_TRUE(std::holds_alternative<FrictionReport>(read)) << std::get<std::string>(read);
+  const IdentifiedFriction& m = std::get<FrictionReport>(read).model;
+  const Json j = Json::parse(*text);
+  EXPECT_EQ(std::get<FrictionReport>(read).contact, "lugre + rate_state + tilt_offset + presliding_hysteresis");
+  EXPECT_TRUE(m.rate_state);
+  EXPECT_FALSE(m.rate_state_slip_law);  // "ageing (Dieterich)"
+  EXPECT_EQ(m.rate_state_a, value_of(j, "rs_a"));
+  EXPECT_EQ(m.rate_state_b, value_of(j, "rs_b"));
+  EXPECT_EQ(m.rate_state_memory_m, value_of(j, "rs_dc"));
+  EXPECT_EQ(m.reference_speed_m_per_s, j["final_model"]["reference_speed_m_per_s"].get<double>());
+  EXPECT_NEAR(m.reference_speed_m_per_s, 4e-6, 0.1e-6);  // the record's slides at 4, 18 and 36 µm/s: the median, 4
+  EXPECT_FALSE(m.load_dependence);
+}
+
 // Without the reference a term is referred to, the term means nothing: a
 // report of a tribo-fit that did not state it is refused, naming the field.
 TEST(FrictionReport, RefusesALogVelocityOrLoadTermWithoutItsReference) {
