@@ -145,9 +145,8 @@ std::string timing_rows(const std::string& name, const InProcessRun& run) {
         comp_sum += run.compensation_n[k];
       }
     }
-    const double n = static_cast<double>(t1 - half), at = [&](std::size_t k) {
-      return static_cast<double>(k - t0) * run.loop_period_s;
-    }(peak);
+    const double n = static_cast<double>(t1 - half);
+    const double at = static_cast<double>(peak - t0) * run.loop_period_s;
     out += fmt::format("| {} | {:g} | {:.0f} at {:.3f} s | {:.3f} | {:.3f} | {:.0f} | {:.0f} at {:.3f} s | {:.0f} | {:.0f} |\n",
                        name, kSpeeds[i] * 1e6, run.true_friction_n[peak] * 1e6, at,
                        (run.true_position_m[peak] - run.true_position_m[t0]) * 1e6, kSpeeds[i] * at * 1e6,
