@@ -245,6 +245,11 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
   }
   final_model["parameters"] = parameters_json(d.final_fit.estimates);
   final_model["warnings"] = d.final_fit.warnings;
+  // What the model's terms are referred to, for users that evaluate it
+  // elsewhere (the friction compensation): the record's, as the fit took them.
+  const ModelData references(s, d.motion);
+  final_model["reference_speed_m_per_s"] = references.speed_ref;
+  final_model["reference_load"] = s.has_normal() ? Json(references.normal_ref) : Json(nullptr);
 
   j["unexplained"] = d.unexplained ? Json(*d.unexplained) : Json(nullptr);
   j["noise_floor"] = d.noise_floor;

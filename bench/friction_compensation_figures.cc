@@ -17,12 +17,13 @@
 //   - the mean friction of the standard scratch over seeds, with and without.
 //
 //   build/bench/friction_compensation_figures --config config/tribod.textproto --model REPORT.json
-//       [--robustness] [--seeds 5] [--json FILE]
+//       [--robustness] [--seeds 5] [--json FILE] [--trace FILE]
 //
 // Or the break-away and reversal figures of two recorded runs of
 // breakaway_velocities.textproto (tribod's, or `tribo run --out`):
 //
 //   build/bench/friction_compensation_figures --before RUN_DIR --after RUN_DIR
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -30,6 +31,7 @@
 #include <iostream>
 #include <map>
 #include <string>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -97,6 +99,69 @@ std::string figures_row(const std::string& name, const InProcessRun& run, bool s
                      x.tripped ? "tripped: " + x.trip : "completed");
 }
 
+// Each break-away's ticks, from 0.2 s before the slide begins to 0.5 s into
+// it: the setpoint and the plate's true position, the drive (PID output plus
+// compensation), the compensation, and the contact's true friction and tilt.
+void write_trace(std::ofstream& out, const std::string& name, const InProcessRun& run) {
+  const auto slides = tribo::testing::segments_named(run, "slide");
+  for (std::size_t i = 0; i < slides.size() && i < 3; ++i) {
+    const double start = run.start.segments(static_cast<int>(slides[i])).start_s();
+    const auto first = static_cast<std::size_t>(std::max(0.0, std::floor((start - 0.2) / run.loop_period_s)));
+    const auto end = std::min(run.drive_n.size(), static_cast<std::size_t>(std::ceil((start + 0.5) / run.loop_period_s)));
+    // The sample's setpoint at this tick: the 1 kHz record's nearest.
+    std::size_t j = 0;
+    for (std::size_t k = first; k < end; ++k) {
+      const double t = static_cast<double>(k + 1) * run.loop_period_s;
+      while (j + 1 < run.samples.size() && run.samples[j + 1].time_s <= t) ++j;
+      out << fmt::format("{},{:g},{:.5f},{:.6f},{:.6f},{:.3f},{:.3f},{:.3f},{:.3f}\n", name, kSpeeds[i] * 1e6, t - start,
+                         run.samples[j].lateral_setpoint_m * 1e6, run.true_position_m[k] * 1e6, run.drive_n[k] * 1e6,
+                         run.compensation_n[k] * 1e6, run.true_friction_n[k] * 1e6, run.true_tilt_n[k] * 1e6);
+    }
+  }
+}
+
+// When each break-away happens (simulated backend: the per-tick truth),
+// against what the compensation does: the contact's friction peak (+: against
+// the motion), how far the tip and the setpoint had moved by then, and the
+// compensation's largest value and its value at that peak; the sliding
+// friction and compensation are the means over the slide's second half.
+std::string timing_rows(const std::string& name, const InProcessRun& run) {
+  std::string out;
+  const auto slides = tribo::testing::segments_named(run, "slide");
+  for (std::size_t i = 0; i < slides.size() && i < 3; ++i) {
+    const auto& seg = run.start.segments(static_cast<int>(slides[i]));
+    const auto t0 = static_cast<std::size_t>(std::llround(seg.start_s() / run.loop_period_s));
+    const auto t1 = std::min(run.true_friction_n.size(),
+                             t0 + static_cast<std::size_t>(std::llround(seg.duration_s() / run.loop_period_s)));
+    if (t1 <= t0 + 2) continue;
+    std::size_t peak = t0, comp_peak = t0;
+    double friction_sum = 0, comp_sum = 0;
+    const std::size_t half = t0 + (t1 - t0) / 2;
+    for (std::size_t k = t0; k < t1; ++k) {
+      if (run.true_friction_n[k] > run.true_friction_n[peak]) peak = k;
+      if (run.compensation_n[k] > run.compensation_n[comp_peak]) comp_peak = k;
+      if (k >= half) {
+        friction_sum += run.true_friction_n[k];
+        comp_sum += run.compensation_n[k];
+      }
+    }
+    const double n = static_cast<double>(t1 - half);
+    const double at = static_cast<double>(peak - t0) * run.loop_period_s;
+    out += fmt::format("| {} | {:g} | {:.0f} at {:.3f} s | {:.3f} | {:.3f} | {:.0f} | {:.0f} at {:.3f} s | {:.0f} | {:.0f} |\n",
+                       name, kSpeeds[i] * 1e6, run.true_friction_n[peak] * 1e6, at,
+                       (run.true_position_m[peak] - run.true_position_m[t0]) * 1e6, kSpeeds[i] * at * 1e6,
+                       friction_sum / n * 1e6, run.compensation_n[comp_peak] * 1e6,
+                       static_cast<double>(comp_peak - t0) * run.loop_period_s, run.compensation_n[peak] * 1e6,
+                       comp_sum / n * 1e6);
+  }
+  return out;
+}
+
+constexpr const char* kTimingHead =
+    "| model | µm/s | contact's peak, µN | tip's advance then, µm | setpoint's advance then, µm | sliding friction, µN | "
+    "largest compensation, µN | compensation at the peak, µN | sliding compensation, µN |\n"
+    "|---|---|---|---|---|---|---|---|---|\n";
+
 constexpr const char* kTableHead =
     "| model | overshoot 4 / 18 / 36 µm/s | true (1 ms) | time to speed, s | steady RMS, µm | "
     "lag, µm | reversal RMS, µm | reversal max, µm | peak |F|, µN | outcome |\n"
@@ -126,6 +191,9 @@ int main(int argc, char** argv) {
   app.add_flag("--stick-slip,!--no-stick-slip", stick_slip, "the 10 Hz loop's stick-slip (simulated backend)");
   app.add_option("--seeds", seeds, "seeds 1..N for the mean friction of the standard scratch (0: skip)");
   app.add_option("--json", json_path, "also write the figures as JSON");
+  std::string trace_path;
+  app.add_option("--trace", trace_path,
+                 "write each break-away's ticks (simulated backend) as CSV: from 0.2 s before the slide to 0.5 s into it");
   CLI11_PARSE(app, argc, argv);
   if (!before_dir.empty()) {
     // Two recorded runs: the figures the records give.
@@ -175,13 +243,26 @@ int main(int argc, char** argv) {
   std::cout << "## Break-away at 9810 µN and reversals at 4 µm/s (seed 1, " << config_path << ")\n\n";
   std::cout << kTableHead;
   std::map<std::string, std::vector<double>> overshoots;
+  std::vector<std::pair<std::string, std::string>> timing;
+  std::ofstream trace;
+  if (!trace_path.empty()) {
+    trace.open(trace_path);
+    trace << "model,commanded_um_per_s,t_s,setpoint_um,true_position_um,drive_uN,compensation_uN,true_friction_uN,"
+             "true_tilt_uN\n";
+  }
   for (const Variant& v : variants) {
     const InProcessRun run =
         tribo::testing::run_in_process(config, tribo::testing::with_friction_model(breakaway, v.report), 1);
     Json row;
+    if (!trace_path.empty() && simulated) write_trace(trace, v.name, run);
+    if (simulated) timing.emplace_back(v.name, timing_rows(v.name, run));
     std::cout << figures_row(v.name, run, simulated, row);
     for (const Json& b : row["breakaway"]) overshoots[v.name].push_back(b["overshoot"].get<double>());
     out["breakaway"].push_back(row);
+  }
+  if (simulated) {
+    std::cout << "\nBreak-away timing (the simulated tip's truth; times from the slide's start):\n\n" << kTimingHead;
+    for (const auto& [name, rows] : timing) std::cout << rows;
   }
   if (variants.size() > 2) {
     std::cout << "\nShare of the overshoot's reduction that remains (4 / 18 / 36 µm/s):\n\n";

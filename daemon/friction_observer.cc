@@ -71,9 +71,46 @@ double identified_friction_level(const IdentifiedFriction& m, double speed, doub
                m.rate_state_b * std::log(m.reference_speed_m_per_s * theta / m.rate_state_memory_m);
     }
   }
-  if (m.load_scaled) level *= std::max(normal_force_n, 0.0);
+  if (m.load_scaled) {
+    const double load = std::max(normal_force_n, 0.0);
+    level *= load;
+    if (m.load_dependence && load > 0) level *= std::pow(load / m.reference_load_n, m.load_exponent);
+  }
   if (m.direction_asymmetry) level *= 1.0 + m.asymmetry_levels * direction;
   return std::max(level, 0.0);
+}
+
+double identified_friction_bound(const IdentifiedFriction& m, double max_speed, double max_load, double elapsed_s) {
+  double level = std::max(m.static_level, m.coulomb) + (m.dwell ? std::max(m.dwell_gain, 0.0) : 0.0);
+  if (m.velocity_strengthening || m.rate_state) {
+    const double coeff = (m.velocity_strengthening ? m.log_velocity_coeff : 0.0) + (m.rate_state ? m.rate_state_a : 0.0);
+    const auto log_speed = [&](double v) { return std::log((v + floor_speed(m)) / m.reference_speed_m_per_s); };
+    level += std::max(coeff * log_speed(0.0), coeff * log_speed(std::max(max_speed, 0.0)));
+  }
+  if (m.rate_state) {
+    // theta: from its value at rest, it rises by at most 1 per second with
+    // the ageing law (d theta/dt = 1 - |v| theta/Dc) and 1/e per second with
+    // the slip law (d theta/dt = -x ln x, x = |v| theta/Dc), and falls no lower
+    // than Dc / max_speed in sliding (the slip law), or to the observer's floor.
+    const double start = observer_at_rest(m).rate_state_s;
+    const double growth_per_s = m.rate_state_slip_law ? 1 / std::numbers::e : 1.0;
+    const double highest = start + growth_per_s * std::max(elapsed_s, 0.0);
+    const double lowest = m.rate_state_slip_law && max_speed > 0 ? std::min(start, m.rate_state_memory_m / max_speed)
+                                                                 : 1e-9;
+    const auto state_term = [&](double theta) {
+      return m.rate_state_b * std::log(m.reference_speed_m_per_s * std::max(theta, 1e-9) / m.rate_state_memory_m);
+    };
+    level += std::max(state_term(lowest), state_term(highest));
+  }
+  level = std::max(level, 0.0);
+  if (m.load_scaled) {
+    const double load = std::max(max_load, 0.0);
+    level *= load;
+    // |e| < 1 (the report's bound): N^(1 + e) rises with the load.
+    if (m.load_dependence && load > 0) level *= std::pow(load / m.reference_load_n, m.load_exponent);
+  }
+  if (m.direction_asymmetry) level *= 1 + std::fabs(m.asymmetry_levels);
+  return level;
 }
 
 ObserverOutput observer_step(const IdentifiedFriction& m, const ObserverSettings& settings, const ObserverInput& in,

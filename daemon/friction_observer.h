@@ -72,4 +72,14 @@ ObserverOutput observer_step(const IdentifiedFriction& model, const ObserverSett
 double identified_friction_level(const IdentifiedFriction& model, double speed_m_per_s, double direction,
                                  double normal_force_n, double rate_state_s, double contact_age_s);
 
+// The most S can reach at speeds up to max_speed, loads up to max_load and
+// within elapsed_s of a contact at rest (observer_at_rest): the static level
+// with dwell at its full gain, the log-velocity terms at whichever end of the
+// speed range raises them, the rate-and-state variable at whichever end of
+// its range over that time raises its term (theta grows by at most 1 per
+// second with the ageing law, 1/e with the slip law), the load dependence at the highest load, the stronger
+// direction (the protocol validator's bound).
+double identified_friction_bound(const IdentifiedFriction& model, double max_speed_m_per_s, double max_load_n,
+                                 double elapsed_s);
+
 }  // namespace tribo::daemon

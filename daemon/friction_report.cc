@@ -17,20 +17,12 @@ namespace {
 
 using Json = nlohmann::json;
 
-constexpr std::array<std::string_view, 4> kEvaluated = {"presliding_hysteresis", "dwell_stiction",
-                                                        "direction_asymmetry", "tilt_offset"};
+constexpr std::array<std::string_view, 7> kEvaluated = {
+    "presliding_hysteresis", "dwell_stiction", "direction_asymmetry", "tilt_offset",
+    "rate_state",            "velocity_strengthening", "load_dependence"};
 
 // Why an effect of the vocabulary cannot be compensated.
 std::optional<std::string> refusal(std::string_view effect) {
-  if (effect == "rate_state" || effect == "velocity_strengthening") {
-    return std::string(effect) +
-           ": its log-velocity terms are referred to the identified record's median sliding speed, which the "
-           "report does not state";
-  }
-  if (effect == "load_dependence") {
-    return std::string(effect) + ": it is referred to the identified record's median load, which the report does "
-                                 "not state";
-  }
   if (effect == "frictional_lag") return std::string(effect) + ": the compensation does not delay the velocity";
   if (effect == "position_periodic" || effect == "drift" || effect == "backlash") {
     return std::string(effect) + ": a function of where or when the identified record slid, not of the contact";
@@ -75,6 +67,23 @@ std::optional<std::string> take(const Parameters& p, std::string_view name, Boun
   return std::nullopt;
 }
 
+// A reference of the model's terms the report states beside its parameters
+// (final_model.reference_speed_m_per_s, final_model.reference_load): finite
+// and positive.
+std::optional<std::string> reference(const Json& final_model, const char* field, const char* what, double& out) {
+  const Json* v = final_model.contains(field) ? &final_model.at(field) : nullptr;
+  if (!v || !v->is_number()) {
+    return std::string("final_model has no ") + field + " (" + what +
+           "; an older tribo-fit's report does not state it: diagnose the record again)";
+  }
+  const double value = v->get<double>();
+  if (!std::isfinite(value) || !(value > 0)) {
+    return std::string("final_model.") + field + " = " + number(value) + " must be positive";
+  }
+  out = value;
+  return std::nullopt;
+}
+
 constexpr double kInf = HUGE_VAL;
 constexpr Bound kPositive{0, kInf, true, true};
 constexpr Bound kNonNegative{0, kInf, false, true};
@@ -112,6 +121,9 @@ std::variant<FrictionReport, std::string> read(const Json& j) {
     if (name == "presliding_hysteresis") m.elasto_plastic = true;
     if (name == "dwell_stiction") m.dwell = true;
     if (name == "direction_asymmetry") m.direction_asymmetry = true;
+    if (name == "rate_state") m.rate_state = true;
+    if (name == "velocity_strengthening") m.velocity_strengthening = true;
+    if (name == "load_dependence") m.load_dependence = m.load_scaled;  // tribo-fit scales load-scaled levels only
   }
 
   Parameters p;
@@ -151,6 +163,32 @@ std::variant<FrictionReport, std::string> read(const Json& j) {
     for (auto why : {take(p, "asym_levels", kRatio, m.asymmetry_levels),
                      take(p, "asym_viscous", kAny, m.asymmetry_viscous)}) {
       if (why) return *why;
+    }
+  }
+  if (m.rate_state) {
+    for (auto why : {take(p, "rs_a", kAny, m.rate_state_a), take(p, "rs_b", kAny, m.rate_state_b),
+                     take(p, "rs_dc", kPositive, m.rate_state_memory_m)}) {
+      if (why) return *why;
+    }
+    const std::string law = fm->value("rate_state_law", "");
+    if (law != "slip (Ruina)" && law != "ageing (Dieterich)") {
+      return "final_model.rate_state_law = \"" + law + "\": expected \"ageing (Dieterich)\" or \"slip (Ruina)\"";
+    }
+    m.rate_state_slip_law = law == "slip (Ruina)";
+  }
+  if (m.velocity_strengthening) {
+    if (auto why = take(p, "log_velocity_coeff", kAny, m.log_velocity_coeff)) return *why;
+  }
+  if (m.rate_state || m.velocity_strengthening) {
+    if (auto why = reference(*fm, "reference_speed_m_per_s", "the speed its log-velocity terms are referred to",
+                             m.reference_speed_m_per_s)) {
+      return *why;
+    }
+  }
+  if (m.load_dependence) {
+    if (auto why = take(p, "load_exponent", kRatio, m.load_exponent)) return *why;
+    if (auto why = reference(*fm, "reference_load", "the load load_dependence is referred to", m.reference_load_n)) {
+      return *why;
     }
   }
   return r;

@@ -8,15 +8,18 @@
 // - evaluated: the LuGre base (mu_c/Fc, mu_s/Fs, vs, sigma0, sigma1, Fv),
 //   presliding_hysteresis (breakaway_ratio), dwell_stiction (dwell_dFs,
 //   dwell_time, dwell_memory), direction_asymmetry (asym_levels,
-//   asym_viscous) and tilt_offset (tilt_tan);
+//   asym_viscous), tilt_offset (tilt_tan), rate_state (rs_a, rs_b, rs_dc and
+//   final_model.rate_state_law) and velocity_strengthening
+//   (log_velocity_coeff), their log-velocity terms referred to
+//   final_model.reference_speed_m_per_s, and load_dependence (load_exponent,
+//   referred to final_model.reference_load; it scales a load-scaled model's
+//   levels only, as in tribo-fit);
 // - ignored, as no force of the contact: offset (a zero of the force
 //   reading) and mass (the drive's inertia, fit_mass);
-// - refused: rate_state and velocity_strengthening (their log-velocity terms
-//   are referred to the identified record's median sliding speed, which the
-//   report does not state), frictional_lag, load_dependence (referred to the
-//   record's median load, not stated either), position_periodic, drift,
-//   backlash and a slip trend (functions of where and when the identified
-//   record slid, not of the contact), and forces in a unit other than N.
+// - refused: frictional_lag (the compensation does not delay the velocity);
+//   position_periodic, drift, backlash and a slip trend (functions of where
+//   and when the identified record slid, not of the contact); a report
+//   without the reference a term needs; forces in a unit other than N.
 #pragma once
 
 #include <string>

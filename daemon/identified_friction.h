@@ -5,7 +5,8 @@
 // observer can carry along a motion (daemon/friction_report.h says which a
 // report may use):
 //
-//   S(v)  = L (Fc + (Fs' - Fc) exp(-(|v|/vs)^delta)            L = N if load-scaled, else 1
+//   S(v)  = L (Fc + (Fs' - Fc) exp(-(|v|/vs)^delta)            L = N (N/N_ref)^e if load-scaled
+//                                                              (e: load_dependence, else 0), else 1
 //              + c_v ln((|v| + v_f)/v_ref)                     velocity_strengthening
 //              + a ln((|v| + v_f)/v_ref) + b ln(v_ref theta/Dc))  rate_state
 //            (1 + r_a sgn v)                                   direction_asymmetry
@@ -17,7 +18,8 @@
 // theta: Dieterich's ageing law d theta/dt = 1 - |v| theta / Dc, or Ruina's
 // slip law d theta/dt = -(|v| theta/Dc) ln(|v| theta/Dc). v_ref is the
 // reference speed of the log-velocity terms (the identified record's median
-// sliding speed) and v_f = v_ref / 100 their regularisation.
+// sliding speed) and v_f = v_ref / 100 their regularisation; N_ref the
+// load load_dependence is referred to (its median load in contact).
 #pragma once
 
 namespace tribo::daemon {
@@ -52,6 +54,10 @@ struct IdentifiedFriction {
 
   // Speed the log-velocity terms are referred to (rate_state, velocity_strengthening).
   double reference_speed_m_per_s = 0;
+
+  bool load_dependence = false;    // only with load_scaled, as tribo-fit evaluates it
+  double load_exponent = 0;        // e
+  double reference_load_n = 0;     // N_ref
 
   bool direction_asymmetry = false;
   double asymmetry_levels = 0;

@@ -9,6 +9,7 @@
 
 #include "daemon/electrostatic_drive.h"
 #include "daemon/field_bounds.h"
+#include "daemon/friction_observer.h"
 #include "daemon/safety_supervisor.h"
 
 namespace tribo::daemon {
@@ -156,7 +157,7 @@ class Checker {
   int segment_friction_model(const v1::Segment& seg, const std::string& at, const std::string& label,
                              bool lateral_force_mode);
   void check_compensation_bound(int model, const std::string& field, const std::string& label,
-                                double max_load_un, double max_speed_um_per_s);
+                                double max_load_un, double max_speed_um_per_s, double elapsed_s);
 
   const v1::DaemonConfig& config_;
   double loop_hz_;
@@ -237,25 +238,26 @@ int Checker::segment_friction_model(const v1::Segment& seg, const std::string& a
   return friction_model(seg.friction_compensation(), field, label);
 }
 
-// The most the model can ask of the drive along this segment: its static
-// level at the highest load (dwell at its full gain, the stronger direction),
-// the viscous and bristle-damping terms at the highest speed, the tilt's
-// push; beyond the supervisor's limit the run would trip, so it is refused here.
+// The most the model can ask of the drive along this segment: its friction
+// level's bound at the highest load and speed by the segment's end
+// (identified_friction_bound), the viscous and bristle-damping terms at the
+// highest speed, the tilt's push; beyond the supervisor's limit the run would
+// trip, so it is refused here.
 void Checker::check_compensation_bound(int model, const std::string& field, const std::string& label,
-                                       double max_load_un, double max_speed_um_per_s) {
+                                       double max_load_un, double max_speed_um_per_s, double elapsed_s) {
   const FrictionReport& r = friction_models_[static_cast<std::size_t>(model)];
   const IdentifiedFriction& m = r.model;
   const double load_n = max_load_un * kMicro, speed = max_speed_um_per_s * kMicro;
-  double level = std::max(m.static_level, m.coulomb) + (m.dwell ? std::max(m.dwell_gain, 0.0) : 0.0);
-  if (m.load_scaled) level *= load_n;
-  if (m.direction_asymmetry) level *= 1 + std::fabs(m.asymmetry_levels);
+  const double level = identified_friction_bound(m, speed, load_n, elapsed_s);
   const double viscous = std::fabs(m.viscous_n_s_per_m) * (m.direction_asymmetry ? 1 + std::fabs(m.asymmetry_viscous) : 1);
   const double bound = level + (viscous + m.sigma1_n_s_per_m) * speed + std::fabs(m.tilt_tan) * load_n;
   const double limit = max_compensation_n_;
   if (!(bound <= limit)) {
     error(field, label + ": friction compensation (" + (r.report_file.empty() ? r.contact : r.report_file) +
                      ") may reach " + fmt(bound / kMicro) + " µN at " + fmt(max_load_un) + " µN and " +
-                     fmt(max_speed_um_per_s) + " µm/s, beyond supervisor.max_friction_compensation_n = " +
+                     fmt(max_speed_um_per_s) + " µm/s" +
+                     (m.rate_state ? " within " + fmt(elapsed_s) + " s of the run's start" : std::string()) +
+                     ", beyond supervisor.max_friction_compensation_n = " +
                      fmt(limit / kMicro) + " µN");
   }
 }
@@ -628,7 +630,7 @@ void Checker::check_segment(const ExpandedSegment& e) {
   const int model = segment_friction_model(seg, at, label, lateral_force_mode);
   if (model >= 0) {
     check_compensation_bound(model, seg.has_friction_compensation() ? at + ".friction_compensation" : protocol_friction_field_,
-                             label, normal_force_un.hi, lp.max_rate);
+                             label, normal_force_un.hi, lp.max_rate, result_.duration_s + duration);
   }
 
   // Compile.

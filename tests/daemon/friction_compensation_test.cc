@@ -5,7 +5,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <utility>
 #include <variant>
+
+#include <nlohmann/json.hpp>
 
 #include "daemon/controller.h"
 #include "daemon/protocol_validator.h"
@@ -117,6 +120,36 @@ TEST(FrictionCompensationProtocol, RefusesAModelThatWouldAskMoreOfTheDriveThanTh
                                                     identification_report()),
                                 config)
                   .ok());
+}
+
+// A contact that heals at rest (rate-and-state, the ageing law) asks more
+// of the drive the longer the run: the validator bounds its state by the
+// time from the run's start to each segment's end (identified_friction_bound).
+TEST(FrictionCompensationProtocol, BoundsARateAndStateModelByTheRunsDuration) {
+  v1::DaemonConfig config = tribo::testing::default_config();
+  config.mutable_supervisor()->set_max_friction_compensation_n(250e-6);
+  nlohmann::json j = nlohmann::json::parse(identification_report());
+  j["final_model"]["effects"].push_back("rate_state");
+  j["final_model"]["rate_state_law"] = "ageing (Dieterich)";
+  for (const auto& [name, value] : {std::pair{"rs_a", 0.002}, {"rs_b", 0.02}, {"rs_dc", 2e-7}}) {
+    j["final_model"]["parameters"].push_back({{"name", name}, {"value", value}, {"unit", "1"}});
+  }
+  j["final_model"]["reference_speed_m_per_s"] = 2e-6;
+  j["final_model"]["reference_load"] = 2e-3;
+  // At 1000 µN the healed state adds b N ln(v_ref t / D_c) = 20 µN ln(10 t/s)
+  // to the 124 µN of the model without it (the test above): about 110 µN by
+  // the scratch's end at 24 s, 175 µN when the load is held 10 minutes first.
+  v1::Protocol p = with_friction_model(shipped_protocol("standard_scratch.textproto"), j.dump(), "rs.json");
+  ProtocolCheck c = validate_protocol(p, config);
+  EXPECT_TRUE(c.ok()) << all(c);
+  p.mutable_segments(1)->set_duration_s(600);
+  c = validate_protocol(p, config);
+  const ValidationIssue* e = find(c, "friction_compensation");
+  ASSERT_NE(e, nullptr) << all(c);
+  EXPECT_NE(e->message.find("friction compensation (rs.json) may reach"), std::string::npos) << e->message;
+  EXPECT_NE(e->message.find("s of the run's start, beyond supervisor.max_friction_compensation_n = 250 µN"),
+            std::string::npos)
+      << e->message;
 }
 
 IdentifiedFriction fixture_model() {

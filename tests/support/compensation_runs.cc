@@ -61,6 +61,7 @@ InProcessRun run_in_process(const v1::DaemonConfig& config, const v1::Protocol& 
       run.compensation_n.push_back(loop.controller().last_compensation_n());
       run.true_friction_n.push_back(sim->instrument().truth().friction_n);
       run.true_tilt_n.push_back(sim->instrument().truth().tip_force_n);
+      run.drive_n.push_back(loop.controller().last_drive().lateral_force_n);
     }
   }
   while (queue.try_pop(sample)) run.samples.push_back(sample);

@@ -39,6 +39,7 @@ struct InProcessRun {
   std::vector<double> compensation_n;
   std::vector<double> true_friction_n;   // the contact's friction on the tip (+: against +x motion)
   std::vector<double> true_tilt_n;       // the tilt's push on the tip, N tan(theta) towards +x
+  std::vector<double> drive_n;           // the lateral drive commanded (PID output plus the compensation)
 };
 
 // Validates (throws with the first error) and runs the protocol unpaced
