@@ -29,7 +29,7 @@ v1::DaemonConfig instrument_config(const std::string& name) {
   return config;
 }
 
-// Issue 14's "must show" holds with the default configuration: the one tribod
+// The break-away figures are checked on the default configuration: the one tribod
 // loads when told nothing else.
 v1::DaemonConfig default_instrument() { return testing::default_config(); }
 
