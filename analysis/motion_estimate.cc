@@ -308,45 +308,6 @@ double first_difference_noise(const std::vector<double>& y) {
 }
 
 
-// A column of the loop model's regression: n samples from `first`; the
-// columns of one family (reference taps, force taps) are windows of one
-// padded channel, each starting one sample before the one before it.
-struct Window {
-  const double* first;
-  int family;
-};
-
-// The least-squares coefficients of y on the columns and a constant (the
-// last coefficient), by the normal equations. Two columns of the same two
-// families one tap further each are the same windows shifted by a sample:
-// their product differs from the pair's before by the product entering at
-// the start and the one leaving at the end. The first column of each pair
-// of families is summed over the record and every later entry follows by
-// that shift, 2 (taps + force taps) sums of n products in all; a rank-one
-// update per sample costs (taps + force taps)^2 / 2 products a sample.
-Eigen::VectorXd loop_regression(const std::vector<Window>& columns, const std::vector<double>& y) {
-  const auto n = static_cast<Eigen::Index>(y.size());
-  const auto k = static_cast<Eigen::Index>(columns.size());
-  const auto window = [&](Eigen::Index c) { return Eigen::Map<const Eigen::VectorXd>(columns[static_cast<std::size_t>(c)].first, n); };
-  Eigen::MatrixXd xtx(k + 1, k + 1);
-  Eigen::VectorXd xty(k + 1);
-  const Eigen::Map<const Eigen::VectorXd> target(y.data(), n);
-  for (Eigen::Index a = 0; a < k; ++a) {
-    const auto& ca = columns[static_cast<std::size_t>(a)];
-    for (Eigen::Index b = 0; b <= a; ++b) {
-      const auto& cb = columns[static_cast<std::size_t>(b)];
-      const bool shifted = a > 0 && b > 0 && columns[static_cast<std::size_t>(a - 1)].family == ca.family &&
-                           columns[static_cast<std::size_t>(b - 1)].family == cb.family;
-      xtx(a, b) = shifted ? xtx(a - 1, b - 1) + ca.first[0] * cb.first[0] - ca.first[n] * cb.first[n] : window(a).dot(window(b));
-      xtx(b, a) = xtx(a, b);
-    }
-    xtx(k, a) = xtx(a, k) = window(a).sum();
-    xty[a] = window(a).dot(target);
-  }
-  xtx(k, k) = static_cast<double>(n);
-  xty[k] = target.sum();
-  return xtx.ldlt().solve(xty);
-}
 }  // namespace
 
 double third_difference_noise(const std::vector<double>& y) {
@@ -497,23 +458,39 @@ MotionEstimate estimate_motion_with_reference(const std::vector<double>& t, cons
     const long i = static_cast<long>(j) - (force_taps - 1);
     force_padded[j] = force_unit * (i < 0 ? force[0] : force[static_cast<std::size_t>(i)]);
   }
-  std::vector<Window> columns;
-  for (int c = 0; c < taps; ++c) columns.push_back({reference_padded.data() + (taps - 1 - c), 0});
-  for (int k = 0; k < force_taps; ++k) columns.push_back({force_padded.data() + (force_taps - 1 - k), 1});
-  std::vector<double> e(n);  // x - r0 for the regression, then the loop model's residual
-  for (std::size_t i = 0; i < n; ++i) e[i] = x[i] - r0;
-  const Eigen::VectorXd coef = loop_regression(columns, e);
+  // Column c of the regression at sample i: reference tap c reads
+  // reference_padded[taps - 1 - c + i], force tap k reads
+  // force_padded[force_taps - 1 - k + i]; the last column is the constant.
+  const Eigen::Index cols = taps + force_taps + 1;
+  const auto fill_row = [&](std::size_t i, Eigen::VectorXd& row) {
+    for (int c = 0; c < taps; ++c) row[c] = reference_padded[static_cast<std::size_t>(taps - 1 - c) + i];
+    for (int k = 0; k < force_taps; ++k) row[taps + k] = force_padded[static_cast<std::size_t>(force_taps - 1 - k) + i];
+    row[taps + force_taps] = 1.0;
+  };
+  // The normal equations by a rank-one update per sample, in sample order.
+  // Forming them from sums over the windows and shifting those by a sample
+  // is cheaper (a few percent of the diagnosis' CPU) but sums in another
+  // order; the reference taps are nearly collinear, and that rounding moved
+  // the final model of an 800 s record past its standard errors.
+  Eigen::MatrixXd xtx = Eigen::MatrixXd::Zero(cols, cols);
+  Eigen::VectorXd xty = Eigen::VectorXd::Zero(cols);
+  Eigen::VectorXd row(cols);
+  for (std::size_t i = 0; i < n; ++i) {
+    fill_row(i, row);
+    xtx.selfadjointView<Eigen::Lower>().rankUpdate(row);
+    xty += row * (x[i] - r0);
+  }
+  xtx = xtx.selfadjointView<Eigen::Lower>();
+  const Eigen::VectorXd coef = xtx.ldlt().solve(xty);
+  std::vector<double> e(n);  // the loop model's residual
   std::vector<double> xm(n);
   double mean_x = 0, tss = 0, sse = 0;
   for (double v : x) mean_x += v;
   mean_x /= static_cast<double>(n);
-  // The reference taps in reverse order, so that each sample's sum over
-  // them is one dot product along the padded reference.
-  Eigen::VectorXd reversed(taps);
-  for (int c = 0; c < taps; ++c) reversed[taps - 1 - c] = coef[c];
   for (std::size_t i = 0; i < n; ++i) {
-    double value = coef[taps + force_taps] + reversed.dot(Eigen::Map<const Eigen::VectorXd>(reference_padded.data() + i, taps));
-    for (int k = 0; k < force_taps; ++k) value += coef[taps + k] * force_padded[i + static_cast<std::size_t>(force_taps - 1 - k)];
+    double value = coef[taps + force_taps];
+    for (int c = 0; c < taps; ++c) value += coef[c] * reference_padded[static_cast<std::size_t>(taps - 1 - c) + i];
+    for (int k = 0; k < force_taps; ++k) value += coef[taps + k] * force_padded[static_cast<std::size_t>(force_taps - 1 - k) + i];
     xm[i] = value + r0;
     tss += (x[i] - mean_x) * (x[i] - mean_x);
     sse += (x[i] - xm[i]) * (x[i] - xm[i]);

@@ -267,10 +267,9 @@ TEST(MotionEstimate, TheLoopModelTakesTheServosYieldToTheForceWhenGiven) {
   }
 }
 
-// The loop model's regression (normal equations formed by shifting each
-// pair of windows a sample at a time, not a rank-one update per sample):
-// a position made exactly of a known response to a white reference and a
-// white force, taps on both sides of the lag window's ends and the constant,
+// The loop model's regression over the padded channels: a position made
+// exactly of a known response to a white reference and a white force, taps
+// on both sides of the lag window's ends and the constant,
 // is explained whole and its force response found to the last digits.
 TEST(MotionEstimate, TheLoopRegressionFindsAKnownResponseExactly) {
   std::mt19937 rng(5);
