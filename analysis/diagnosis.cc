@@ -731,9 +731,13 @@ void add_residual_and_warnings(const RoundInputs& in, const EvaluatedFit& curren
     std::string why;
     for (const std::string& r : out.adequacy.reasons) why += (why.empty() ? "" : "; ") + r;
     out.unexplained = "the model does not describe the record (" + why + ")" + (out.unexplained ? "; " + *out.unexplained : "");
-    out.warnings.push_back("the model does not describe the record, and no effect is named: " + why);
   }
   out.warnings = out.final_fit.warnings;
+  if (!out.adequacy.describes_record) {
+    std::string why;
+    for (const std::string& r : out.adequacy.reasons) why += (why.empty() ? "" : "; ") + r;
+    out.warnings.push_back("the model does not describe the record, and no effect is named: " + why);
+  }
   if (out.base_contact && !out.base_contact->warning.empty()) out.warnings.push_back(out.base_contact->warning);
   if (velocity_steps_on_lugre) {
     out.warnings.push_back("the data slide one way with speed steps: with --base-model choose (base_model \"choose\" in Python) "

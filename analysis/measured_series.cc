@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "analysis/motion_estimate.h"
 
@@ -63,10 +64,12 @@ void derive_motion_smoothed(MeasuredSeries& s, bool loop_force, bool velocity_ju
     derive_motion(s, 0);
     return;
   }
-  const MotionEstimate m =
-      s.reference_m.empty() ? estimate_motion(s.time_s, s.position_m, velocity_jumps, s.force_n)
-                            : estimate_motion_with_reference(s.time_s, s.position_m, s.reference_m,
-                                                             loop_force ? s.force_n : std::vector<double>{}, velocity_jumps, s.force_n);
+  // The force enters the loop model only with loop_force (no copy of it otherwise).
+  static const std::vector<double> no_force;
+  const std::vector<double>& loop_input = loop_force ? s.force_n : no_force;
+  MotionEstimate m = s.reference_m.empty()
+                         ? estimate_motion(s.time_s, s.position_m, velocity_jumps, s.force_n)
+                         : estimate_motion_with_reference(s.time_s, s.position_m, s.reference_m, loop_input, velocity_jumps, s.force_n);
   s.loop_taps = m.loop_taps;
   s.loop_variance_explained = m.loop_variance_explained;
   s.loop_force_taps = m.loop_force_taps;
@@ -77,14 +80,15 @@ void derive_motion_smoothed(MeasuredSeries& s, bool loop_force, bool velocity_ju
   s.velocity_jumps = static_cast<int>(m.velocity_jumps.size());
   s.velocity_jumps_force_did_not_follow = m.velocity_jumps_force_did_not_follow;
   s.motion_estimator = s.velocity_m_per_s.empty() ? m.estimator : "measured velocity, acceleration " + m.estimator;
+  // The estimate's arrays are moved in, never copied (three arrays a sample).
   if (s.velocity_m_per_s.empty()) {
-    s.velocity_m_per_s = m.velocity_m_per_s;
+    s.velocity_m_per_s = std::move(m.velocity_m_per_s);
     s.velocity_measured = false;
-    s.measured_position_m = s.position_m;
-    s.position_m = m.position_m;
+    s.measured_position_m = std::move(s.position_m);
+    s.position_m = std::move(m.position_m);
   }
   if (s.acceleration_m_per_s2.empty()) {
-    s.acceleration_m_per_s2 = m.acceleration_m_per_s2;
+    s.acceleration_m_per_s2 = std::move(m.acceleration_m_per_s2);
     s.acceleration_measured = false;
   }
 }

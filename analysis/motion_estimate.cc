@@ -33,14 +33,12 @@ void transition(double dt, double q, Mat3& F, Mat3& Q) {
   Q *= q;
 }
 
-// The filtered states only: the backward pass forms each prediction again
-// from them (the same operations, so the same values) rather than hold it
-// (96 bytes per sample). With `innovations`, also what the velocity-jump test
-// needs: each sample's innovation, its variance and the filter's gain.
+// The forward filter's log-likelihood and, with `innovations`, what the
+// velocity-jump test needs: each sample's innovation, its variance and the
+// filter's gain. The smoother (smooth_motion) forms the filtered states
+// again, chunk by chunk, rather than hold them for the whole record.
 struct FilterPass {
   double log_likelihood = 0;
-  std::vector<Vec3> filtered_mean;
-  std::vector<Mat3> filtered_cov;
   std::vector<double> innovation, innovation_var;
   std::vector<Vec3> gain;
 };
@@ -60,55 +58,129 @@ Mat3 predicted_covariance(const Mat3& F, const Mat3& P, const Mat3& Q, const Vel
   return F * before * F.transpose() + Q;
 }
 
+// The filter's state: the mean and covariance after a sample (before the
+// first: the diffuse prior).
+struct FilterState {
+  Vec3 mean;
+  Mat3 cov;
+};
+
 // Positions in units of the noise (y / r_sd), so r = 1 and every number is of
 // order one; q in the same units.
-FilterPass kalman(const std::vector<double>& t, const std::vector<double>& y, double q, const VelocityJumps& jumps, bool keep,
+FilterState prior_state(const std::vector<double>& t, const std::vector<double>& y) {
+  FilterState s{Vec3(y[0], 0, 0), Mat3::Zero()};
+  const double span = std::max(t.back() - t.front(), 1e-12);
+  const double ybig = 1e6;  // diffuse start for velocity and acceleration (noise units)
+  s.cov(0, 0) = 1;
+  s.cov(1, 1) = ybig / span * ybig / span;
+  s.cov(2, 2) = s.cov(1, 1) / (span * span);
+  return s;
+}
+
+// The innovation of a sample, its variance and the gain it was taken with.
+struct FilterUpdate {
+  double innovation = 0, variance = 0;
+  Vec3 gain;
+};
+
+// Takes sample i into the state (that after sample i - 1).
+FilterUpdate filter_step(const std::vector<double>& t, const std::vector<double>& y, double q, const VelocityJumps& jumps,
+                         std::size_t i, FilterState& state) {
+  Vec3 mp = state.mean;
+  Mat3 Pp = state.cov;
+  if (i > 0) {
+    Mat3 F, Q;
+    transition(t[i] - t[i - 1], q, F, Q);
+    mp = F * state.mean;
+    Pp = predicted_covariance(F, state.cov, Q, jumps, i);
+  }
+  FilterUpdate u;
+  u.variance = Pp(0, 0) + 1.0;
+  u.innovation = y[i] - mp(0);
+  u.gain = Pp.col(0) / u.variance;
+  state.mean = mp + u.gain * u.innovation;
+  state.cov = Pp - u.gain * Pp.row(0);
+  state.cov = 0.5 * (state.cov + state.cov.transpose());
+  return u;
+}
+
+FilterPass kalman(const std::vector<double>& t, const std::vector<double>& y, double q, const VelocityJumps& jumps,
                   bool innovations = false) {
   const std::size_t n = y.size();
   FilterPass out;
-  if (keep) {
-    out.filtered_mean.resize(n);
-    out.filtered_cov.resize(n);
-  }
   if (innovations) {
     out.innovation.resize(n);
     out.innovation_var.resize(n);
     out.gain.resize(n);
   }
-  Vec3 m(y[0], 0, 0);
-  Mat3 P = Mat3::Zero();
-  const double span = std::max(t.back() - t.front(), 1e-12);
-  const double ybig = 1e6;  // diffuse start for velocity and acceleration (noise units)
-  P(0, 0) = 1;
-  P(1, 1) = ybig / span * ybig / span;
-  P(2, 2) = P(1, 1) / (span * span);
-  Mat3 F, Q;
+  FilterState state = prior_state(t, y);
   for (std::size_t i = 0; i < n; ++i) {
-    Vec3 mp = m;
-    Mat3 Pp = P;
-    if (i > 0) {
-      transition(t[i] - t[i - 1], q, F, Q);
-      mp = F * m;
-      Pp = predicted_covariance(F, P, Q, jumps, i);
-    }
-    const double s = Pp(0, 0) + 1.0;
-    const double innovation = y[i] - mp(0);
-    if (i > 0) out.log_likelihood += -0.5 * (std::log(s) + innovation * innovation / s);
-    const Vec3 k = Pp.col(0) / s;
-    m = mp + k * innovation;
-    P = Pp - k * Pp.row(0);
-    P = 0.5 * (P + P.transpose());
-    if (keep) {
-      out.filtered_mean[i] = m;
-      out.filtered_cov[i] = P;
-    }
+    const FilterUpdate u = filter_step(t, y, q, jumps, i, state);
+    if (i > 0) out.log_likelihood += -0.5 * (std::log(u.variance) + u.innovation * u.innovation / u.variance);
     if (innovations) {
-      out.innovation[i] = innovation;
-      out.innovation_var[i] = s;
-      out.gain[i] = k;
+      out.innovation[i] = u.innovation;
+      out.innovation_var[i] = u.variance;
+      out.gain[i] = u.gain;
     }
   }
   return out;
+}
+
+// The Rauch-Tung-Striebel smoother (the forward filter, then the backward
+// pass) into position, velocity and acceleration (times `scale`), and each
+// sample's smoothed velocity standard deviation (noise units). The filtered
+// states are kept for one chunk of samples at a time: the forward pass keeps
+// the state at each chunk's start, and the backward pass forms each chunk's
+// states again from there (the same operations, so the same values). Holding
+// them for the whole record took 96 bytes a sample, twice over when the two
+// motion estimates run at once.
+void smooth_motion(const std::vector<double>& t, const std::vector<double>& y, double q, const VelocityJumps& jumps,
+                   double scale, std::vector<double>& position, std::vector<double>& velocity,
+                   std::vector<double>& acceleration, std::vector<double>& velocity_sd) {
+  constexpr std::size_t kChunk = 4096;
+  const std::size_t n = y.size(), chunks = (n + kChunk - 1) / kChunk;
+  std::vector<FilterState> chunk_start(chunks);
+  FilterState state = prior_state(t, y);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (i % kChunk == 0) chunk_start[i / kChunk] = state;
+    filter_step(t, y, q, jumps, i, state);
+  }
+  position.resize(n);
+  velocity.resize(n);
+  acceleration.resize(n);
+  velocity_sd.resize(n);
+  std::vector<FilterState> filtered(std::min(n, kChunk));
+  Vec3 next_smooth = Vec3::Zero();
+  Mat3 Ps = Mat3::Zero();
+  Mat3 F, Q;
+  for (std::size_t c = chunks; c-- > 0;) {
+    const std::size_t first = c * kChunk, last = std::min(n, first + kChunk);
+    state = chunk_start[c];
+    for (std::size_t i = first; i < last; ++i) {
+      filter_step(t, y, q, jumps, i, state);
+      filtered[i - first] = state;
+    }
+    for (std::size_t i = last; i-- > first;) {
+      const FilterState& f = filtered[i - first];
+      Vec3 smooth;
+      if (i == n - 1) {
+        smooth = f.mean;
+        Ps = f.cov;
+      } else {
+        transition(t[i + 1] - t[i], q, F, Q);
+        const Vec3 predicted_mean = F * f.mean;
+        const Mat3 predicted_cov = predicted_covariance(F, f.cov, Q, jumps, i + 1);
+        const Mat3 gain = f.cov * F.transpose() * predicted_cov.inverse();
+        smooth = f.mean + gain * (next_smooth - predicted_mean);
+        Ps = f.cov + gain * (Ps - predicted_cov) * gain.transpose();
+      }
+      velocity_sd[i] = std::sqrt(std::max(Ps(1, 1), 0.0));
+      position[i] = smooth(0) * scale;
+      velocity[i] = smooth(1) * scale;
+      acceleration[i] = smooth(2) * scale;
+      next_smooth = smooth;
+    }
+  }
 }
 
 // The jerk intensity (noise units) of largest likelihood: a log grid from a
@@ -117,7 +189,7 @@ FilterPass kalman(const std::vector<double>& t, const std::vector<double>& y, do
 double max_likelihood_jerk(const std::vector<double>& t, const std::vector<double>& y, const VelocityJumps& jumps, double dt) {
   const double span = t.back() - t.front();
   const double lo = std::log(1e-6 / std::pow(span, 5)), hi = std::log(1e6 / std::pow(dt, 5));
-  auto ll = [&](double log_q) { return kalman(t, y, std::exp(log_q), jumps, false).log_likelihood; };
+  auto ll = [&](double log_q) { return kalman(t, y, std::exp(log_q), jumps).log_likelihood; };
   const int grid = 16;
   double best_lq = lo, best = -std::numeric_limits<double>::infinity();
   for (int k = 0; k <= grid; ++k) {
@@ -235,6 +307,7 @@ double first_difference_noise(const std::vector<double>& y) {
   return median(d) / 0.6745 / std::sqrt(2.0);
 }
 
+
 }  // namespace
 
 double third_difference_noise(const std::vector<double>& y) {
@@ -305,7 +378,7 @@ MotionEstimate estimate_motion(const std::vector<double>& t, const std::vector<d
     });
   };
   for (int pass = 0; pass < (velocity_jumps ? 2 : 0); ++pass) {
-    const auto found = jumps_by_likelihood_ratio(t, kalman(t, y, q, jumps, false, true), jumps);
+    const auto found = jumps_by_likelihood_ratio(t, kalman(t, y, q, jumps, true), jumps);
     // One-sided, a 1 % chance over the jumps tested.
     const double z = std::sqrt(chi_square_1_quantile(0.02 / static_cast<double>(std::max<std::size_t>(found.size(), 1))));
     bool added = false;
@@ -326,31 +399,8 @@ MotionEstimate estimate_motion(const std::vector<double>& t, const std::vector<d
   for (std::size_t i = 0; i < n; ++i) {
     if (jumps.at[i]) out.velocity_jumps.push_back(i);
   }
-  // Forward pass kept, then the Rauch-Tung-Striebel backward pass.
-  FilterPass f = kalman(t, y, q, jumps, true);
-  std::vector<Vec3> smooth(n);
-  std::vector<double> velocity_sd(n);
-  smooth[n - 1] = f.filtered_mean[n - 1];
-  Mat3 Ps = f.filtered_cov[n - 1];
-  velocity_sd[n - 1] = std::sqrt(std::max(Ps(1, 1), 0.0));
-  Mat3 F, Q;
-  for (std::size_t i = n - 1; i-- > 0;) {
-    transition(t[i + 1] - t[i], q, F, Q);
-    const Vec3 predicted_mean = F * f.filtered_mean[i];
-    const Mat3 predicted_cov = predicted_covariance(F, f.filtered_cov[i], Q, jumps, i + 1);
-    const Mat3 gain = f.filtered_cov[i] * F.transpose() * predicted_cov.inverse();
-    smooth[i] = f.filtered_mean[i] + gain * (smooth[i + 1] - predicted_mean);
-    Ps = f.filtered_cov[i] + gain * (Ps - predicted_cov) * gain.transpose();
-    velocity_sd[i] = std::sqrt(std::max(Ps(1, 1), 0.0));
-  }
-  out.position_m.resize(n);
-  out.velocity_m_per_s.resize(n);
-  out.acceleration_m_per_s2.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    out.position_m[i] = smooth[i](0) * noise;
-    out.velocity_m_per_s[i] = smooth[i](1) * noise;
-    out.acceleration_m_per_s2[i] = smooth[i](2) * noise;
-  }
+  std::vector<double> velocity_sd;
+  smooth_motion(t, y, q, jumps, noise, out.position_m, out.velocity_m_per_s, out.acceleration_m_per_s2, velocity_sd);
   out.velocity_std_m_per_s = median(velocity_sd) * noise;
   return out;
 }
@@ -367,6 +417,7 @@ MotionEstimate estimate_motion_with_reference(const std::vector<double>& t, cons
   for (double h : dts) {
     if (std::fabs(h - dt) > 0.01 * dt) return estimate_motion(t, x, velocity_jumps, force_for_jumps);
   }
+  std::vector<double>().swap(dts);
   // x[i] ~ sum_k h_k r[i - k] + c, k from -lead to lag: any linear loop whose
   // response settles within the window (0.2 s, at most 200 taps), a few
   // taps of lead for a clock skew between the channels.
@@ -390,51 +441,75 @@ MotionEstimate estimate_motion_with_reference(const std::vector<double>& t, cons
   }
   // Columns of one magnitude for the normal equations (metres and newtons).
   const double force_unit = force_scale > 0 && reference_scale > 0 ? reference_scale / force_scale : 1.0;
+  const double r0 = r[0];
+  // Each column of the regression is a window of n samples sliding along a
+  // padded channel (the record's ends repeated): reference tap k (k from
+  // -lead to lag, column k + lead) reads r[i - k] - r0 at
+  // reference_padded[lag - k + i]; force tap k reads force[i - k] at
+  // force_padded[force_taps - 1 - k + i], in units of one magnitude with
+  // the reference (metres and newtons).
+  std::vector<double> reference_padded(n + static_cast<std::size_t>(taps) - 1);
+  for (std::size_t j = 0; j < reference_padded.size(); ++j) {
+    const long i = static_cast<long>(j) - lag;
+    reference_padded[j] = (i < 0 ? r[0] : (i >= static_cast<long>(n) ? r[n - 1] : r[static_cast<std::size_t>(i)])) - r0;
+  }
+  std::vector<double> force_padded(force_taps > 0 ? n + static_cast<std::size_t>(force_taps) - 1 : 0);
+  for (std::size_t j = 0; j < force_padded.size(); ++j) {
+    const long i = static_cast<long>(j) - (force_taps - 1);
+    force_padded[j] = force_unit * (i < 0 ? force[0] : force[static_cast<std::size_t>(i)]);
+  }
+  // Column c of the regression at sample i: reference tap c reads
+  // reference_padded[taps - 1 - c + i], force tap k reads
+  // force_padded[force_taps - 1 - k + i]; the last column is the constant.
   const Eigen::Index cols = taps + force_taps + 1;
+  const auto fill_row = [&](std::size_t i, Eigen::VectorXd& row) {
+    for (int c = 0; c < taps; ++c) row[c] = reference_padded[static_cast<std::size_t>(taps - 1 - c) + i];
+    for (int k = 0; k < force_taps; ++k) row[taps + k] = force_padded[static_cast<std::size_t>(force_taps - 1 - k) + i];
+    row[taps + force_taps] = 1.0;
+  };
+  // The normal equations by a rank-one update per sample, in sample order.
+  // Forming them from sums over the windows and shifting those by a sample
+  // is cheaper (a few percent of the diagnosis' CPU) but sums in another
+  // order; the reference taps are nearly collinear, and that rounding moved
+  // the final model of an 800 s record past its standard errors.
   Eigen::MatrixXd xtx = Eigen::MatrixXd::Zero(cols, cols);
   Eigen::VectorXd xty = Eigen::VectorXd::Zero(cols);
   Eigen::VectorXd row(cols);
-  const double r0 = r[0];
-  auto force_at = [&](long j) {
-    return force_unit * (j < 0 ? force[0] : (j >= static_cast<long>(n) ? force[n - 1] : force[static_cast<std::size_t>(j)]));
-  };
-  auto ref_at = [&](long j) { return (j < 0 ? r[0] : (j >= static_cast<long>(n) ? r[n - 1] : r[static_cast<std::size_t>(j)])) - r0; };
   for (std::size_t i = 0; i < n; ++i) {
-    for (int k = -lead; k <= lag; ++k) row[k + lead] = ref_at(static_cast<long>(i) - k);
-    for (int k = 0; k < force_taps; ++k) row[taps + k] = force_at(static_cast<long>(i) - k);
-    row[taps + force_taps] = 1.0;
+    fill_row(i, row);
     xtx.selfadjointView<Eigen::Lower>().rankUpdate(row);
     xty += row * (x[i] - r0);
   }
   xtx = xtx.selfadjointView<Eigen::Lower>();
   const Eigen::VectorXd coef = xtx.ldlt().solve(xty);
+  std::vector<double> e(n);  // the loop model's residual
   std::vector<double> xm(n);
   double mean_x = 0, tss = 0, sse = 0;
   for (double v : x) mean_x += v;
   mean_x /= static_cast<double>(n);
   for (std::size_t i = 0; i < n; ++i) {
     double value = coef[taps + force_taps];
-    for (int k = -lead; k <= lag; ++k) value += coef[k + lead] * ref_at(static_cast<long>(i) - k);
-    for (int k = 0; k < force_taps; ++k) value += coef[taps + k] * force_at(static_cast<long>(i) - k);
+    for (int c = 0; c < taps; ++c) value += coef[c] * reference_padded[static_cast<std::size_t>(taps - 1 - c) + i];
+    for (int k = 0; k < force_taps; ++k) value += coef[taps + k] * force_padded[static_cast<std::size_t>(force_taps - 1 - k) + i];
     xm[i] = value + r0;
     tss += (x[i] - mean_x) * (x[i] - mean_x);
     sse += (x[i] - xm[i]) * (x[i] - xm[i]);
   }
+  std::vector<double>().swap(reference_padded);
+  std::vector<double>().swap(force_padded);
   if (!(tss > 0) || !std::isfinite(sse) || sse > 0.1 * tss) return estimate_motion(t, x, velocity_jumps, force_for_jumps);
-  // The loop model's motion is noise-free: its derivatives by differences.
-  std::vector<double> vm(n, 0.0), am(n, 0.0);
-  for (std::size_t i = 1; i + 1 < n; ++i) vm[i] = (xm[i + 1] - xm[i - 1]) / (t[i + 1] - t[i - 1]);
-  for (std::size_t i = 1; i + 1 < n; ++i) am[i] = (xm[i + 1] - 2 * xm[i] + xm[i - 1]) / (dt * dt);
-  std::vector<double> e(n);
   for (std::size_t i = 0; i < n; ++i) e[i] = x[i] - xm[i];
   MotionEstimate out = estimate_motion(t, e, velocity_jumps, force_for_jumps);
   // The noise floor and resolution belong to the record's position.
   out.position_resolution_m = resolution_of(x);
   out.position_noise_m = std::max(third_difference_noise(x), out.position_resolution_m / std::sqrt(12.0));
+  std::vector<double>().swap(e);
+  // The loop model's motion is noise-free: its derivatives by differences.
   for (std::size_t i = 0; i < n; ++i) {
     out.position_m[i] += xm[i];
-    out.velocity_m_per_s[i] += vm[i];
-    out.acceleration_m_per_s2[i] += am[i];
+    if (i == 0 || i + 1 == n) continue;
+    out.velocity_m_per_s[i] += (xm[i + 1] - xm[i - 1]) / (t[i + 1] - t[i - 1]);
+    out.acceleration_m_per_s2[i] += (xm[i + 1] - 2 * xm[i] + xm[i - 1]) / (dt * dt);
   }
   out.estimator = std::string(force_taps > 0 ? "rts_constant_acceleration_on_reference_and_force_loop_residual"
                                               : "rts_constant_acceleration_on_reference_loop_residual") +

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 
 #include "analysis/message_format.h"
 
@@ -75,29 +76,37 @@ std::optional<std::string> describe_residual_structure(const ModelData& data, co
   const double rms = std::sqrt(sum / static_cast<double>(count));
   if (rms < 1.5 * noise) return std::nullopt;
 
+  // Each regressor is read where it is (only the distance since a speed
+  // change is computed), and one regressor's compared rows are gathered at a
+  // time into arrays sized once: copies of all seven took 56 bytes a sample
+  // at the diagnosis' end, where its memory peaks.
   struct Candidate {
     std::string name;
-    std::vector<double> x;
+    std::function<double(std::size_t)> x;
     bool signed_by_direction;
   };
-  std::vector<double> speed(s.size()), accel = s.acceleration_m_per_s2, time = s.time_s;
-  for (std::size_t i = 0; i < s.size(); ++i) speed[i] = std::fabs(s.velocity_m_per_s[i]);
+  const std::vector<double> since_speed_change = distance_since_speed_change(s, m);
+  const auto values = [](const std::vector<double>& v) { return [&v](std::size_t i) { return v[i]; }; };
   std::vector<Candidate> regressors = {
-      {"distance since the pass began (reversal or onset), m", m.distance_since_start_m, true},
-      {"distance since the last speed change, m", distance_since_speed_change(s, m), true},
-      {"time, s", time, false},
-      {"position, m", s.position_m, false},
-      {"speed, m/s", speed, true},
-      {"acceleration, m/s^2", accel, false},
+      {"distance since the pass began (reversal or onset), m", values(m.distance_since_start_m), true},
+      {"distance since the last speed change, m", values(since_speed_change), true},
+      {"time, s", values(s.time_s), false},
+      {"position, m", values(s.position_m), false},
+      {"speed, m/s", [&s](std::size_t i) { return std::fabs(s.velocity_m_per_s[i]); }, true},
+      {"acceleration, m/s^2", values(s.acceleration_m_per_s2), false},
   };
-  if (s.has_normal()) regressors.push_back({"normal load", s.normal_force_n, false});
+  if (s.has_normal()) regressors.push_back({"normal load", values(s.normal_force_n), false});
   double best_eta = 0, best_where = 0, best_peak = 0;
   std::string best;
+  std::vector<double> x, y;
+  x.reserve(count);
+  y.reserve(count);
   for (const auto& c : regressors) {
-    std::vector<double> x, y;
+    x.clear();
+    y.clear();
     for (std::size_t i = 0; i < s.size(); ++i) {
       if (!compared[i]) continue;
-      x.push_back(c.x[i]);
+      x.push_back(c.x(i));
       y.push_back(c.signed_by_direction && m.direction[i] != 0 ? m.direction[i] * residual[i] : residual[i]);
     }
     double where = 0, peak = 0;

@@ -15,8 +15,10 @@ namespace tribo::analysis {
 
 namespace {
 
-std::vector<std::string_view> split_fields(std::string_view line) {
-  std::vector<std::string_view> fields;
+// The comma-separated fields of a line into fields (reused from line to
+// line: no allocation per row), trimmed of spaces, quotes and a carriage return.
+void split_fields(std::string_view line, std::vector<std::string_view>& fields) {
+  fields.clear();
   std::size_t start = 0;
   while (true) {
     const std::size_t comma = line.find(',', start);
@@ -28,7 +30,29 @@ std::vector<std::string_view> split_fields(std::string_view line) {
     while (!f.empty() && (f.front() == ' ' || f.front() == '"')) f.remove_prefix(1);
     while (!f.empty() && (f.back() == ' ' || f.back() == '"' || f.back() == '\r')) f.remove_suffix(1);
   }
+}
+
+std::vector<std::string_view> split_fields(std::string_view line) {
+  std::vector<std::string_view> fields;
+  split_fields(line, fields);
   return fields;
+}
+
+// Lines after the header (an upper bound on the data rows): the columns are
+// sized once, not grown by doubling as they are read (up to twice the
+// record's size while a column moves).
+std::size_t count_data_lines(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::vector<char> chunk(1 << 16);
+  std::size_t lines = 0;
+  char last = '\n';
+  while (in.read(chunk.data(), static_cast<std::streamsize>(chunk.size())) || in.gcount() > 0) {
+    const auto got = static_cast<std::size_t>(in.gcount());
+    lines += static_cast<std::size_t>(std::count(chunk.data(), chunk.data() + got, '\n'));
+    last = chunk[got - 1];
+  }
+  if (last != '\n') ++lines;  // a last line without its newline
+  return lines > 0 ? lines - 1 : 0;
 }
 
 bool parse_double(std::string_view text, double& value) {
@@ -65,12 +89,17 @@ std::optional<std::vector<std::vector<double>>> read_csv_columns(const std::file
     }
   }
   std::vector<std::vector<double>> columns(names.size());
+  const std::size_t rows = count_data_lines(path);
+  for (std::size_t k = 0; k < names.size(); ++k) {
+    if (index[k] >= 0) columns[k].reserve(rows);
+  }
   std::string line;
+  std::vector<std::string_view> fields;
   std::size_t row = 1;
   while (std::getline(in, line)) {
     ++row;
     if (line.empty() || line == "\r") continue;
-    const auto fields = split_fields(line);
+    split_fields(line, fields);
     for (std::size_t k = 0; k < names.size(); ++k) {
       if (index[k] < 0) continue;
       double value = 0;
@@ -181,6 +210,27 @@ std::string velocity_against_position(const MeasuredSeries& s, const ColumnMappi
                      c.velocity, integrated, c.position, span, ratio, order_of(ratio));
 }
 
+// One recorded sample into the series' columns, unless it was taken while
+// unloading after a stop or trip.
+void append_to_series(const Sample& sample, MeasuredSeries& s) {
+  if (sample.status_flags & v1::SAFE_UNLOAD) return;
+  s.time_s.push_back(sample.time_s);
+  s.position_m.push_back(sample.lateral_position_m);
+  s.force_n.push_back(sample.lateral_force_n);
+  s.normal_force_n.push_back(sample.normal_force_n);
+  s.reference_m.push_back(sample.lateral_setpoint_m);
+  s.segment.push_back(sample.segment_index);
+}
+
+void reserve_columns(MeasuredSeries& s, std::size_t n) {
+  s.time_s.reserve(n);
+  s.position_m.reserve(n);
+  s.force_n.reserve(n);
+  s.normal_force_n.reserve(n);
+  s.reference_m.reserve(n);
+  s.segment.reserve(n);
+}
+
 }  // namespace
 
 std::string implausible_csv_series(const MeasuredSeries& s, const ColumnMapping& c) {
@@ -216,26 +266,30 @@ std::string implausible_csv_series(const MeasuredSeries& s, const ColumnMapping&
 MeasuredSeries series_from_samples(const std::vector<Sample>& samples, const std::string& source) {
   MeasuredSeries s;
   s.source = source;
-  for (const Sample& sample : samples) {
-    if (sample.status_flags & v1::SAFE_UNLOAD) continue;
-    s.time_s.push_back(sample.time_s);
-    s.position_m.push_back(sample.lateral_position_m);
-    s.force_n.push_back(sample.lateral_force_n);
-    s.normal_force_n.push_back(sample.normal_force_n);
-    s.reference_m.push_back(sample.lateral_setpoint_m);
-    s.segment.push_back(sample.segment_index);
-  }
+  reserve_columns(s, samples.size());
+  for (const Sample& sample : samples) append_to_series(sample, s);
   return s;
 }
 
 std::optional<MeasuredSeries> read_run_series(const std::filesystem::path& run_dir, std::string& error) {
-  const auto run = wire::read_run_directory(run_dir, error);
-  if (!run) return std::nullopt;
-  const int n = sample_count(run->samples);
-  std::vector<Sample> samples;
-  samples.reserve(static_cast<std::size_t>(n));
-  for (int i = 0; i < n; ++i) samples.push_back(sample_at(run->samples, i));
-  return series_from_samples(samples, run_dir.string());
+  if (!wire::read_run_metadata(run_dir, error)) return std::nullopt;
+  // Page by page into columns sized once: the whole record as a SampleBlock,
+  // then as samples, then as the series took three copies of it at once.
+  constexpr std::uint64_t kPage = 1 << 16;
+  MeasuredSeries s;
+  s.source = run_dir.string();
+  reserve_columns(s, static_cast<std::size_t>(wire::count_recorded_samples(run_dir)));
+  wire::RowIndex index;  // each page starts where the last one ended
+  v1::SampleBlock page;
+  for (std::uint64_t from = 0;; from += kPage) {
+    page.Clear();
+    wire::RowsRead read;
+    if (!wire::read_sample_rows(run_dir, wire::SampleRange{from, kPage}, page, read, error, &index)) return std::nullopt;
+    const int n = sample_count(page);
+    for (int i = 0; i < n; ++i) append_to_series(sample_at(page, i), s);
+    if (read.end_of_file) break;
+  }
+  return s;
 }
 
 }  // namespace tribo::analysis

@@ -218,6 +218,23 @@ TEST(MeasuredRateAndState, TheSepioliteStepWeakeningWithSlipKeepsTheRateAndState
   EXPECT_LT(d.after.heldout.rms, 0.85 * d.before.heldout.rms);
 }
 
+// The same step with the contract command's base (LuGre, no contact choice):
+// the fit runs past LuGre's bounds (a static level several times the
+// Coulomb level), and the report says the model does not describe the
+// record, in its warnings as well as in the adequacy, and names no effect.
+TEST(MeasuredRateAndState, OnLugreTheSepioliteStepIsSaidNotToBeDescribed) {
+  MeasuredSeries s = velocity_step_record("velstep1_TR2_exp013_sepiolite.csv");
+  derive_motion_smoothed(s);
+  DiagnosisOptions options;
+  options.choose_state_from_rest = true;
+  const Diagnosis d = diagnose(s, options);
+  EXPECT_FALSE(d.adequacy.describes_record);
+  EXPECT_TRUE(d.accepted.empty()) << accepted_names(d);
+  bool said = false;
+  for (const auto& w : d.warnings) said |= w.find("the model does not describe the record") != std::string::npos;
+  EXPECT_TRUE(said);
+}
+
 // Basalt velstep4 (3 -> 10 um/s) with the speed steps as velocity jumps and
 // the contact chosen: of the jumps the likelihood-ratio test finds, the
 // force follows only the step (the position record's surges 4-6 s later,

@@ -92,6 +92,50 @@ TEST(SeriesInput, ReadsATriboRunDirectory) {
   std::filesystem::remove_all(dir);
 }
 
+// The reader takes a run directory page by page: a record of several pages,
+// with a dropped sample at a page's edge, reads back whole and in order.
+TEST(SeriesInput, ReadsARunDirectoryOfManyPagesInOrder) {
+  v1::RunMetadata metadata;
+  metadata.mutable_start()->set_run_id("test-run-long");
+  v1::SampleBlock block;
+  const int n = 150001, unloading = 65535;
+  for (int i = 0; i < n; ++i) {
+    Sample s;
+    s.time_s = 0.001 * i;
+    s.lateral_position_m = 1e-9 * i;
+    s.lateral_force_n = 1e-6 * (i % 7);
+    s.status_flags = i == unloading ? v1::SAFE_UNLOAD : 0;
+    append_sample(s, block);
+  }
+  const auto dir = std::filesystem::temp_directory_path() / ("tribo_analysis_long_run_" + std::to_string(::getpid()));
+  std::string error;
+  ASSERT_TRUE(wire::write_run_directory(dir, metadata, block, error)) << error;
+  const auto s = read_run_series(dir, error);
+  std::filesystem::remove_all(dir);
+  ASSERT_TRUE(s) << error;
+  ASSERT_EQ(s->size(), static_cast<std::size_t>(n - 1));
+  for (std::size_t k = 0; k < s->size(); ++k) {
+    const int i = static_cast<int>(k) + (static_cast<int>(k) >= unloading ? 1 : 0);
+    ASSERT_EQ(s->time_s[k], 0.001 * i) << k;
+    ASSERT_EQ(s->position_m[k], 1e-9 * i) << k;
+    ASSERT_EQ(s->force_n[k], 1e-6 * (i % 7)) << k;
+  }
+}
+
+// A CSV whose last line has no newline reads it too.
+TEST(SeriesInput, ReadsALastLineWithoutItsNewline) {
+  const TempFile file("no_newline.csv", "t,x,f\n0,0,1\n0.1,0.2,2\n0.2,0.4,3");
+  ColumnMapping c;
+  c.time = "t";
+  c.position = "x";
+  c.force = "f";
+  std::string error;
+  const auto s = read_csv_series(file.path, c, error);
+  ASSERT_TRUE(s) << error;
+  ASSERT_EQ(s->size(), 3u);
+  EXPECT_EQ(s->force_n[2], 3.0);
+}
+
 TEST(MeasuredSeries, DerivesVelocityAndAccelerationByCentralDifferences) {
   MeasuredSeries s;
   for (int i = 0; i < 50; ++i) {

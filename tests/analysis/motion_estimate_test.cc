@@ -2,6 +2,7 @@
 // noise floor from the record, velocity by the RTS smoother.
 #include "analysis/motion_estimate.h"
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -264,6 +265,37 @@ TEST(MotionEstimate, TheLoopModelTakesTheServosYieldToTheForceWhenGiven) {
     const double error_with = position_rms_error(r, with.position_m);
     EXPECT_LT(error_with, 0.6 * error_without) << "seed " << seed << ": " << error_with << " m against " << error_without;
   }
+}
+
+// The loop model's regression over the padded channels: a position made
+// exactly of a known response to a white reference and a white force, taps
+// on both sides of the lag window's ends and the constant,
+// is explained whole and its force response found to the last digits.
+TEST(MotionEstimate, TheLoopRegressionFindsAKnownResponseExactly) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> white(0.0, 1.0);
+  const std::size_t n = 6000;
+  const double dt = 1e-3;  // 200 lag taps, 4 lead taps
+  std::vector<double> t(n), r(n), f(n), x(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    t[i] = dt * static_cast<double>(i);
+    r[i] = 1e-6 * white(rng);
+    f[i] = 1e-4 * white(rng);
+  }
+  const std::vector<std::pair<int, double>> reference_taps{{-4, 0.05}, {-1, 0.1}, {0, 0.3}, {3, 0.4}, {57, 0.2}, {200, -0.05}};
+  const std::vector<double> force_taps{-2e-5, -1e-5, -0.5e-5};
+  const auto clamped = [&](const std::vector<double>& v, long i) { return v[static_cast<std::size_t>(std::clamp<long>(i, 0, static_cast<long>(n) - 1))]; };
+  for (std::size_t i = 0; i < n; ++i) {
+    double value = r[0] + 3e-8;
+    for (const auto& [k, h] : reference_taps) value += h * (clamped(r, static_cast<long>(i) - k) - r[0]);
+    for (std::size_t k = 0; k < force_taps.size(); ++k) value += force_taps[k] * clamped(f, static_cast<long>(i) - static_cast<long>(k));
+    x[i] = value;
+  }
+  const MotionEstimate m = estimate_motion_with_reference(t, x, r, f);
+  ASSERT_EQ(m.loop_taps, 205);
+  ASSERT_EQ(m.loop_force_taps, 3);
+  EXPECT_GT(m.loop_variance_explained, 1.0 - 1e-12);
+  EXPECT_NEAR(m.loop_force_response_m_per_n, -3.5e-5, 3.5e-5 * 1e-9);
 }
 
 }  // namespace
