@@ -27,13 +27,16 @@
 // its output continues from the present drive. So does switching the
 // friction compensation on or off: the integrator gives up, or takes over,
 // the compensation's share at that tick. The observer starts from a contact
-// at rest each time the compensation is switched on. Gain changes are bumpless too
+// at rest each time the compensation is switched on (a delayed driving
+// velocity, as if the command had been at rest for the whole delay). Gain changes are bumpless too
 // (daemon/pid.h). A loop whose measurement is not finite holds its drive and
 // flags SENSOR_INVALID; NaN never reaches the drive.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 
+#include "daemon/delay_line.h"
 #include "daemon/friction_observer.h"
 #include "daemon/load_function.h"
 #include "daemon/pid.h"
@@ -59,6 +62,9 @@ struct ControllerParams {
   double lateral_spring_n_per_m = 0;
   double normal_spring_n_per_m = 0;
   ObserverSettings friction_observer;  // controller.friction_compensation
+  // COMMANDED observer: how many ticks its driving velocity lags the commanded
+  // (controller.friction_compensation.velocity_delay_s x loop_rate_hz, rounded).
+  std::size_t friction_velocity_delay_ticks = 0;
 };
 
 PidGains pid_gains_from_proto(const v1::PidGains& gains);
@@ -130,6 +136,7 @@ class Controller {
   const IdentifiedFriction* compensating_ = nullptr;  // the model in use, null: none
   double compensation_n_ = 0;                         // its last share of the drive
   ObserverState observer_;
+  DelayLine observer_velocity_delay_;  // the commanded velocity, friction_velocity_delay_ticks ago
   hal::DriveCommand drive_;
 };
 

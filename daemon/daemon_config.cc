@@ -133,6 +133,13 @@ std::optional<std::string> validate_daemon_config(const v1::DaemonConfig& c) {
   if (!v1::FrictionObserverVelocity_IsValid(fc.velocity_source())) {
     return "controller.friction_compensation.velocity_source is not a known value";
   }
+  if (auto e = out_of_range("controller.friction_compensation.velocity_delay_s", fc.velocity_delay_s(), 0, 1)) return e;
+  if (fc.velocity_delay_s() != 0 && fc.velocity_source() == v1::MEASURED) {
+    std::ostringstream msg;
+    msg << "controller.friction_compensation.velocity_delay_s = " << fc.velocity_delay_s()
+        << ": must be 0 with velocity_source MEASURED (it delays the commanded velocity)";
+    return msg.str();
+  }
   if (auto e = out_of_range("limits.max_normal_force_n", lim.max_normal_force_n(), 1e-9, 1)) return e;
   if (auto e = out_of_range("limits.max_lateral_force_n", lim.max_lateral_force_n(), 1e-9, 1)) return e;
   if (auto e = out_of_range("limits.max_lateral_travel_m", lim.max_lateral_travel_m(), 1e-9, 1e-3)) return e;

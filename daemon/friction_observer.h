@@ -44,6 +44,7 @@ struct ObserverState {
   double bristle_m = 0;        // z^
   double rate_state_s = 0;     // theta (rate_state)
   double contact_age_s = 0;    // dwell_stiction
+  double driving_velocity_m_per_s = 0;  // the v of the last step
 };
 
 struct ObserverInput {
