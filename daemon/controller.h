@@ -65,6 +65,9 @@ struct ControllerParams {
   // COMMANDED observer: how many ticks its driving velocity lags the commanded
   // (controller.friction_compensation.velocity_delay_s x loop_rate_hz, rounded).
   std::size_t friction_velocity_delay_ticks = 0;
+  // ... then through a first-order lag of this time constant, s (0: none;
+  // controller.friction_compensation.velocity_lag_s).
+  double friction_velocity_lag_s = 0;
 };
 
 PidGains pid_gains_from_proto(const v1::PidGains& gains);
@@ -118,6 +121,7 @@ class Controller {
   double normal_step(const TickSetpoints& sp, const hal::SensorFrame& f, ControlOutput& out);
   double lateral_step(const TickSetpoints& sp, const hal::SensorFrame& f, ControlOutput& out);
   double lateral_hold(const hal::SensorFrame& f, ControlOutput& out);
+  double observer_velocity(double commanded_m_per_s);
   double friction_compensation(const TickSetpoints& sp, const hal::SensorFrame& f, ControlOutput& out);
 
   PidTerms& terms_ref(Loop loop);
@@ -137,6 +141,7 @@ class Controller {
   double compensation_n_ = 0;                         // its last share of the drive
   ObserverState observer_;
   DelayLine observer_velocity_delay_;  // the commanded velocity, friction_velocity_delay_ticks ago
+  double observer_velocity_lagged_ = 0;  // ... through the lag friction_velocity_lag_s
   hal::DriveCommand drive_;
 };
 

@@ -49,7 +49,7 @@ TEST(DaemonConfig, ErrorsNameTheFieldTheValueAndTheLimit) {
   EXPECT_NE(e->find("sim.faults.faults[0].channel"), std::string::npos) << *e;
 }
 
-TEST(DaemonConfig, TheObserversVelocityDelayIsBoundedAndNeedsTheCommandedVelocity) {
+TEST(DaemonConfig, TheObserversVelocityDelayAndLagAreBoundedAndNeedTheCommandedVelocity) {
   v1::DaemonConfig c = tribo::testing::default_config();
   auto& fc = *c.mutable_controller()->mutable_friction_compensation();
   fc.set_velocity_delay_s(0.075);
@@ -74,6 +74,23 @@ TEST(DaemonConfig, TheObserversVelocityDelayIsBoundedAndNeedsTheCommandedVelocit
                     "MEASURED"),
             std::string::npos)
       << *e;
+  fc.set_velocity_delay_s(0);
+  fc.set_velocity_lag_s(0.0753);
+  e = validate_daemon_config(c);
+  ASSERT_TRUE(e);
+  EXPECT_NE(e->find("controller.friction_compensation.velocity_lag_s = 0.0753: must be 0 with velocity_source MEASURED"),
+            std::string::npos)
+      << *e;
+  fc.set_velocity_source(v1::COMMANDED);
+  EXPECT_FALSE(validate_daemon_config(c)) << *validate_daemon_config(c);
+  fc.set_velocity_lag_s(-1e-3);
+  e = validate_daemon_config(c);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(*e, "controller.friction_compensation.velocity_lag_s = -0.001: must be in [0, 1]");
+  fc.set_velocity_lag_s(2);
+  e = validate_daemon_config(c);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(*e, "controller.friction_compensation.velocity_lag_s = 2: must be in [0, 1]");
 }
 
 }  // namespace

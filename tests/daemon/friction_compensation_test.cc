@@ -252,7 +252,38 @@ TEST(FrictionCompensationController, TheObserverIsDrivenByTheCommandedVelocityOf
   EXPECT_EQ(controller.friction_observer().driving_velocity_m_per_s, moving_setpoints(201, &model).lateral_rate);
 }
 
-// velocity_delay_s 0 (the default): the present commanded velocity drives the
+// velocity_lag_s: after a step of the commanded velocity the observer's
+// driving velocity rises as 1 - exp(-t / tau), and the delay comes before it.
+TEST(FrictionCompensationController, TheObserverIsDrivenByTheCommandedVelocityThroughAFirstOrderLag) {
+  const IdentifiedFriction model = fixture_model();
+  v1::DaemonConfig config = tribo::testing::default_config();
+  auto& fc = *config.mutable_controller()->mutable_friction_compensation();
+  constexpr double kTau = 0.0753;
+  constexpr int kDelay = 100;  // 10 ms at 10 kHz
+  fc.set_velocity_lag_s(kTau);
+  fc.set_velocity_delay_s(kDelay / config.controller().loop_rate_hz());
+  const ControllerParams params = controller_params_from_config(config);
+  const double h = params.period_s;
+  Controller controller(params);
+  std::vector<double> driving;
+  TickSetpoints sp = moving_setpoints(0, &model);
+  sp.lateral_rate = 0;
+  for (int k = 0; k < 10; ++k) controller.step(sp, fixed_frame());
+  sp.lateral_rate = 4e-6;  // a ramp starts
+  for (int k = 0; k < 5000; ++k) {
+    controller.step(sp, fixed_frame());
+    driving.push_back(controller.friction_observer().driving_velocity_m_per_s);
+  }
+  for (int k = 0; k < kDelay; ++k) ASSERT_EQ(driving[k], 0.0) << "tick " << k << " of the delay";
+  for (const double t : {0.5 * kTau, kTau, 2 * kTau, 4 * kTau}) {
+    const int k = kDelay + static_cast<int>(std::lround(t / h)) - 1;
+    EXPECT_NEAR(driving[k], 4e-6 * (1 - std::exp(-t / kTau)), 4e-6 * 0.01) << t << " s after the delay";
+  }
+  EXPECT_GT(driving[kDelay], 0.0);
+  EXPECT_LT(driving[kDelay + 10], 4e-6 * 11 * h / kTau) << "11 ticks after the delay";
+}
+
+// velocity_delay_s and velocity_lag_s 0 (the default): the present commanded velocity drives the
 // observer, bit for bit the compensation of the observer on the command.
 TEST(FrictionCompensationController, NoDelayDrivesTheObserverWithThePresentCommandedVelocity) {
   const IdentifiedFriction model = fixture_model();

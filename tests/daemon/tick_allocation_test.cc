@@ -58,7 +58,10 @@ TEST(TickAllocation, TheTickPathAllocatesNothing) {
   // delay line is allocated with the controller, before the ticks).
   for (const int pass : {0, 1, 2}) {
     const bool compensated = pass > 0;
-    if (pass == 2) config.mutable_controller()->mutable_friction_compensation()->set_velocity_delay_s(0.0753);
+    if (pass == 2) {
+      config.mutable_controller()->mutable_friction_compensation()->set_velocity_delay_s(0.0753);
+      config.mutable_controller()->mutable_friction_compensation()->set_velocity_lag_s(0.0753);
+    }
     if (compensated) {
       const auto report = wire::read_file(std::string(TRIBO_SOURCE_DIR) + "/tests/data/friction_reports/identification.json");
       ASSERT_TRUE(report);
@@ -88,7 +91,7 @@ TEST(TickAllocation, TheTickPathAllocatesNothing) {
       }
     }
     EXPECT_EQ(counted, 0u) << "allocations during " << ticks << " ticks" << (compensated ? ", compensated" : "")
-                             << (pass == 2 ? ", velocity delayed" : "");
+                             << (pass == 2 ? ", velocity delayed and lagged" : "");
     EXPECT_EQ(loop.outcome().end, RunEnd::kTripped) << "the trip and the stop sequence ran";
     EXPECT_GT(ticks, 130000u);
   }
