@@ -71,6 +71,9 @@ ControllerParams controller_params_from_config(const v1::ControllerConfig& c) {
   p.friction_observer.velocity = c.friction_compensation().velocity_source() == v1::MEASURED
                                      ? ObserverVelocity::kMeasured
                                      : ObserverVelocity::kCommanded;
+  p.friction_velocity_delay_ticks =
+      static_cast<std::size_t>(std::lround(c.friction_compensation().velocity_delay_s() * c.loop_rate_hz()));
+  p.friction_velocity_lag_s = c.friction_compensation().velocity_lag_s();
   return p;
 }
 
@@ -86,7 +89,8 @@ Controller::Controller(const ControllerParams& params)
       lateral_terms_(pid_terms(params.lateral, params.period_s)),
       lateral_force_terms_(pid_terms(params.lateral_force, params.period_s)),
       normal_force_terms_(pid_terms(params.normal_force, params.period_s)),
-      normal_displacement_terms_(pid_terms(params.normal_displacement, params.period_s)) {}
+      normal_displacement_terms_(pid_terms(params.normal_displacement, params.period_s)),
+      observer_velocity_delay_(params.friction_velocity_delay_ticks) {}
 
 PidTerms& Controller::terms_ref(Loop loop) {
   switch (loop) {
@@ -190,6 +194,17 @@ double Controller::lateral_hold(const hal::SensorFrame& f, ControlOutput& out) {
   return u;
 }
 
+// The commanded velocity as the lagging tip will follow it: delayed, then
+// lagged (backward Euler of dv/dt = (v_c - v) / tau).
+double Controller::observer_velocity(double commanded_m_per_s) {
+  const double delayed = observer_velocity_delay_.push(commanded_m_per_s);
+  const double tau = params_.friction_velocity_lag_s;
+  if (!(tau > 0)) return delayed;
+  const double h = params_.period_s;
+  observer_velocity_lagged_ += h / (tau + h) * (delayed - observer_velocity_lagged_);
+  return observer_velocity_lagged_;
+}
+
 double Controller::friction_compensation(const TickSetpoints& sp, const hal::SensorFrame& f, ControlOutput& out) {
   const bool switched = sp.friction_model != compensating_;
   if (switched && !sp.friction_model) {  // off: the integrator takes over the share
@@ -199,13 +214,17 @@ double Controller::friction_compensation(const TickSetpoints& sp, const hal::Sen
     return 0.0;
   }
   if (!sp.friction_model) return 0.0;
-  if (!compensating_) observer_ = observer_at_rest(*sp.friction_model);
+  if (!compensating_) {
+    observer_ = observer_at_rest(*sp.friction_model);
+    observer_velocity_delay_.fill(0.0);
+    observer_velocity_lagged_ = 0;
+  }
   compensating_ = sp.friction_model;
   ObserverInput in;
   in.position_m = f.lateral_position_m;
   in.position_error_m = f.lateral_position_m - sp.lateral;
   in.normal_force_n = f.normal_force_n;
-  in.commanded_velocity_m_per_s = sp.lateral_rate;
+  in.commanded_velocity_m_per_s = observer_velocity(sp.lateral_rate);
   in.period_s = params_.period_s;
   const ObserverOutput o = observer_step(*compensating_, params_.friction_observer, in, observer_);
   // A reading that is not finite leaves the state and the share as they

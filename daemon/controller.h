@@ -27,13 +27,16 @@
 // its output continues from the present drive. So does switching the
 // friction compensation on or off: the integrator gives up, or takes over,
 // the compensation's share at that tick. The observer starts from a contact
-// at rest each time the compensation is switched on. Gain changes are bumpless too
+// at rest each time the compensation is switched on (a delayed driving
+// velocity, as if the command had been at rest for the whole delay). Gain changes are bumpless too
 // (daemon/pid.h). A loop whose measurement is not finite holds its drive and
 // flags SENSOR_INVALID; NaN never reaches the drive.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 
+#include "daemon/delay_line.h"
 #include "daemon/friction_observer.h"
 #include "daemon/load_function.h"
 #include "daemon/pid.h"
@@ -59,6 +62,12 @@ struct ControllerParams {
   double lateral_spring_n_per_m = 0;
   double normal_spring_n_per_m = 0;
   ObserverSettings friction_observer;  // controller.friction_compensation
+  // COMMANDED observer: how many ticks its driving velocity lags the commanded
+  // (controller.friction_compensation.velocity_delay_s x loop_rate_hz, rounded).
+  std::size_t friction_velocity_delay_ticks = 0;
+  // ... then through a first-order lag of this time constant, s (0: none;
+  // controller.friction_compensation.velocity_lag_s).
+  double friction_velocity_lag_s = 0;
 };
 
 PidGains pid_gains_from_proto(const v1::PidGains& gains);
@@ -112,6 +121,7 @@ class Controller {
   double normal_step(const TickSetpoints& sp, const hal::SensorFrame& f, ControlOutput& out);
   double lateral_step(const TickSetpoints& sp, const hal::SensorFrame& f, ControlOutput& out);
   double lateral_hold(const hal::SensorFrame& f, ControlOutput& out);
+  double observer_velocity(double commanded_m_per_s);
   double friction_compensation(const TickSetpoints& sp, const hal::SensorFrame& f, ControlOutput& out);
 
   PidTerms& terms_ref(Loop loop);
@@ -130,6 +140,8 @@ class Controller {
   const IdentifiedFriction* compensating_ = nullptr;  // the model in use, null: none
   double compensation_n_ = 0;                         // its last share of the drive
   ObserverState observer_;
+  DelayLine observer_velocity_delay_;  // the commanded velocity, friction_velocity_delay_ticks ago
+  double observer_velocity_lagged_ = 0;  // ... through the lag friction_velocity_lag_s
   hal::DriveCommand drive_;
 };
 

@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <sstream>
+#include <utility>
 
 #include "daemon/electrostatic_drive.h"
 #include "daemon/loop_stability.h"
@@ -132,6 +133,17 @@ std::optional<std::string> validate_daemon_config(const v1::DaemonConfig& c) {
                             ctl.loop_rate_hz())) return e;
   if (!v1::FrictionObserverVelocity_IsValid(fc.velocity_source())) {
     return "controller.friction_compensation.velocity_source is not a known value";
+  }
+  if (auto e = out_of_range("controller.friction_compensation.velocity_delay_s", fc.velocity_delay_s(), 0, 1)) return e;
+  if (auto e = out_of_range("controller.friction_compensation.velocity_lag_s", fc.velocity_lag_s(), 0, 1)) return e;
+  for (const auto& [name, value] : {std::pair{"velocity_delay_s", fc.velocity_delay_s()},
+                                    std::pair{"velocity_lag_s", fc.velocity_lag_s()}}) {
+    if (value != 0 && fc.velocity_source() == v1::MEASURED) {
+      std::ostringstream msg;
+      msg << "controller.friction_compensation." << name << " = " << value
+          << ": must be 0 with velocity_source MEASURED (it shapes the commanded velocity)";
+      return msg.str();
+    }
   }
   if (auto e = out_of_range("limits.max_normal_force_n", lim.max_normal_force_n(), 1e-9, 1)) return e;
   if (auto e = out_of_range("limits.max_lateral_force_n", lim.max_lateral_force_n(), 1e-9, 1)) return e;

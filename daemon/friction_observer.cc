@@ -130,6 +130,7 @@ ObserverOutput observer_step(const IdentifiedFriction& m, const ObserverSettings
   s.primed = true;
   s.position_m = in.position_m;
   const double v = settings.velocity == ObserverVelocity::kMeasured ? s.velocity_m_per_s : in.commanded_velocity_m_per_s;
+  s.driving_velocity_m_per_s = v;
   const double speed = std::fabs(v), direction = sign_of(v);
 
   if (m.rate_state) {

@@ -6,7 +6,9 @@
 //   dz^/dt = v - alpha |v| z^ / g(v) - k e        e = x - x_r, the position error
 //   F^     = sigma0 z^ + sigma1 dz^/dt + Fv v + N tan(theta_tilt)
 //
-// v is the commanded velocity (COMMANDED, the default) or the tip's velocity
+// v is the commanded velocity (COMMANDED, the default; the controller may
+// delay and lag it, controller.friction_compensation.velocity_delay_s and
+// velocity_lag_s) or the tip's velocity
 // estimated from the loop's position reading (MEASURED: a first-order
 // low-pass of its differences at velocity_filter_hz); k the observer gain of
 // their correction term (k = 0: the model alone); N the measured load. The
@@ -44,6 +46,7 @@ struct ObserverState {
   double bristle_m = 0;        // z^
   double rate_state_s = 0;     // theta (rate_state)
   double contact_age_s = 0;    // dwell_stiction
+  double driving_velocity_m_per_s = 0;  // the v of the last step
 };
 
 struct ObserverInput {

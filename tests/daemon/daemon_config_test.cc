@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "tests/sim/sim_test_support.h"
 
 namespace tribo::daemon {
@@ -45,6 +47,50 @@ TEST(DaemonConfig, ErrorsNameTheFieldTheValueAndTheLimit) {
   e = validate_daemon_config(c);
   ASSERT_TRUE(e);
   EXPECT_NE(e->find("sim.faults.faults[0].channel"), std::string::npos) << *e;
+}
+
+TEST(DaemonConfig, TheObserversVelocityDelayAndLagAreBoundedAndNeedTheCommandedVelocity) {
+  v1::DaemonConfig c = tribo::testing::default_config();
+  auto& fc = *c.mutable_controller()->mutable_friction_compensation();
+  fc.set_velocity_delay_s(0.075);
+  EXPECT_FALSE(validate_daemon_config(c)) << *validate_daemon_config(c);
+  fc.set_velocity_delay_s(-0.01);
+  auto e = validate_daemon_config(c);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(*e, "controller.friction_compensation.velocity_delay_s = -0.01: must be in [0, 1]");
+  fc.set_velocity_delay_s(1.5);
+  e = validate_daemon_config(c);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(*e, "controller.friction_compensation.velocity_delay_s = 1.5: must be in [0, 1]");
+  fc.set_velocity_delay_s(std::nan(""));
+  e = validate_daemon_config(c);
+  ASSERT_TRUE(e);
+  EXPECT_NE(e->find("controller.friction_compensation.velocity_delay_s = nan"), std::string::npos) << *e;
+  fc.set_velocity_delay_s(0.075);
+  fc.set_velocity_source(v1::MEASURED);
+  e = validate_daemon_config(c);
+  ASSERT_TRUE(e);
+  EXPECT_NE(e->find("controller.friction_compensation.velocity_delay_s = 0.075: must be 0 with velocity_source "
+                    "MEASURED"),
+            std::string::npos)
+      << *e;
+  fc.set_velocity_delay_s(0);
+  fc.set_velocity_lag_s(0.0753);
+  e = validate_daemon_config(c);
+  ASSERT_TRUE(e);
+  EXPECT_NE(e->find("controller.friction_compensation.velocity_lag_s = 0.0753: must be 0 with velocity_source MEASURED"),
+            std::string::npos)
+      << *e;
+  fc.set_velocity_source(v1::COMMANDED);
+  EXPECT_FALSE(validate_daemon_config(c)) << *validate_daemon_config(c);
+  fc.set_velocity_lag_s(-1e-3);
+  e = validate_daemon_config(c);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(*e, "controller.friction_compensation.velocity_lag_s = -0.001: must be in [0, 1]");
+  fc.set_velocity_lag_s(2);
+  e = validate_daemon_config(c);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(*e, "controller.friction_compensation.velocity_lag_s = 2: must be in [0, 1]");
 }
 
 }  // namespace

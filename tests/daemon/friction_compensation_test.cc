@@ -7,6 +7,7 @@
 #include <cmath>
 #include <utility>
 #include <variant>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -181,6 +182,122 @@ TEST(FrictionCompensationController, SwitchingOnAndOffIsBumpless) {
   EXPECT_FALSE(off.flags & v1::FRICTION_COMPENSATED);
   EXPECT_EQ(off.friction_compensation_n, 0.0);
   EXPECT_NEAR(off.drive.lateral_force_n, last, 1e-9);
+}
+
+// A moving command, its rate different at every tick, on a fixed reading.
+TickSetpoints moving_setpoints(int tick, const IdentifiedFriction* model) {
+  TickSetpoints sp;
+  sp.normal = 5e-3;
+  sp.lateral = 2e-6;
+  sp.lateral_rate = 1e-6 * std::sin(0.05 * tick) + 2e-8 * tick;
+  sp.friction_model = model;
+  return sp;
+}
+
+hal::SensorFrame fixed_frame() {
+  hal::SensorFrame frame;
+  frame.lateral_position_m = 2.1e-6;
+  frame.normal_force_n = 5e-3;
+  return frame;
+}
+
+// The observer driven by the commanded velocities `rates` along the
+// controller's inputs, as the controller computes it: its compensation per tick.
+std::vector<double> observer_along(const IdentifiedFriction& model, const ObserverSettings& settings,
+                                   const std::vector<double>& rates, double period_s) {
+  ObserverState state = observer_at_rest(model);
+  std::vector<double> forces;
+  for (std::size_t k = 0; k < rates.size(); ++k) {
+    const TickSetpoints sp = moving_setpoints(static_cast<int>(k), &model);
+    ObserverInput in;
+    in.position_m = fixed_frame().lateral_position_m;
+    in.position_error_m = fixed_frame().lateral_position_m - sp.lateral;
+    in.normal_force_n = fixed_frame().normal_force_n;
+    in.commanded_velocity_m_per_s = rates[k];
+    in.period_s = period_s;
+    forces.push_back(observer_step(model, settings, in, state).force_n);
+  }
+  return forces;
+}
+
+// velocity_delay_s: the observer's driving velocity is the commanded velocity
+// of N ticks ago (0 before the compensation had run N ticks: a command at
+// rest), and nothing else of its input changes.
+TEST(FrictionCompensationController, TheObserverIsDrivenByTheCommandedVelocityOfNTicksAgo) {
+  const IdentifiedFriction model = fixture_model();
+  v1::DaemonConfig config = tribo::testing::default_config();
+  constexpr int kDelay = 25;  // 2.5 ms at 10 kHz
+  config.mutable_controller()->mutable_friction_compensation()->set_velocity_delay_s(
+      kDelay / config.controller().loop_rate_hz());
+  const ControllerParams params = controller_params_from_config(config);
+  ASSERT_EQ(params.friction_velocity_delay_ticks, static_cast<std::size_t>(kDelay));
+  Controller controller(params);
+  std::vector<double> commanded, delayed, compensation;
+  for (int k = 0; k < 200; ++k) {
+    const TickSetpoints sp = moving_setpoints(k, &model);
+    compensation.push_back(controller.step(sp, fixed_frame()).friction_compensation_n);
+    commanded.push_back(sp.lateral_rate);
+    delayed.push_back(k >= kDelay ? commanded[k - kDelay] : 0.0);
+    ASSERT_EQ(controller.friction_observer().driving_velocity_m_per_s, delayed.back()) << "tick " << k;
+  }
+  EXPECT_EQ(compensation, observer_along(model, params.friction_observer, delayed, params.period_s));
+  // Switched off and on again: the observer starts at rest, the delay with it.
+  TickSetpoints off = moving_setpoints(200, nullptr);
+  controller.step(off, fixed_frame());
+  for (int k = 201; k < 201 + kDelay; ++k) {
+    controller.step(moving_setpoints(k, &model), fixed_frame());
+    ASSERT_EQ(controller.friction_observer().driving_velocity_m_per_s, 0.0) << "tick " << k;
+  }
+  controller.step(moving_setpoints(201 + kDelay, &model), fixed_frame());
+  EXPECT_EQ(controller.friction_observer().driving_velocity_m_per_s, moving_setpoints(201, &model).lateral_rate);
+}
+
+// velocity_lag_s: after a step of the commanded velocity the observer's
+// driving velocity rises as 1 - exp(-t / tau), and the delay comes before it.
+TEST(FrictionCompensationController, TheObserverIsDrivenByTheCommandedVelocityThroughAFirstOrderLag) {
+  const IdentifiedFriction model = fixture_model();
+  v1::DaemonConfig config = tribo::testing::default_config();
+  auto& fc = *config.mutable_controller()->mutable_friction_compensation();
+  constexpr double kTau = 0.0753;
+  constexpr int kDelay = 100;  // 10 ms at 10 kHz
+  fc.set_velocity_lag_s(kTau);
+  fc.set_velocity_delay_s(kDelay / config.controller().loop_rate_hz());
+  const ControllerParams params = controller_params_from_config(config);
+  const double h = params.period_s;
+  Controller controller(params);
+  std::vector<double> driving;
+  TickSetpoints sp = moving_setpoints(0, &model);
+  sp.lateral_rate = 0;
+  for (int k = 0; k < 10; ++k) controller.step(sp, fixed_frame());
+  sp.lateral_rate = 4e-6;  // a ramp starts
+  for (int k = 0; k < 5000; ++k) {
+    controller.step(sp, fixed_frame());
+    driving.push_back(controller.friction_observer().driving_velocity_m_per_s);
+  }
+  for (int k = 0; k < kDelay; ++k) ASSERT_EQ(driving[k], 0.0) << "tick " << k << " of the delay";
+  for (const double t : {0.5 * kTau, kTau, 2 * kTau, 4 * kTau}) {
+    const int k = kDelay + static_cast<int>(std::lround(t / h)) - 1;
+    EXPECT_NEAR(driving[k], 4e-6 * (1 - std::exp(-t / kTau)), 4e-6 * 0.01) << t << " s after the delay";
+  }
+  EXPECT_GT(driving[kDelay], 0.0);
+  EXPECT_LT(driving[kDelay + 10], 4e-6 * 11 * h / kTau) << "11 ticks after the delay";
+}
+
+// velocity_delay_s and velocity_lag_s 0 (the default): the present commanded velocity drives the
+// observer, bit for bit the compensation of the observer on the command.
+TEST(FrictionCompensationController, NoDelayDrivesTheObserverWithThePresentCommandedVelocity) {
+  const IdentifiedFriction model = fixture_model();
+  const ControllerParams params = controller_params_from_config(tribo::testing::default_config());
+  ASSERT_EQ(params.friction_velocity_delay_ticks, 0u);
+  Controller controller(params);
+  std::vector<double> commanded, compensation;
+  for (int k = 0; k < 200; ++k) {
+    const TickSetpoints sp = moving_setpoints(k, &model);
+    compensation.push_back(controller.step(sp, fixed_frame()).friction_compensation_n);
+    commanded.push_back(sp.lateral_rate);
+    ASSERT_EQ(controller.friction_observer().driving_velocity_m_per_s, sp.lateral_rate) << "tick " << k;
+  }
+  EXPECT_EQ(compensation, observer_along(model, params.friction_observer, commanded, params.period_s));
 }
 
 TEST(FrictionCompensationSupervisor, NonFiniteOrExcessiveCompensationTrips) {

@@ -2,7 +2,7 @@
 // operator new and counts the allocations made while RunLoop::tick() runs —
 // control, supervision, a safety trip, the stop sequence, gain changes, the
 // simulated plant and its fault injection included, with the friction
-// compensation off and on (its observer, its switch-off at the trip).
+// compensation off and on (its observer, its velocity delay, its switch-off at the trip).
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -54,7 +54,14 @@ TEST(TickAllocation, TheTickPathAllocatesNothing) {
     freeze->set_duration_s(0.1);
   }
   v1::Protocol protocol = testing::load_protocol_file("standard_scratch.textproto");
-  for (const bool compensated : {false, true}) {
+  // Off; on; on with the observer's velocity delayed by the loop's lag (its
+  // delay line is allocated with the controller, before the ticks).
+  for (const int pass : {0, 1, 2}) {
+    const bool compensated = pass > 0;
+    if (pass == 2) {
+      config.mutable_controller()->mutable_friction_compensation()->set_velocity_delay_s(0.0753);
+      config.mutable_controller()->mutable_friction_compensation()->set_velocity_lag_s(0.0753);
+    }
     if (compensated) {
       const auto report = wire::read_file(std::string(TRIBO_SOURCE_DIR) + "/tests/data/friction_reports/identification.json");
       ASSERT_TRUE(report);
@@ -83,7 +90,8 @@ TEST(TickAllocation, TheTickPathAllocatesNothing) {
       while (queue.try_pop(drained)) {
       }
     }
-    EXPECT_EQ(counted, 0u) << "allocations during " << ticks << " ticks" << (compensated ? ", compensated" : "");
+    EXPECT_EQ(counted, 0u) << "allocations during " << ticks << " ticks" << (compensated ? ", compensated" : "")
+                             << (pass == 2 ? ", velocity delayed and lagged" : "");
     EXPECT_EQ(loop.outcome().end, RunEnd::kTripped) << "the trip and the stop sequence ran";
     EXPECT_GT(ticks, 130000u);
   }
