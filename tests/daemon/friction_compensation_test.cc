@@ -16,6 +16,7 @@
 #include "daemon/safety_supervisor.h"
 #include "hal/backend_factory.h"
 #include "proto/text_format_file.h"
+#include "tests/daemon/protocol_check_support.h"
 #include "tests/daemon/service_test_support.h"
 #include "tests/support/compensation_runs.h"
 
@@ -34,18 +35,8 @@ std::string identification_report() {
   return *text;
 }
 
-const ValidationIssue* find(const ProtocolCheck& c, const std::string& field) {
-  for (const auto& e : c.errors) {
-    if (e.field == field) return &e;
-  }
-  return nullptr;
-}
-
-std::string all(const ProtocolCheck& c) {
-  std::string s;
-  for (const auto& e : c.errors) s += e.field + ": " + e.message + "\n";
-  return s;
-}
+using tribo::testing::all;
+using tribo::testing::find;
 
 TEST(FrictionCompensationProtocol, CompilesTheProtocolsModelIntoItsDisplacementSegments) {
   const v1::Protocol p = with_friction_model(shipped_protocol("breakaway.textproto"), identification_report());

@@ -7,6 +7,7 @@
 #include <numbers>
 
 #include "proto/text_format_file.h"
+#include "tests/daemon/protocol_check_support.h"
 #include "tests/sim/sim_test_support.h"
 
 namespace tribo::daemon {
@@ -25,19 +26,8 @@ ProtocolCheck check(const v1::Protocol& p) {
   return validate_protocol(p, c);
 }
 
-// The first error whose field is `field`, or a failure listing all errors.
-const ValidationIssue* find(const ProtocolCheck& c, const std::string& field) {
-  for (const auto& e : c.errors) {
-    if (e.field == field) return &e;
-  }
-  return nullptr;
-}
-
-std::string all(const ProtocolCheck& c) {
-  std::string s;
-  for (const auto& e : c.errors) s += e.field + ": " + e.message + "\n";
-  return s;
-}
+using tribo::testing::all;
+using tribo::testing::find;
 
 TEST(ProtocolValidator, AcceptsTheStandardScratchAndCompilesIt) {
   const ProtocolCheck c = check(standard_protocol());
