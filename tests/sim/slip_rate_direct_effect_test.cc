@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 #include "sim/friction_effects.h"
 #include "sim/instrument_params.h"
@@ -155,6 +156,22 @@ TEST(SlipRateDirectEffect, TheSlipOnsetDoesNotRiseWithTheLoadingRate) {
   EXPECT_NEAR(tip_slow, held_n + r * a_n * std::log1p(slow / v_star), tolerance_n);
   EXPECT_NEAR(tip_fast, held_n + r * a_n * std::log1p(fast / v_star), tolerance_n);
   EXPECT_GT(tip_fast - tip_slow, 100 * tolerance_n);  // the default's rise is resolved
+}
+
+// The slip rate is solved for one bristle: with Maxwell-slip elements the
+// config is refused, naming the field.
+TEST(SlipRateDirectEffect, IsRefusedWithMaxwellSlipElements) {
+  v1::DaemonConfig config = testing::default_config();
+  auto* f = config.mutable_sim()->mutable_friction();
+  f->mutable_rate_state()->set_direct_effect_rate(v1::RATE_STATE_DIRECT_SLIP_RATE);
+  EXPECT_FALSE(validate_sim_config(config.sim()).has_value());
+  f->mutable_presliding_hysteresis()->set_enabled(true);
+  f->mutable_presliding_hysteresis()->set_elements(4);
+  f->mutable_presliding_hysteresis()->set_spread(0.5);
+  f->mutable_presliding_hysteresis()->set_breakaway_ratio(0.9);
+  const auto error = validate_sim_config(config.sim());
+  ASSERT_TRUE(error.has_value());
+  EXPECT_NE(error->find("sim.friction.rate_state.direct_effect_rate"), std::string::npos) << *error;
 }
 
 }  // namespace
