@@ -102,11 +102,14 @@ struct DirectionAsymmetryParams {
 // contact at rest relaxes to the state of sliding at V* (phi = D_c / V*, the
 // state term 0) over ~D_c / V*. In steady sliding phi = D_c / (|v| + V*)
 // and the addition is (a - b) ln(1 + |v|/V*): a = b is friction flat in
-// velocity. A fresh contact starts at phi_0 (initial_state_s). On loading,
-// the stuck contact deflects elastically (breakaway_ratio, below) at the
+// velocity. A fresh contact starts at phi_0 (initial_state_s). With the
+// direct effect on the tip's velocity (the default, DirectEffectRate below),
+// on loading the stuck contact deflects elastically (breakaway_ratio) at the
 // tip's velocity v ~ (dF/dt) / sigma0 while its state stays, so its
 // threshold S rises by a ln(1 + v/V*) with the loading rate: the break-away
-// peak grows with the commanded velocity (Table 5.1). Once it slips, the
+// peak grows with the commanded velocity (Table 5.1). On the slip rate, the
+// stuck contact takes no direct effect; the peak grows with the slip rate
+// once slip begins. Once it slips, the
 // state falls by b ln(1 + v/V*) over ~D_c of slip: the friction drops and
 // the tip overshoots (§5.3.1). S stays at least kRateStateFloor Fc.
 enum class StateLaw { kAgeing, kSlip };
