@@ -355,7 +355,9 @@ def main():
         report["contact"] = dict(zip(["a", "b", "Dc_m", "V*_m_per_s", "breakaway_ratio"], slip_rate_values(q)))
         report["law"] = {"direct effect": "slip rate", "state": "ageing law", "dwell term": "off",
                          "a and b range": f"{SLIP_RATE_COEFF_RANGE[0]:.4g}-{SLIP_RATE_COEFF_RANGE[1]:.4g}",
-                         "Dc range m": f"{SLIP_RATE_DC_RANGE_M[0]:.3g}-{SLIP_RATE_DC_RANGE_M[1]:.3g}"}
+                         "Dc range m": f"{SLIP_RATE_DC_RANGE_M[0]:.3g}-{SLIP_RATE_DC_RANGE_M[1]:.3g}",
+                         "fitted on": "the fit rows of the table_5_1 group only (Fig. 4.22's, where declared fit, are not "
+                                      "fitted on: no dwell term)"}
         write_config(split, name, assignments, report, losses,
                      os.path.join(ROOT, "config", "instruments", "slip_rate_contact", name + ".textproto"),
                      "--law slip_rate ")
