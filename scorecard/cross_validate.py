@@ -4,6 +4,12 @@ on its fitted config over several seeds, its fit rows beside its predicted
 rows, as markdown.
 
   /usr/bin/python3 scorecard/cross_validate.py [--splits a,b,...] [--seeds 1-5] [--out DIR] [--jobs 2] [--reuse]
+                                             [--configs DIR]
+
+--configs DIR scores each split on DIR/NAME.textproto instead of its own
+config (the splits without such a file are left out): another contact law's
+fits, e.g. config/instruments/slip_rate_contact (scorecard/fit_contact.py
+--law slip_rate).
 
 Runs `build/scorecard/tribo-scorecard --split NAME --seed N --json` for each
 split and seed (about 13 s of CPU each), keeps the outputs in DIR/NAME/seedN.json
@@ -40,12 +46,13 @@ def seeds_of(text):
     return [int(s) for s in text.split(",")]
 
 
-def run(split, seed, out_dir, reuse):
+def run(split, seed, out_dir, reuse, configs=None):
     path = os.path.join(out_dir, split, f"seed{seed}.json")
     if not (reuse and os.path.exists(path)):
         os.makedirs(os.path.dirname(path), exist_ok=True)
-        result = subprocess.run([SCORECARD, "--split", split, "--seed", str(seed), "--json"], capture_output=True,
-                                text=True)
+        config = ["--config", os.path.join(configs, split + ".textproto")] if configs else []
+        result = subprocess.run([SCORECARD, *config, "--split", split, "--seed", str(seed), "--json"],
+                                capture_output=True, text=True)
         if result.returncode != 0:
             sys.exit(f"cross_validate.py: tribo-scorecard --split {split} --seed {seed}: {result.stderr.strip()}")
         with open(path, "w", encoding="utf-8") as f:
@@ -114,12 +121,15 @@ def main():
     ap.add_argument("--out", default=os.path.join(ROOT, "build", "cross_validation"))
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--reuse", action="store_true", help="read DIR/NAME/seedN.json where present")
+    ap.add_argument("--configs", help="score split NAME on CONFIGS/NAME.textproto (splits without one left out)")
     args = ap.parse_args()
     declared = json.load(open(SPLITS, encoding="utf-8"))["splits"]
     names = args.splits.split(",") if args.splits else [s["name"] for s in declared]
+    if args.configs:
+        names = [n for n in names if os.path.exists(os.path.join(args.configs, n + ".textproto"))]
     seeds = seeds_of(args.seeds)
     with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
-        futures = {(n, s): pool.submit(run, n, s, args.out, args.reuse) for n in names for s in seeds}
+        futures = {(n, s): pool.submit(run, n, s, args.out, args.reuse, args.configs) for n in names for s in seeds}
         results = {k: f.result() for k, f in futures.items()}
 
     # 1. goals met per split and seed

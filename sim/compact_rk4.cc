@@ -105,6 +105,7 @@ struct CompactPlant {
 bool compact_rk4_applies(const LateralPlant& plant, const LateralState& s) {
   const FrictionModel& m = plant.friction;
   if (plant.axis.backlash.enabled || m.presliding_hysteresis.enabled || m.frictional_lag.enabled) return false;
+  if (direct_effect_on_slip_rate(m.rate_state)) return false;  // S solved with the slip rate: the general path
   // The states the compact path leaves alone gain +0 in the general path.
   return !negative_zero(s.tip_position_m) && !negative_zero(s.tip_velocity_m_per_s) &&
          !negative_zero(s.lag_velocity_m_per_s) &&

@@ -86,14 +86,14 @@ struct SpeedTerms {
   double direct_log = 0;
 };
 
-SpeedTerms speed_terms(const FrictionModel& m, const FrictionLevels& levels, double vs) {
+SpeedTerms speed_terms(const FrictionModel& m, const FrictionLevels& levels, double vs, double direct_v) {
   SpeedTerms t;
   t.shape = stribeck_shape(m.lugre, vs);
   if (levels.strengthening_n > 0) {
     t.strengthening_log = std::log1p(std::fabs(vs) / m.velocity_strengthening.reference_velocity_m_per_s);
   }
   if (levels.rate_state_n > 0) {
-    t.direct_log = std::log1p(std::fabs(vs) * (1.0 / m.rate_state.reference_velocity_m_per_s));
+    t.direct_log = std::log1p(std::fabs(direct_v) * (1.0 / m.rate_state.reference_velocity_m_per_s));
   }
   return t;
 }
@@ -121,11 +121,62 @@ double stribeck_at(const FrictionModel& m, const FrictionLevels& levels, const P
   return s;
 }
 
+// The velocity the direct effect takes at the point.
+double direct_velocity(const FrictionModel& m, const ContactPoint& c) {
+  return m.rate_state.direct_rate == DirectEffectRate::kSlipRate ? c.slip_rate_m_per_s : c.stribeck_velocity_m_per_s;
+}
+
 }  // namespace
 
 double stribeck_n(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c) {
-  return stribeck_at(m, levels, point_terms(m, levels, c), speed_terms(m, levels, c.stribeck_velocity_m_per_s),
-                     c.velocity_m_per_s);
+  return stribeck_at(m, levels, point_terms(m, levels, c),
+                     speed_terms(m, levels, c.stribeck_velocity_m_per_s, direct_velocity(m, c)), c.velocity_m_per_s);
+}
+
+double stribeck_n_at_deflection(const FrictionModel& m, const FrictionLevels& levels, ContactPoint& c, double z) {
+  if (!(levels.rate_state_n > 0) || !direct_effect_on_slip_rate(m.rate_state)) return stribeck_n(m, levels, c);
+  const PointTerms t = point_terms(m, levels, c);
+  SpeedTerms speed = speed_terms(m, levels, c.stribeck_velocity_m_per_s, 0.0);
+  const double v = c.velocity_m_per_s, sigma0 = m.lugre.sigma0_n_per_m;
+  const double inverse_v_star = 1.0 / m.rate_state.reference_velocity_m_per_s;
+  auto s_at = [&](double slip) {
+    speed.direct_log = std::log1p(std::fabs(slip) * inverse_v_star);
+    return stribeck_at(m, levels, t, speed, v);
+  };
+  auto slip_at = [&](double s) {
+    const double g = s / sigma0;
+    return plasticity(m.lugre.breakaway_ratio, v, z, g) * std::fabs(v) * z / g;
+  };
+  // G(S) = S - F(S) rises with S; G(lo) <= 0 <= G(hi).
+  double lo = s_at(0.0);
+  const double slip_lo = slip_at(lo);
+  if (slip_lo == 0.0) {  // stuck (alpha = 0) or at rest: no slip whatever S
+    c.slip_rate_m_per_s = 0.0;
+    return lo;
+  }
+  double hi = s_at(slip_lo);
+  double g_lo = lo - hi;
+  double slip_hi = slip_at(hi);
+  double g_hi = hi - s_at(slip_hi);
+  double s = hi, slip = slip_hi;
+  int side = 0;
+  for (int i = 0; i < kSlipRateIterations && std::fabs(g_hi) > kSlipRateResidual * hi && hi - lo > 1e-14 * hi; ++i) {
+    s = g_hi == g_lo ? 0.5 * (lo + hi) : hi - g_hi * (hi - lo) / (g_hi - g_lo);
+    slip = slip_at(s);
+    const double g_s = s - s_at(slip);
+    if (std::fabs(g_s) <= kSlipRateResidual * s) break;
+    if (g_s > 0) {
+      hi = s, g_hi = g_s;
+      if (side == 1) g_lo *= 0.5;  // Illinois: the end kept twice is halved
+      side = 1;
+    } else {
+      lo = s, g_lo = g_s;
+      if (side == -1) g_hi *= 0.5;
+      side = -1;
+    }
+  }
+  c.slip_rate_m_per_s = slip;
+  return s_at(slip);
 }
 
 double static_friction_n(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c,
@@ -137,7 +188,8 @@ SlidingAndStatic stribeck_and_static_n(const FrictionModel& m, const FrictionLev
                                        const ContactPoint& c, double direction) {
   const PointTerms t = point_terms(m, levels, c);
   return SlidingAndStatic{
-      stribeck_at(m, levels, t, speed_terms(m, levels, c.stribeck_velocity_m_per_s), c.velocity_m_per_s),
+      stribeck_at(m, levels, t, speed_terms(m, levels, c.stribeck_velocity_m_per_s, direct_velocity(m, c)),
+                  c.velocity_m_per_s),
       stribeck_at(m, levels, t, kAtRest, direction)};
 }
 
@@ -162,7 +214,8 @@ double steady_state_friction_n(const FrictionModel& m, const FrictionLevels& lev
   if (!levels.in_contact() || v == 0.0) return 0.0;
   const double age = m.dwell_stiction.memory_length_m / std::fabs(v);
   const double phi = m.rate_state.memory_length_m / (std::fabs(v) + m.rate_state.reference_velocity_m_per_s);
-  const double s = stribeck_n(m, levels, ContactPoint{v, v, x, age, phi});
+  // In steady sliding the bristle is still: the slip rate is v.
+  const double s = stribeck_n(m, levels, ContactPoint{v, v, x, age, phi, v});
   return (v > 0 ? s : -s) + m.lugre.sigma2_n_s_per_m * v;
 }
 

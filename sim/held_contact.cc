@@ -70,9 +70,10 @@ class HeldContactStep {
     return ContactPoint{v, v, f.x - in_.sample_offset_m, slow.age, slow.phi};
   }
 
-  // 1/g at the point: one evaluation of S.
-  double inverse_scale(const ContactPoint& c) const {
-    return m_.lugre.sigma0_n_per_m / stribeck_n(m_, in_.levels, c);
+  // 1/g at the point with the bristle at z: one evaluation of S (with the
+  // direct effect on the slip rate, S solved with it: stribeck_n_at_deflection).
+  double inverse_scale(ContactPoint c, double z) const {
+    return m_.lugre.sigma0_n_per_m / stribeck_n_at_deflection(m_, in_.levels, c, z);
   }
 
   struct Rate {
@@ -137,7 +138,9 @@ LateralEvaluation held_contact_start(const LateralPlant& plant, const LateralInp
   const ContactPoint c = step.point(s, Slow{state.contact_age_s, state.rate_state_s});
   LateralEvaluation e;
   if (step.in_contact()) {
-    const double stribeck = stribeck_n_at_s ? *stribeck_n_at_s : stribeck_n(plant.friction, in.levels, c);
+    ContactPoint at = c;
+    const double stribeck =
+        stribeck_n_at_s ? *stribeck_n_at_s : stribeck_n_at_deflection(plant.friction, in.levels, at, s.z);
     e.inverse_scale_per_m = plant.friction.lugre.sigma0_n_per_m / stribeck;
     e.deflection_scale_m = stribeck / plant.friction.lugre.sigma0_n_per_m;
   }
@@ -182,7 +185,7 @@ bool integrate_lateral_held(const LateralPlant& plant, const LateralInputs& in, 
     } else {
       const ContactPoint c = step.point(s, slow);
       if (contact) {
-        q0 = step.inverse_scale(c);
+        q0 = step.inverse_scale(c, s.z);
         ++evaluations;
       }
       const HeldContactStep::Rate rate = step.rate_with_friction(s, q0);
@@ -207,7 +210,7 @@ bool integrate_lateral_held(const LateralPlant& plant, const LateralInputs& in, 
     const ContactPoint c_mid = step.point(mid, slow_mid);
     double q_mid = q0;
     if (!hold) {
-      q_mid = step.inverse_scale(c_mid);
+      q_mid = step.inverse_scale(c_mid, mid.z);
       ++evaluations;
     }
     const Fast k2 = step.rate(mid, q_mid);

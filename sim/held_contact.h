@@ -24,7 +24,9 @@
 // (integrate_lateral_held). The drive's attraction is linear in x over the
 // sub-step where its curvature term is below 1e-9 N. The law's formulas
 // live in sim/friction_effects.cc; this file only decides where they are
-// evaluated.
+// evaluated. With the direct effect on the slip rate an evaluation of S
+// solves S with the slip rate at that point's bristle deflection
+// (stribeck_n_at_deflection), so the held S is consistent with z there.
 //
 // Serves the plants without backlash, Maxwell-slip elements or frictional
 // lag (every named config); the others are integrated with the law at every

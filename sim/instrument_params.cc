@@ -80,7 +80,9 @@ InstrumentParams instrument_params_from_config(const v1::SimConfig& c) {
   m.rate_state = {f.rate_state().enabled(), f.rate_state().direct_coeff(), f.rate_state().state_coeff(),
                   f.rate_state().reference_velocity_m_per_s(), f.rate_state().memory_length_m(),
                   f.rate_state().initial_state_s(),
-                  f.rate_state().law() == v1::RATE_STATE_AGEING ? StateLaw::kAgeing : StateLaw::kSlip};
+                  f.rate_state().law() == v1::RATE_STATE_AGEING ? StateLaw::kAgeing : StateLaw::kSlip,
+                  f.rate_state().direct_effect_rate() == v1::RATE_STATE_DIRECT_SLIP_RATE ? DirectEffectRate::kSlipRate
+                                                                                       : DirectEffectRate::kTipVelocity};
 
   p.tilt = {tip.tilt_offset().enabled(), radians(tip.tilt_offset().angle_deg())};
   const auto& smp = c.sample();
@@ -253,6 +255,10 @@ std::optional<std::string> validate_friction(const v1::FrictionParams& f) {
                       1e-12, 1, true});
     checks.push_back({"friction.rate_state.memory_length_m", f.rate_state().memory_length_m(), 1e-12, 1e-3, true});
     checks.push_back({"friction.rate_state.initial_state_s", f.rate_state().initial_state_s(), 1e-9, 1e9, true});
+    if (f.rate_state().direct_effect_rate() == v1::RATE_STATE_DIRECT_SLIP_RATE && f.presliding_hysteresis().enabled()) {
+      return std::string("sim.friction.rate_state.direct_effect_rate = RATE_STATE_DIRECT_SLIP_RATE: needs "
+                         "sim.friction.presliding_hysteresis.enabled = false (the slip rate is solved for one bristle)");
+    }
   }
   return first_failure(checks);
 }

@@ -71,9 +71,9 @@ LateralEvaluation lateral_derivative(const LateralPlant& plant, const LateralInp
   const FrictionModel& m = plant.friction;
   LateralEvaluation e;
   LateralRate& r = e.rate;
-  const ContactPoint c = contact_point(plant, in, s);
+  ContactPoint c = contact_point(plant, in, s);
   if (in.levels.in_contact()) {
-    const double stribeck = stribeck_n_at_s ? *stribeck_n_at_s : stribeck_n(m, in.levels, c);
+    const double stribeck = stribeck_n_at_s ? *stribeck_n_at_s : stribeck_n_at_deflection(m, in.levels, c, s.bristle_m);
     const double g = stribeck / m.lugre.sigma0_n_per_m;
     e.deflection_scale_m = g;
     e.inverse_scale_per_m = m.lugre.sigma0_n_per_m / stribeck;
@@ -198,12 +198,13 @@ void relax_contact(const LateralPlant& plant, const LateralInputs& in, double h,
   const double v = contact_point(plant, in, s).velocity_m_per_s;
   auto relax_state = [&](double step) {
     if (!m.rate_state.enabled) return;
-    const double g = stribeck_n(m, in.levels, contact_point(plant, in, s)) / m.lugre.sigma0_n_per_m;
+    ContactPoint c = contact_point(plant, in, s);
+    const double g = stribeck_n_at_deflection(m, in.levels, c, s.bristle_m) / m.lugre.sigma0_n_per_m;
     s.rate_state_s = relax_rate_state(m.rate_state, bristle_slip_rate_m_per_s(m, g, v, s), s.rate_state_s, step);
   };
   relax_state(h / 2);
-  const ContactPoint c = contact_point(plant, in, s);
-  const double g = stribeck_n(m, in.levels, c) / m.lugre.sigma0_n_per_m;
+  ContactPoint c = contact_point(plant, in, s);
+  const double g = stribeck_n_at_deflection(m, in.levels, c, s.bristle_m) / m.lugre.sigma0_n_per_m;
   const PreslidingHysteresisParams& hy = m.presliding_hysteresis;
   if (!hy.enabled) {
     s.bristle_m = relax_bristle(m.lugre.breakaway_ratio, g, v, s.bristle_m, h);
@@ -264,9 +265,20 @@ double limit_to_static_friction(const LateralPlant& plant, const LateralInputs& 
   const PreslidingHysteresisParams& hy = m.presliding_hysteresis;
   if (!hy.enabled) {
     // S sliding and at rest share the point's terms: one evaluation of them.
-    const SlidingAndStatic both = stribeck_and_static_n(m, in.levels, c, s.bristle_m);
+    SlidingAndStatic both = stribeck_and_static_n(m, in.levels, c, s.bristle_m);
+    if (!direct_effect_on_slip_rate(m.rate_state)) {
+      s.bristle_m = limit(s.bristle_m, 1.0, both.sliding_n, both.static_n);
+      return both.sliding_n;
+    }
+    // S sliding depends on the bristle through the slip rate: at the
+    // deflection the limit leaves (the caller's next evaluation's S).
+    ContactPoint at = c;
+    both.sliding_n = stribeck_n_at_deflection(m, in.levels, at, s.bristle_m);
+    const double before = s.bristle_m;
     s.bristle_m = limit(s.bristle_m, 1.0, both.sliding_n, both.static_n);
-    return both.sliding_n;
+    if (s.bristle_m == before) return both.sliding_n;
+    at = c;
+    return stribeck_n_at_deflection(m, in.levels, at, s.bristle_m);
   }
   const double sliding_n = stribeck_n(m, in.levels, c);
   for (int i = 0; i < hy.elements; ++i) {

@@ -138,6 +138,39 @@ TEST_P(FineStepReference, DefaultInstrumentIsWithinItsTolerances) {
   EXPECT_LT(now.normal_force_un.max, normal_floor_un / 2);
 }
 
+// The same for the default instrument with the rate-and-state direct effect
+// on the slip rate (rate_state.direct_effect_rate = RATE_STATE_DIRECT_SLIP_RATE:
+// S solved with the slip rate at each evaluation), with the same tolerances:
+// the held-contact scheme evaluates the coupled law at a sub-step's start and
+// middle, the reference at every stage of RK4 at a 100 times finer step.
+TEST_P(FineStepReference, DirectEffectOnTheSlipRateIsWithinItsTolerances) {
+  const Case& c = GetParam();
+  v1::DaemonConfig config = config_file("config/tribod.textproto");
+  config.mutable_sim()->mutable_friction()->mutable_rate_state()->set_direct_effect_rate(
+      v1::RATE_STATE_DIRECT_SLIP_RATE);
+  const ProtocolRun ref = run_protocol(fine_reference(config), c.protocol(), 1);
+  const ProtocolRun run = run_protocol(config, c.protocol(), 1);
+  ASSERT_EQ(ref.end, daemon::RunEnd::kCompleted);
+  ASSERT_EQ(run.end, daemon::RunEnd::kCompleted);
+  ASSERT_EQ(run.samples.size(), ref.samples.size());
+  const Channels now = compare(run, ref);
+  std::printf("  %s, %zu ticks:\n", c.name, ref.samples.size());
+  print("direct effect on the slip rate (held contact law)", now, run);
+
+  const double force_floor_un = 1e6 * config.sim().sensors().lateral_force_noise_n();
+  const double position_floor_nm = 1e9 * config.sim().lateral().sensing().low_frequency_noise_m();
+  const double normal_floor_un = 1e6 * config.sim().sensors().normal_force_noise_n();
+  ASSERT_GT(force_floor_un * position_floor_nm * normal_floor_un, 0);
+  EXPECT_LT(now.friction_un.rms, force_floor_un / 10);
+  EXPECT_LT(now.friction_un.max, force_floor_un / 2);
+  EXPECT_LT(now.lateral_force_un.rms, force_floor_un / 10);
+  EXPECT_LT(now.lateral_force_un.max, force_floor_un / 2);
+  EXPECT_LT(now.position_nm.rms, position_floor_nm / 10);
+  EXPECT_LT(now.position_nm.max, position_floor_nm);
+  EXPECT_LT(now.normal_force_un.rms, normal_floor_un / 10);
+  EXPECT_LT(now.normal_force_un.max, normal_floor_un / 2);
+}
+
 INSTANTIATE_TEST_SUITE_P(Runs, FineStepReference,
                          ::testing::Values(Case{"standard_scratch", standard_scratch},
                                            Case{"breakaway_9810uN_36um_s", breakaway}),
