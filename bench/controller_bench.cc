@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <string>
 #include <variant>
 #include <vector>
 
@@ -42,12 +43,21 @@ v1::Protocol standard() {
 }
 
 // The identified model the compensated benchmarks feed forward.
+IdentifiedFriction model_of(const char* path) {
+  const auto text = wire::read_file(path);
+  if (!text) throw std::runtime_error(std::string("the friction model report is missing: ") + path);
+  return std::get<FrictionReport>(read_friction_report(*text)).model;
+}
+
 const IdentifiedFriction& identified_model() {
-  static const IdentifiedFriction m = [] {
-    const auto text = wire::read_file(TRIBO_SOURCE_DIR "/tests/data/friction_reports/identification.json");
-    if (!text) throw std::runtime_error("the friction model report is missing");
-    return std::get<FrictionReport>(read_friction_report(*text)).model;
-  }();
+  static const IdentifiedFriction m = model_of(TRIBO_SOURCE_DIR "/tests/data/friction_reports/identification.json");
+  return m;
+}
+
+// tribo-fit's rate-and-state model of a break-away record (ageing law,
+// presliding, the tilt).
+const IdentifiedFriction& rate_state_model() {
+  static const IdentifiedFriction m = model_of(TRIBO_SOURCE_DIR "/tests/data/friction_reports/breakaway.json");
   return m;
 }
 
@@ -167,11 +177,19 @@ void BM_ControllerStep(benchmark::State& state) {
 }
 BENCHMARK(BM_ControllerStep)->Arg(0)->Arg(1);
 
-// The friction observer's step alone, on the recorded readings.
+// The friction observer's step alone, on the recorded readings. Argument 0:
+// the shipped settings with identification.json; 1: breakaway.json, a
+// rate-and-state model, with the shipped settings; 2: the same with its
+// state at the measured speed (contact_state_from_measured_velocity,
+// velocity_filter_hz 50).
 void BM_FrictionObserverStep(benchmark::State& state) {
   const Recorded& r = recorded();
-  const IdentifiedFriction& m = identified_model();
-  const ObserverSettings settings = controller_params_from_config(config()).friction_observer;
+  const IdentifiedFriction& m = state.range(0) ? rate_state_model() : identified_model();
+  ObserverSettings settings = controller_params_from_config(config()).friction_observer;
+  if (state.range(0) == 2) {
+    settings.contact_state_from_measured = true;
+    settings.velocity_filter_hz = 50;
+  }
   ObserverState s = observer_at_rest(m);
   std::size_t i = 0;
   for (auto _ : state) {
@@ -185,7 +203,7 @@ void BM_FrictionObserverStep(benchmark::State& state) {
     if (++i == r.frames.size()) i = 0;
   }
 }
-BENCHMARK(BM_FrictionObserverStep);
+BENCHMARK(BM_FrictionObserverStep)->Arg(0)->Arg(1)->Arg(2);
 
 // The whole tick of the run loop with the simulated plant stepped in
 // lock-step (read, supervise, control, write, record, plant step): the

@@ -68,6 +68,7 @@ ControllerParams controller_params_from_config(const v1::ControllerConfig& c) {
   p.period_s = 1.0 / c.loop_rate_hz();
   p.friction_observer.observer_gain_per_s = c.friction_compensation().observer_gain_per_s();
   p.friction_observer.velocity_filter_hz = c.friction_compensation().velocity_filter_hz();
+  p.friction_observer.contact_state_from_measured = c.friction_compensation().contact_state_from_measured_velocity();
   p.friction_observer.velocity = c.friction_compensation().velocity_source() == v1::MEASURED
                                      ? ObserverVelocity::kMeasured
                                      : ObserverVelocity::kCommanded;

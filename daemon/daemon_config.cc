@@ -145,6 +145,19 @@ std::optional<std::string> validate_daemon_config(const v1::DaemonConfig& c) {
       return msg.str();
     }
   }
+  if (fc.contact_state_from_measured_velocity()) {
+    if (fc.velocity_source() == v1::MEASURED) {
+      return "controller.friction_compensation.contact_state_from_measured_velocity = true: must be false with "
+             "velocity_source MEASURED (every state already follows the measured velocity)";
+    }
+    if (!(fc.velocity_filter_hz() > 0)) {
+      std::ostringstream msg;
+      msg << "controller.friction_compensation.contact_state_from_measured_velocity = true: needs "
+             "velocity_filter_hz > 0, not "
+          << fc.velocity_filter_hz() << " (unfiltered differences of the readings are noise)";
+      return msg.str();
+    }
+  }
   if (auto e = out_of_range("limits.max_normal_force_n", lim.max_normal_force_n(), 1e-9, 1)) return e;
   if (auto e = out_of_range("limits.max_lateral_force_n", lim.max_lateral_force_n(), 1e-9, 1)) return e;
   if (auto e = out_of_range("limits.max_lateral_travel_m", lim.max_lateral_travel_m(), 1e-9, 1e-3)) return e;

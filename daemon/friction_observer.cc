@@ -132,12 +132,13 @@ ObserverOutput observer_step(const IdentifiedFriction& m, const ObserverSettings
   const double v = settings.velocity == ObserverVelocity::kMeasured ? s.velocity_m_per_s : in.commanded_velocity_m_per_s;
   s.driving_velocity_m_per_s = v;
   const double speed = std::fabs(v), direction = sign_of(v);
+  const double state_speed = settings.contact_state_from_measured ? std::fabs(s.velocity_m_per_s) : speed;
 
   if (m.rate_state) {
-    s.rate_state_s = m.rate_state_slip_law ? slip_law_step(s.rate_state_s, speed, m.rate_state_memory_m, h)
-                                           : age_step(s.rate_state_s, speed, m.rate_state_memory_m, h);
+    s.rate_state_s = m.rate_state_slip_law ? slip_law_step(s.rate_state_s, state_speed, m.rate_state_memory_m, h)
+                                           : age_step(s.rate_state_s, state_speed, m.rate_state_memory_m, h);
   }
-  if (m.dwell) s.contact_age_s = age_step(s.contact_age_s, speed, m.dwell_memory_m, h);
+  if (m.dwell) s.contact_age_s = age_step(s.contact_age_s, state_speed, m.dwell_memory_m, h);
 
   const double level = identified_friction_level(m, speed, direction, in.normal_force_n, s.rate_state_s, s.contact_age_s);
   // The largest deflection the contact holds at this load: its static level.

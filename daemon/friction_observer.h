@@ -13,7 +13,8 @@
 // low-pass of its differences at velocity_filter_hz); k the observer gain of
 // their correction term (k = 0: the model alone); N the measured load. The
 // contact age of dwell stiction and the rate-and-state variable follow their
-// evolution laws at |v|. On the default instrument a MEASURED observer feeds
+// evolution laws at |v|, or at |v^| (contact_state_from_measured: a contact
+// keeps its memory while the tip, lagging the command, has not slid it). On the default instrument a MEASURED observer feeds
 // the contact's own stiffness back (sigma0 z^ follows the measured presliding
 // displacement) and drives the loop into stick-slip; the COMMANDED one is a
 // feed-forward along the motion the loop is asked for, its state corrected
@@ -37,6 +38,9 @@ struct ObserverSettings {
   double observer_gain_per_s = 0;   // k
   double velocity_filter_hz = 0;    // 0: the plain difference of the readings
   ObserverVelocity velocity = ObserverVelocity::kCommanded;
+  // The rate-and-state variable and the contact age evolve at the speed
+  // estimated from the position reading (v^), whatever drives the rest.
+  bool contact_state_from_measured = false;
 };
 
 struct ObserverState {

@@ -93,5 +93,25 @@ TEST(DaemonConfig, TheObserversVelocityDelayAndLagAreBoundedAndNeedTheCommandedV
   EXPECT_EQ(*e, "controller.friction_compensation.velocity_lag_s = 2: must be in [0, 1]");
 }
 
+TEST(DaemonConfig, TheContactStateFromTheMeasuredVelocityNeedsAFilterAndTheCommandedVelocity) {
+  v1::DaemonConfig c = testing::default_config();
+  auto& fc = *c.mutable_controller()->mutable_friction_compensation();
+  fc.set_velocity_lag_s(0.0753);
+  fc.set_contact_state_from_measured_velocity(true);
+  fc.set_velocity_filter_hz(0);
+  auto e = validate_daemon_config(c);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(*e, "controller.friction_compensation.contact_state_from_measured_velocity = true: needs "
+                "velocity_filter_hz > 0, not 0 (unfiltered differences of the readings are noise)");
+  fc.set_velocity_filter_hz(50);
+  EXPECT_FALSE(validate_daemon_config(c)) << *validate_daemon_config(c);
+  fc.set_velocity_lag_s(0);
+  fc.set_velocity_source(v1::MEASURED);
+  e = validate_daemon_config(c);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(*e, "controller.friction_compensation.contact_state_from_measured_velocity = true: must be false with "
+                "velocity_source MEASURED (every state already follows the measured velocity)");
+}
+
 }  // namespace
 }  // namespace tribo::daemon

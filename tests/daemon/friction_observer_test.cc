@@ -328,6 +328,51 @@ TEST(FrictionObserver, RateAndStateSteadyFrictionFollowsItsVelocityDependence) {
   }
 }
 
+// contact_state_from_measured: the rate-and-state variable and the contact
+// age evolve at the speed read from the position, not at the commanded one:
+// while the reading stands still the contact keeps its state, however fast
+// the command moves; once the reading moves, the state follows it.
+TEST(FrictionObserver, TheContactsStateFollowsTheMeasuredSpeedWhenAsked) {
+  IdentifiedFriction m = plain_model();
+  m.rate_state = true;
+  m.rate_state_slip_law = true;
+  m.rate_state_a = 0.012;
+  m.rate_state_b = 0.010;
+  m.rate_state_memory_m = 0.2e-6;
+  m.reference_speed_m_per_s = 2e-6;
+  m.dwell = true;
+  m.dwell_gain = 0.03;
+  m.dwell_time_s = 10;
+  m.dwell_memory_m = 1e-6;
+  const double h = 1e-4;
+  ObserverSettings measured;
+  measured.contact_state_from_measured = true;
+  measured.velocity_filter_hz = 50;
+  ObserverState commanded_state = observer_at_rest(m), measured_state = observer_at_rest(m);
+  const double at_rest = measured_state.rate_state_s;  // Dc / v_ref
+  ObserverInput in;
+  in.normal_force_n = 1e-3;
+  in.period_s = h;
+  in.commanded_velocity_m_per_s = 4e-6;
+  for (int k = 0; k < 1000; ++k) {  // 0.1 s of command, the reading still
+    observer_step(m, ObserverSettings{}, in, commanded_state);
+    observer_step(m, measured, in, measured_state);
+  }
+  EXPECT_EQ(measured_state.rate_state_s, at_rest) << "the slip law holds theta at rest";
+  EXPECT_NEAR(measured_state.contact_age_s, 0.1, 1e-9) << "ages as at rest";
+  EXPECT_EQ(measured_state.driving_velocity_m_per_s, 4e-6) << "the bristle still follows the command";
+  // Commanded: 2 Dc of motion take theta most of the way to Dc / v.
+  EXPECT_LT(commanded_state.rate_state_s, 0.6 * at_rest);
+  // ... and the age follows Dieterich's law towards D / v = 0.25 s.
+  EXPECT_NEAR(commanded_state.contact_age_s, 0.25 * (1 - std::exp(-0.4)), 1e-6);
+  // The reading moves at 4 µm/s: the state follows it towards Dc / v.
+  for (int k = 0; k < 2000; ++k) {
+    in.position_m += 4e-6 * h;
+    observer_step(m, measured, in, measured_state);
+  }
+  EXPECT_NEAR(measured_state.rate_state_s, m.rate_state_memory_m / 4e-6, 0.05 * m.rate_state_memory_m / 4e-6);
+}
+
 TEST(FrictionObserver, LoadDependenceScalesTheLevelsAboutTheReferenceLoad) {
   IdentifiedFriction m = plain_model();
   m.load_dependence = true;

@@ -61,6 +61,8 @@ TEST(TickAllocation, TheTickPathAllocatesNothing) {
     if (pass == 2) {
       config.mutable_controller()->mutable_friction_compensation()->set_velocity_delay_s(0.0753);
       config.mutable_controller()->mutable_friction_compensation()->set_velocity_lag_s(0.0753);
+      config.mutable_controller()->mutable_friction_compensation()->set_velocity_filter_hz(50);
+      config.mutable_controller()->mutable_friction_compensation()->set_contact_state_from_measured_velocity(true);
     }
     if (compensated) {
       const auto report = wire::read_file(std::string(TRIBO_SOURCE_DIR) + "/tests/data/friction_reports/identification.json");

@@ -61,7 +61,7 @@ std::vector<double> record_velocity(const std::vector<Sample>& samples, std::siz
 // Break-away of one sliding segment from rest.
 struct BreakawayFigures {
   double commanded_m_per_s = 0;
-  double overshoot = 0;          // peak of the record's velocity (10 ms window) / commanded
+  double overshoot = 0;          // peak of the record's velocity (full 10 ms windows) / commanded
   double true_overshoot = 0;     // the tip's true velocity over 1 ms (simulated backend; else NaN)
   double time_to_speed_s = 0;    // from the segment's start to the record's velocity first reaching the commanded
   double peak_lateral_force_n = 0;  // largest |recorded lateral force| in the segment
