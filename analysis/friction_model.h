@@ -17,6 +17,8 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -174,10 +176,26 @@ class SampleSink {
   void (*call_)(void*, std::size_t, const T&, const T&, bool);
 };
 
+// With ModelStructure::state_from_rest, each pass starts from a bristle state
+// z0 read from the force measured at the end of its hold. The Jacobian
+// carries d/d z0 as one derivative of the dual numbers (lane) instead of
+// one per added term that enters z0 (AdditiveColumn::through_rest_state):
+// the simulation seeds that derivative with one wherever it sets z0, and
+// tells on_reset where it did: the sample i, the hold's samples [first, i)
+// whose mean z0 is, the divisor of their sum (count times sigma0) and
+// whether z0 was clamped to the deflection limit (then no added term
+// enters it).
+struct RestStateLane {
+  int lane = -1;
+  std::function<void(std::size_t i, std::size_t first, double divisor, bool clamped)> on_reset;
+};
+
 // simulate_generic, streamed: sink(i, force, friction) for i = 0 .. n-1.
-// The values are those simulate_generic stores, bit for bit.
+// The values are those simulate_generic stores, bit for bit (rest changes
+// derivatives only).
 template <class T>
-void simulate_streamed(const ModelData& data, const ModelParams& params, const std::vector<T>& theta, SampleSink<T> sink);
+void simulate_streamed(const ModelData& data, const ModelParams& params, const std::vector<T>& theta, SampleSink<T> sink,
+                       const RestStateLane* rest = nullptr);
 
 // A parameter the force depends on only through an added term, its value
 // times a regressor of the data (the offset, the moving mass, the tilt, the
@@ -187,14 +205,19 @@ void simulate_streamed(const ModelData& data, const ModelParams& params, const s
 // times the regressor, the very product the dual numbers form (every other
 // term adds an exact zero), so a Jacobian fills its column from the data
 // instead of carrying it through the simulation (the drift fit
-// carries 5 of its 21 columns, not 21). The offset, mass, tilt and drift
-// are carried with state_from_rest, whose pass start subtracts them from
-// the measured force; Fv with direction asymmetry, which scales it.
+// carries 5 of its 21 columns, not 21). With state_from_rest, whose pass
+// start subtracts the offset, mass, tilt and drift from the measured force,
+// those also enter the bristle state there (through_rest_state); Fv is
+// carried with direction asymmetry, which scales it.
 struct AdditiveColumn {
   enum class Regressor { kNone, kOne, kAcceleration, kNormal, kDriftFunction, kSlidingVelocity };
   Regressor regressor = Regressor::kNone;
   std::size_t drift_function = 0;  // kDriftFunction: which one
   double value_derivative = 0;     // d value / d theta at theta
+  // With state_from_rest the term also enters each pass's starting state z0
+  // (minus its mean over the hold's last samples, over sigma0): the column
+  // then adds d force / d z0 (RestStateLane) times d z0 / d theta.
+  bool through_rest_state = false;
 
   // d force / d theta at sample i; drift_basis: the drift functions at i
   // (ModelData::drift_basis_at), read for kDriftFunction only; evaluated:
