@@ -669,7 +669,7 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
     }
     if (value_of(level) <= tiny) {
       z = T(0.0 * sigma0);
-      sink(i, additive(i), T(0.0 * sigma0), false);
+      sink(i, additive(i), T(0.0 * sigma0), false, 0.0);
       continue;
     }
     const T g = level / sigma0;
@@ -712,13 +712,15 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
         }
       }
     }
+    double rate = 0.0;
     if (!(backlash && in_gap)) {
       const double vi = v[i];
       const T dz_dt = ep ? T(vi - std::fabs(vi) * plasticity(breakaway, vi, z, g) * z / g) : T(vi - std::fabs(vi) * z / g);
       const T viscous = asym ? T(fv * (1.0 + asym_viscous * sign_of(vi))) : fv;
       friction = sigma0 * z + sigma1 * dz_dt + viscous * vi;
+      rate = value_of(dz_dt);
     }
-    sink(i, friction + additive(i), friction, !(backlash && in_gap));
+    sink(i, friction + additive(i), friction, !(backlash && in_gap), rate);
   }
 }
 
@@ -765,6 +767,9 @@ std::optional<AdditiveColumn> additive_column(const ModelData& data, const Model
     // friction = sigma0 z + sigma1 dz/dt + Fv v: z does not depend on Fv.
     if (index.asym_levels >= 0) return std::nullopt;
     c.regressor = AdditiveColumn::Regressor::kSlidingVelocity;
+  } else if (k == index.sigma1) {
+    // friction = sigma0 z + sigma1 dz/dt + Fv v: z does not depend on sigma1.
+    c.regressor = AdditiveColumn::Regressor::kBristleRate;
   } else if (k == index.offset) {
     c.regressor = AdditiveColumn::Regressor::kOne;
   } else if (k == index.mass) {
@@ -778,7 +783,7 @@ std::optional<AdditiveColumn> additive_column(const ModelData& data, const Model
   } else {
     return std::nullopt;
   }
-  c.through_rest_state = params.structure.state_from_rest && k != index.fv;
+  c.through_rest_state = params.structure.state_from_rest && k != index.fv && k != index.sigma1;
   // The derivative the dual numbers seed: transform() on a one-column dual,
   // the same operations on the same values.
   FixedDual<2> t(theta_k);
@@ -787,7 +792,7 @@ std::optional<AdditiveColumn> additive_column(const ModelData& data, const Model
   return c;
 }
 
-double AdditiveColumn::at(const ModelData& data, std::size_t i, const double* drift_basis, bool evaluated) const {
+double AdditiveColumn::at(const ModelData& data, std::size_t i, const double* drift_basis, bool evaluated, double rate) const {
   // As simulate_streamed's additive(): value x regressor (the offset: the value).
   switch (regressor) {
     case Regressor::kNone: return 0.0;
@@ -796,6 +801,7 @@ double AdditiveColumn::at(const ModelData& data, std::size_t i, const double* dr
     case Regressor::kNormal: return value_derivative * data.series.normal_force_n[i];
     case Regressor::kDriftFunction: return value_derivative * drift_basis[drift_function];
     case Regressor::kSlidingVelocity: return evaluated ? value_derivative * data.drive_velocity[i] : 0.0;
+    case Regressor::kBristleRate: return evaluated ? value_derivative * rate : 0.0;
   }
   return 0.0;
 }

@@ -266,7 +266,7 @@ void jacobian_with(const ModelData& data, const ModelParams& params, const std::
   }
   std::size_t r = 0;
   const std::vector<double>& measured = *data.fitted_force;
-  auto row = [&](std::size_t i, const T& force, const T&, bool evaluated) {
+  auto row = [&](std::size_t i, const T& force, const T&, bool evaluated, double rate) {
     if (model) (*model)[i] = value_of(force);
     if (!rows.selects(i, r)) return;
     if (residual) {
@@ -283,7 +283,7 @@ void jacobian_with(const ModelData& data, const ModelParams& params, const std::
     const double per_rest_state = plan.through_rest_state ? derivative_of(force, plan.dual.size()) : 0.0;
     for (std::size_t c = 0; c < plan.additive.size(); ++c) {
       const auto& [column, additive] = plan.additive[c];
-      double v = additive.at(data, i, drift_basis.data(), evaluated);
+      double v = additive.at(data, i, drift_basis.data(), evaluated, rate);
       if (additive.through_rest_state) v += per_rest_state * rest_coefficient[c];
       out(rr, column) = sign * (std::isfinite(v) ? v : 0.0);
     }
