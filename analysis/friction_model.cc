@@ -470,7 +470,8 @@ T slip_law_step(const ModelData& d, const T& memory_m, const T& previous, std::s
 }
 
 template <class T>
-void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vector<T>& theta, SampleSink<T> sink) {
+void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vector<T>& theta, SampleSink<T> sink,
+                       const RestStateLane* rest) {
   using std::cos;
   using std::exp;
   using std::log;
@@ -624,15 +625,20 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
   // The bristle at a hold's end from the force measured there: the mean of
   // (F - additive) over its last samples (up to 25 ms, at least one sample),
   // over sigma0, within the deflection limit level / sigma0.
+  // Tells rest (when given) where and how z0 was set.
   auto state_at_rest = [&](std::size_t i, const T& limit_level) -> T {
     T sum = T(0.0 * sigma0);
     int count = 0;
+    std::size_t first = i;
     for (std::size_t j = i; j-- > 0 && d.at_rest[j] && (count == 0 || s.time_s[i - 1] - s.time_s[j] <= 0.025);) {
       sum = sum + (measured_force[j] - additive(j));
       ++count;
+      first = j;
     }
     const T z_rest = sum / (static_cast<double>(count) * sigma0);
     const T limit = limit_level / sigma0;
+    const bool clamped = value_of(z_rest) > value_of(limit) || value_of(z_rest) < -value_of(limit);
+    if (rest && rest->on_reset) rest->on_reset(i, first, static_cast<double>(count) * value_of(sigma0), clamped);
     if (value_of(z_rest) > value_of(limit)) return limit;
     if (value_of(z_rest) < -value_of(limit)) return T(-limit);
     return z_rest;
@@ -663,12 +669,15 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
     }
     if (value_of(level) <= tiny) {
       z = T(0.0 * sigma0);
-      sink(i, additive(i), T(0.0 * sigma0), false);
+      sink(i, additive(i), T(0.0 * sigma0), false, 0.0);
       continue;
     }
     const T g = level / sigma0;
     if (st.state_from_rest && i > 0 && d.at_rest[i - 1] && !d.at_rest[i] && !(backlash && in_gap)) {
       z = state_at_rest(i, value_of(level_prev) > value_of(level) ? level_prev : level);
+      if constexpr (!std::is_same_v<T, double>) {
+        if (rest && rest->lane >= 0 && rest->lane < z.derivatives().size()) z.derivatives()[rest->lane] = 1.0;
+      }
     }
     if (i > 0) {
       const double h = s.time_s[i] - s.time_s[i - 1];
@@ -703,13 +712,15 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
         }
       }
     }
+    double rate = 0.0;
     if (!(backlash && in_gap)) {
       const double vi = v[i];
       const T dz_dt = ep ? T(vi - std::fabs(vi) * plasticity(breakaway, vi, z, g) * z / g) : T(vi - std::fabs(vi) * z / g);
       const T viscous = asym ? T(fv * (1.0 + asym_viscous * sign_of(vi))) : fv;
       friction = sigma0 * z + sigma1 * dz_dt + viscous * vi;
+      rate = value_of(dz_dt);
     }
-    sink(i, friction + additive(i), friction, !(backlash && in_gap));
+    sink(i, friction + additive(i), friction, !(backlash && in_gap), rate);
   }
 }
 
@@ -729,7 +740,8 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
 #define TRIBO_INSTANTIATE_SIMULATE(T)                                                                      \
   template void simulate_generic<T>(const ModelData&, const ModelParams&, const std::vector<T>&, std::vector<T>&, \
                                     std::vector<T>*);                                                             \
-  template void simulate_streamed<T>(const ModelData&, const ModelParams&, const std::vector<T>&, SampleSink<T>);
+  template void simulate_streamed<T>(const ModelData&, const ModelParams&, const std::vector<T>&, SampleSink<T>, \
+                                     const RestStateLane*);
 TRIBO_INSTANTIATE_SIMULATE(double)
 TRIBO_INSTANTIATE_SIMULATE(Dual)
 // Every even width up to 24 (kJacobianWidths, analysis/autodiff.h).
@@ -755,8 +767,9 @@ std::optional<AdditiveColumn> additive_column(const ModelData& data, const Model
     // friction = sigma0 z + sigma1 dz/dt + Fv v: z does not depend on Fv.
     if (index.asym_levels >= 0) return std::nullopt;
     c.regressor = AdditiveColumn::Regressor::kSlidingVelocity;
-  } else if (params.structure.state_from_rest) {
-    return std::nullopt;
+  } else if (k == index.sigma1) {
+    // friction = sigma0 z + sigma1 dz/dt + Fv v: z does not depend on sigma1.
+    c.regressor = AdditiveColumn::Regressor::kBristleRate;
   } else if (k == index.offset) {
     c.regressor = AdditiveColumn::Regressor::kOne;
   } else if (k == index.mass) {
@@ -770,6 +783,7 @@ std::optional<AdditiveColumn> additive_column(const ModelData& data, const Model
   } else {
     return std::nullopt;
   }
+  c.through_rest_state = params.structure.state_from_rest && k != index.fv && k != index.sigma1;
   // The derivative the dual numbers seed: transform() on a one-column dual,
   // the same operations on the same values.
   FixedDual<2> t(theta_k);
@@ -778,7 +792,7 @@ std::optional<AdditiveColumn> additive_column(const ModelData& data, const Model
   return c;
 }
 
-double AdditiveColumn::at(const ModelData& data, std::size_t i, const double* drift_basis, bool evaluated) const {
+double AdditiveColumn::at(const ModelData& data, std::size_t i, const double* drift_basis, bool evaluated, double rate) const {
   // As simulate_streamed's additive(): value x regressor (the offset: the value).
   switch (regressor) {
     case Regressor::kNone: return 0.0;
@@ -787,6 +801,7 @@ double AdditiveColumn::at(const ModelData& data, std::size_t i, const double* dr
     case Regressor::kNormal: return value_derivative * data.series.normal_force_n[i];
     case Regressor::kDriftFunction: return value_derivative * drift_basis[drift_function];
     case Regressor::kSlidingVelocity: return evaluated ? value_derivative * data.drive_velocity[i] : 0.0;
+    case Regressor::kBristleRate: return evaluated ? value_derivative * rate : 0.0;
   }
   return 0.0;
 }

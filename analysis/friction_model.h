@@ -17,6 +17,8 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -152,32 +154,51 @@ void simulate_generic(const ModelData& data, const ModelParams& params, const st
 // array of T (17 to 33 doubles a sample for the autodiff types). A callable
 // with a fourth, bool argument also learns whether the contact's friction
 // law was evaluated at the sample (false: no contact level, or a backlash
-// gap; the friction part is then zero).
+// gap; the friction part is then zero), one with a fifth, double argument
+// also the bristle's rate dz/dt there (zero where not evaluated).
 template <class T>
 class SampleSink {
  public:
   template <class F>
   explicit SampleSink(F& f)
-      : target_(&f), call_([](void* t, std::size_t i, const T& force, const T& friction, bool evaluated) {
-          if constexpr (std::is_invocable_v<F&, std::size_t, const T&, const T&, bool>) {
+      : target_(&f), call_([](void* t, std::size_t i, const T& force, const T& friction, bool evaluated, double rate) {
+          if constexpr (std::is_invocable_v<F&, std::size_t, const T&, const T&, bool, double>) {
+            (*static_cast<F*>(t))(i, force, friction, evaluated, rate);
+          } else if constexpr (std::is_invocable_v<F&, std::size_t, const T&, const T&, bool>) {
             (*static_cast<F*>(t))(i, force, friction, evaluated);
           } else {
             (*static_cast<F*>(t))(i, force, friction);
           }
         }) {}
-  void operator()(std::size_t i, const T& force, const T& friction, bool evaluated) const {
-    call_(target_, i, force, friction, evaluated);
+  void operator()(std::size_t i, const T& force, const T& friction, bool evaluated, double rate) const {
+    call_(target_, i, force, friction, evaluated, rate);
   }
 
  private:
   void* target_;
-  void (*call_)(void*, std::size_t, const T&, const T&, bool);
+  void (*call_)(void*, std::size_t, const T&, const T&, bool, double);
+};
+
+// With ModelStructure::state_from_rest, each pass starts from a bristle state
+// z0 read from the force measured at the end of its hold. The Jacobian
+// carries d/d z0 as one derivative of the dual numbers (lane) instead of
+// one per added term that enters z0 (AdditiveColumn::through_rest_state):
+// the simulation seeds that derivative with one wherever it sets z0, and
+// tells on_reset where it did: the sample i, the hold's samples [first, i)
+// whose mean z0 is, the divisor of their sum (count times sigma0) and
+// whether z0 was clamped to the deflection limit (then no added term
+// enters it).
+struct RestStateLane {
+  int lane = -1;
+  std::function<void(std::size_t i, std::size_t first, double divisor, bool clamped)> on_reset;
 };
 
 // simulate_generic, streamed: sink(i, force, friction) for i = 0 .. n-1.
-// The values are those simulate_generic stores, bit for bit.
+// The values are those simulate_generic stores, bit for bit (rest changes
+// derivatives only).
 template <class T>
-void simulate_streamed(const ModelData& data, const ModelParams& params, const std::vector<T>& theta, SampleSink<T> sink);
+void simulate_streamed(const ModelData& data, const ModelParams& params, const std::vector<T>& theta, SampleSink<T> sink,
+                       const RestStateLane* rest = nullptr);
 
 // A parameter the force depends on only through an added term, its value
 // times a regressor of the data (the offset, the moving mass, the tilt, the
@@ -187,19 +208,27 @@ void simulate_streamed(const ModelData& data, const ModelParams& params, const s
 // times the regressor, the very product the dual numbers form (every other
 // term adds an exact zero), so a Jacobian fills its column from the data
 // instead of carrying it through the simulation (the drift fit
-// carries 5 of its 21 columns, not 21). The offset, mass, tilt and drift
-// are carried with state_from_rest, whose pass start subtracts them from
-// the measured force; Fv with direction asymmetry, which scales it.
+// carries 5 of its 21 columns, not 21). The bristle damping sigma1 too:
+// its term sigma1 dz/dt is added to the friction, and nothing else reads
+// it (regressor: the bristle rate). With state_from_rest, whose pass
+// start subtracts the offset, mass, tilt and drift from the measured force,
+// those also enter the bristle state there (through_rest_state); Fv is
+// carried with direction asymmetry, which scales it.
 struct AdditiveColumn {
-  enum class Regressor { kNone, kOne, kAcceleration, kNormal, kDriftFunction, kSlidingVelocity };
+  enum class Regressor { kNone, kOne, kAcceleration, kNormal, kDriftFunction, kSlidingVelocity, kBristleRate };
   Regressor regressor = Regressor::kNone;
   std::size_t drift_function = 0;  // kDriftFunction: which one
   double value_derivative = 0;     // d value / d theta at theta
+  // With state_from_rest the term also enters each pass's starting state z0
+  // (minus its mean over the hold's last samples, over sigma0): the column
+  // then adds d force / d z0 (RestStateLane) times d z0 / d theta.
+  bool through_rest_state = false;
 
   // d force / d theta at sample i; drift_basis: the drift functions at i
   // (ModelData::drift_basis_at), read for kDriftFunction only; evaluated:
-  // whether the friction law was (SampleSink), read for kSlidingVelocity.
-  double at(const ModelData& data, std::size_t i, const double* drift_basis, bool evaluated) const;
+  // whether the friction law was (SampleSink), read for kSlidingVelocity and
+  // kBristleRate; rate: the bristle's dz/dt (SampleSink), for kBristleRate.
+  double at(const ModelData& data, std::size_t i, const double* drift_basis, bool evaluated, double rate = 0.0) const;
 };
 
 // Parameter k of params (at theta_k) as an additive column, or nullopt.

@@ -199,6 +199,8 @@ struct ColumnPlan {
   std::vector<Eigen::Index> dual_out;
   std::vector<std::pair<Eigen::Index, AdditiveColumn>> additive;
   bool reads_drift_basis = false;
+  bool through_rest_state = false;  // some additive column is (one more dual lane: RestStateLane)
+  std::size_t lanes() const { return dual.size() + (through_rest_state ? 1 : 0); }
 };
 
 ColumnPlan plan_columns(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
@@ -209,6 +211,7 @@ ColumnPlan plan_columns(const ModelData& data, const ModelParams& params, const 
     const auto out = static_cast<Eigen::Index>(j);
     if (auto c = additive_column(data, params, k, theta[static_cast<std::size_t>(k)])) {
       plan.reads_drift_basis = plan.reads_drift_basis || c->regressor == AdditiveColumn::Regressor::kDriftFunction;
+      plan.through_rest_state = plan.through_rest_state || c->through_rest_state;
       plan.additive.emplace_back(out, *c);
     } else {
       plan.dual.push_back(k);
@@ -239,9 +242,31 @@ void jacobian_with(const ModelData& data, const ModelParams& params, const std::
   }
   if (model) model->resize(data.series.size());
   std::array<double, 16> drift_basis{};
+  // d z0 / d theta of each additive column through the current pass's
+  // starting state (RestStateLane): minus the column's term summed over the
+  // hold's samples that z0 averages (in the simulation's order), over count
+  // sigma0; zero where z0 was clamped or before the first pass start.
+  std::vector<double> rest_coefficient(plan.additive.size(), 0.0);
+  RestStateLane rest;
+  if (plan.through_rest_state) {
+    rest.lane = static_cast<int>(plan.dual.size());
+    rest.on_reset = [&](std::size_t i, std::size_t first, double divisor, bool clamped) {
+      std::array<double, 16> basis{};
+      for (std::size_t c = 0; c < plan.additive.size(); ++c) {
+        const AdditiveColumn& additive = plan.additive[c].second;
+        if (!additive.through_rest_state) continue;
+        double sum = 0;
+        for (std::size_t j = i; !clamped && j-- > first;) {
+          if (additive.regressor == AdditiveColumn::Regressor::kDriftFunction) data.drift_basis_at(j, basis.data());
+          sum += additive.at(data, j, basis.data(), true);
+        }
+        rest_coefficient[c] = clamped ? 0.0 : -sum / divisor;
+      }
+    };
+  }
   std::size_t r = 0;
   const std::vector<double>& measured = *data.fitted_force;
-  auto row = [&](std::size_t i, const T& force, const T&, bool evaluated) {
+  auto row = [&](std::size_t i, const T& force, const T&, bool evaluated, double rate) {
     if (model) (*model)[i] = value_of(force);
     if (!rows.selects(i, r)) return;
     if (residual) {
@@ -255,13 +280,16 @@ void jacobian_with(const ModelData& data, const ModelParams& params, const std::
       out(rr, plan.dual_out[j]) = sign * (std::isfinite(v) ? v : 0.0);
     }
     if (plan.reads_drift_basis) data.drift_basis_at(i, drift_basis.data());
-    for (const auto& [column, additive] : plan.additive) {
-      const double v = additive.at(data, i, drift_basis.data(), evaluated);
+    const double per_rest_state = plan.through_rest_state ? derivative_of(force, plan.dual.size()) : 0.0;
+    for (std::size_t c = 0; c < plan.additive.size(); ++c) {
+      const auto& [column, additive] = plan.additive[c];
+      double v = additive.at(data, i, drift_basis.data(), evaluated, rate);
+      if (additive.through_rest_state) v += per_rest_state * rest_coefficient[c];
       out(rr, column) = sign * (std::isfinite(v) ? v : 0.0);
     }
     ++r;
   };
-  simulate_streamed<T>(data, params, dual, SampleSink<T>(row));
+  simulate_streamed<T>(data, params, dual, SampleSink<T>(row), plan.through_rest_state ? &rest : nullptr);
 }
 
 void jacobian_rows(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
@@ -271,7 +299,7 @@ void jacobian_rows(const ModelData& data, const ModelParams& params, const std::
   // The derivative vector's length sets the cost of every operation: the
   // next even width (whole SSE2 registers). Each derivative is computed on
   // its own, element by element, so the padding changes no value.
-  const std::size_t k = plan.dual.size();
+  const std::size_t k = plan.lanes();
   switch ((k + 1) / 2) {
     case 0: return jacobian_with<double>(data, params, theta, plan, rows, sign, out, model, residual);
     case 1: return jacobian_with<FixedDual<2>>(data, params, theta, plan, rows, sign, out, model, residual);

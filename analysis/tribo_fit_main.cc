@@ -13,6 +13,10 @@
 #include <string>
 #include <vector>
 
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
+
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
@@ -289,6 +293,13 @@ int metrics_command(const MetricsArgs& a) {
 }  // namespace
 
 int main(int argc, char** argv) {
+#ifdef __GLIBC__
+  // One malloc arena for every thread: the fits' jobs run on new threads
+  // in each round, and with an arena per thread the memory a job freed
+  // stayed resident in its arena (a 198 s tribod record: peak resident
+  // 93 -> 74 MB, the same CPU time).
+  mallopt(M_ARENA_MAX, 1);
+#endif
   CLI::App app{kSummary, "tribo-fit"};
   app.set_version_flag("--version", std::string("tribo-fit ") + TRIBO_VERSION);
   app.require_subcommand(1);

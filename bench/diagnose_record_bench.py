@@ -18,29 +18,9 @@ usage: diagnose_record_bench.py BUILD_DIR WORK_DIR [--lengths 1,4,16] [--reuse] 
         row for each, and says whether their diagnoses name the same effects;
         --reports: keep each JSON report there)
 
-Figures of 2026-11-29 (2 cores shared with other jobs, load average 12-23,
-`nice`; the wall time follows the load, the CPU time is the figure to read):
-
-    bench/diagnose_record_bench.py build /tmp/work --lengths 1,4 --reuse \
-        --baseline MAIN_BUILD/analysis/tribo-fit --reports /tmp/work/reports
-
-| record | samples | tribo-fit | wall s | CPU s | peak RSS MB | B/sample | accepted |
-|---|---|---|---|---|---|---|---|
-| 198 s | 197550 | main at 2839513 | 96.6-177.8 | 19.3-21.0 | 100 | 507 | nothing |
-| 198 s | 197550 | this one | 71.1 | 20.0 | 98 | 496 | nothing |
-| 772 s | 772200 | main | 836.8 | 116.2 | 394 | 510 | nothing |
-| 772 s | 772200 | this one | 489.4 | 121.1 | 360 | 467 | nothing |
-
-The two give the same JSON report on both records, byte for byte (apart from
-the command line and the elapsed time). Where the time goes (perf on the
-198 s record): 77 % in the Levenberg-Marquardt fits, 71 % of it in the
-dual-number simulation of the model that forms each Jacobian (65 % in the
-candidates' fits); 13 % in the two motion estimates (the loop model's
-normal equations, a rank-one update of a 206 x 206 matrix per sample, about
-8 %, and the Kalman likelihood search). The heap peaks (59 MB on the 198 s
-record) while the candidates' fits hold their m x k Jacobians. The CPU time
-a sample is 0.10 ms at 198 s and 0.16 ms at 772 s: not yet linear in the
-record, and 3200 s in 160 s of wall on 2 cores would need at most 0.1 ms.
+Figures (this build beside main's, the command, the load, where the CPU goes):
+docs/identification.md, "Cost". Not part of the test suite: each record takes
+from 20 s to minutes of CPU to diagnose.
 """
 import argparse
 import json
