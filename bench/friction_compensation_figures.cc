@@ -17,7 +17,7 @@
 //   - the mean friction of the standard scratch over seeds, with and without.
 //
 //   build/bench/friction_compensation_figures --config config/tribod.textproto --model REPORT.json
-//       [--robustness] [--seeds 5] [--json FILE] [--trace FILE]
+//       [--robustness] [--seeds 5] [--breakaway-seed 1] [--json FILE] [--trace FILE]
 //
 // Or the break-away and reversal figures of two recorded runs of
 // breakaway_velocities.textproto (tribod's, or `tribo run --out`):
@@ -180,6 +180,7 @@ int main(int argc, char** argv) {
   std::string config_path = "config/tribod.textproto", model_path, json_path, before_dir, after_dir;
   bool robustness = false, stick_slip = true;
   int seeds = 5;
+  std::uint64_t breakaway_seed = 1;
   app.add_option("--config", config_path, "daemon config: the backend and the loop");
   auto* model = app.add_option("--model", model_path, "tribo-fit diagnose --json report to compensate with");
   auto* before = app.add_option("--before", before_dir, "a recorded run of breakaway_velocities without compensation");
@@ -190,6 +191,8 @@ int main(int argc, char** argv) {
   app.add_flag("--robustness", robustness, "also the model with levels x1.3, x0.7 and sigma0 x0.5, x2");
   app.add_flag("--stick-slip,!--no-stick-slip", stick_slip, "the 10 Hz loop's stick-slip (simulated backend)");
   app.add_option("--seeds", seeds, "seeds 1..N for the mean friction of the standard scratch (0: skip)");
+  app.add_option("--breakaway-seed", breakaway_seed, "the simulated instrument's seed of the break-away runs")
+      ->check(CLI::PositiveNumber);
   app.add_option("--json", json_path, "also write the figures as JSON");
   std::string trace_path;
   app.add_option("--trace", trace_path,
@@ -240,7 +243,8 @@ int main(int argc, char** argv) {
   out["overshoot_filter"] = "least-squares slope of the recorded position over a centred 10 ms window";
 
   const tribo::v1::Protocol breakaway = tribo::testing::shipped_protocol("breakaway_velocities.textproto");
-  std::cout << "## Break-away at 9810 µN and reversals at 4 µm/s (seed 1, " << config_path << ")\n\n";
+  std::cout << "## Break-away at 9810 µN and reversals at 4 µm/s (seed " << breakaway_seed << ", " << config_path
+            << ")\n\n";
   std::cout << kTableHead;
   std::map<std::string, std::vector<double>> overshoots;
   std::vector<std::pair<std::string, std::string>> timing;
@@ -252,7 +256,7 @@ int main(int argc, char** argv) {
   }
   for (const Variant& v : variants) {
     const InProcessRun run =
-        tribo::testing::run_in_process(config, tribo::testing::with_friction_model(breakaway, v.report), 1);
+        tribo::testing::run_in_process(config, tribo::testing::with_friction_model(breakaway, v.report), breakaway_seed);
     Json row;
     if (!trace_path.empty() && simulated) write_trace(trace, v.name, run);
     if (simulated) timing.emplace_back(v.name, timing_rows(v.name, run));
