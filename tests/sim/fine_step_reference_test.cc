@@ -110,6 +110,21 @@ class FineStepReference : public ::testing::TestWithParam<Case> {};
 // difference into a difference of timing, a few microseconds, and at the
 // tip's ~100 um/s overshoot a microsecond is 0.1 nm (measured: 0.7-1.4 nm
 // largest for the schemes here, the RMS a tenth of that).
+void expect_within_noise_floors(const Channels& now, const v1::DaemonConfig& config) {
+  const double force_floor_un = 1e6 * config.sim().sensors().lateral_force_noise_n();
+  const double position_floor_nm = 1e9 * config.sim().lateral().sensing().low_frequency_noise_m();
+  const double normal_floor_un = 1e6 * config.sim().sensors().normal_force_noise_n();
+  ASSERT_GT(force_floor_un * position_floor_nm * normal_floor_un, 0) << "a noise floor is zero: no tolerance";
+  EXPECT_LT(now.friction_un.rms, force_floor_un / 10);
+  EXPECT_LT(now.friction_un.max, force_floor_un / 2);
+  EXPECT_LT(now.lateral_force_un.rms, force_floor_un / 10);
+  EXPECT_LT(now.lateral_force_un.max, force_floor_un / 2);
+  EXPECT_LT(now.position_nm.rms, position_floor_nm / 10);
+  EXPECT_LT(now.position_nm.max, position_floor_nm);
+  EXPECT_LT(now.normal_force_un.rms, normal_floor_un / 10);
+  EXPECT_LT(now.normal_force_un.max, normal_floor_un / 2);
+}
+
 TEST_P(FineStepReference, DefaultInstrumentIsWithinItsTolerances) {
   const Case& c = GetParam();
   const v1::DaemonConfig config = config_file("config/tribod.textproto");
@@ -124,18 +139,7 @@ TEST_P(FineStepReference, DefaultInstrumentIsWithinItsTolerances) {
   print("default (held contact law)", now, run);
   print("the law at every RK4 stage, h lambda 1", compare(previous, ref), previous);
 
-  const double force_floor_un = 1e6 * config.sim().sensors().lateral_force_noise_n();
-  const double position_floor_nm = 1e9 * config.sim().lateral().sensing().low_frequency_noise_m();
-  const double normal_floor_un = 1e6 * config.sim().sensors().normal_force_noise_n();
-  ASSERT_GT(force_floor_un * position_floor_nm * normal_floor_un, 0);
-  EXPECT_LT(now.friction_un.rms, force_floor_un / 10);
-  EXPECT_LT(now.friction_un.max, force_floor_un / 2);
-  EXPECT_LT(now.lateral_force_un.rms, force_floor_un / 10);
-  EXPECT_LT(now.lateral_force_un.max, force_floor_un / 2);
-  EXPECT_LT(now.position_nm.rms, position_floor_nm / 10);
-  EXPECT_LT(now.position_nm.max, position_floor_nm);
-  EXPECT_LT(now.normal_force_un.rms, normal_floor_un / 10);
-  EXPECT_LT(now.normal_force_un.max, normal_floor_un / 2);
+  expect_within_noise_floors(now, config);
 }
 
 // The same for the default instrument with the rate-and-state direct effect
@@ -157,18 +161,7 @@ TEST_P(FineStepReference, DirectEffectOnTheSlipRateIsWithinItsTolerances) {
   std::printf("  %s, %zu ticks:\n", c.name, ref.samples.size());
   print("direct effect on the slip rate (held contact law)", now, run);
 
-  const double force_floor_un = 1e6 * config.sim().sensors().lateral_force_noise_n();
-  const double position_floor_nm = 1e9 * config.sim().lateral().sensing().low_frequency_noise_m();
-  const double normal_floor_un = 1e6 * config.sim().sensors().normal_force_noise_n();
-  ASSERT_GT(force_floor_un * position_floor_nm * normal_floor_un, 0);
-  EXPECT_LT(now.friction_un.rms, force_floor_un / 10);
-  EXPECT_LT(now.friction_un.max, force_floor_un / 2);
-  EXPECT_LT(now.lateral_force_un.rms, force_floor_un / 10);
-  EXPECT_LT(now.lateral_force_un.max, force_floor_un / 2);
-  EXPECT_LT(now.position_nm.rms, position_floor_nm / 10);
-  EXPECT_LT(now.position_nm.max, position_floor_nm);
-  EXPECT_LT(now.normal_force_un.rms, normal_floor_un / 10);
-  EXPECT_LT(now.normal_force_un.max, normal_floor_un / 2);
+  expect_within_noise_floors(now, config);
 }
 
 INSTANTIATE_TEST_SUITE_P(Runs, FineStepReference,
