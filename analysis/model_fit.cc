@@ -199,7 +199,7 @@ struct ColumnPlan {
   std::vector<Eigen::Index> dual_out;
   std::vector<std::pair<Eigen::Index, AdditiveColumn>> additive;
   bool reads_drift_basis = false;
-  bool through_rest_state = false;  // some additive column is (one more dual lane: RestStateLane)
+  bool through_rest_state = false;  // an additive column enters the pass start from rest (one more dual lane: RestStateLane)
   std::size_t lanes() const { return dual.size() + (through_rest_state ? 1 : 0); }
 };
 
