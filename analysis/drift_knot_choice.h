@@ -1,5 +1,5 @@
-// How many knot intervals the drift spline gets, chosen by the record (issue
-// 15). A fixed count (one interval per two passes) either follows the noise
+// How many knot intervals the drift spline gets, chosen by the record.
+// A fixed count (one interval per two passes) either follows the noise
 // of a record without drift or, with the knots at quantiles of the fitted
 // samples, leaves long intervals over the held-out passes between them, where
 // a drift that wanders (the independent generator's 60 s wobble) is then

@@ -275,8 +275,8 @@ void all_effects(v1::DaemonConfig& c) {
 // At 9.81 mN, 36 um/s it converges as required (local friction error 1.3e-3
 // Fs at h lambda = 1, 1.0e-5 Fs at 0.25). At 50 uN, 4 um/s (split scheme) the
 // error is small (1.4e-4 Fs at h lambda = 1) but the bristle converges only
-// at first order (8.8e-6 -> 3.8e-6 Fs/sigma0 from h lambda 1 to 0.25, issue
-// 14): not listed, as the 4x-per-4x-step requirement below does not hold.
+// at first order (8.8e-6 -> 3.8e-6 Fs/sigma0 from h lambda 1 to 0.25):
+// not listed, as the 4x-per-4x-step requirement below does not hold.
 void rate_state(v1::DaemonConfig& c) {
   auto* f = c.mutable_sim()->mutable_friction();
   f->set_breakaway_ratio(0.9);
