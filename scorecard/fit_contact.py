@@ -28,7 +28,7 @@ NAME marks "fit" (seed 1):
               Fig. 4.22 (the full figure: about 9 s of CPU per evaluation).
 
 --law slip_rate fits the contact of config/instruments/slip_rate_contact/
-instead (docs/simulated_instrument.md, "The slip-rate contact"): the direct
+instead (docs/simulated_instrument.md, "The default contact: the slip-rate law"): the direct
 effect on the slip rate, Dieterich's ageing law, no separate dwell term. Its
 "contact" group is a, b, Dc, V* and r with a and b held inside the literature's
 range relative to the friction level (SLIP_RATE_COEFF_RANGE, through a scaled
