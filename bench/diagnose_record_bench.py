@@ -3,20 +3,21 @@
 
 Records the identification protocol (config/protocols/identification.textproto)
 at 1 kHz with its three loads repeated so that the run lasts about 200, 800 and
-3200 s, on tribod with config/tribod.textproto (the lateral loop's setpoint
+3200 s, on tribod with config/tribod.textproto or --config's (the lateral loop's setpoint
 weighted in P, as that protocol asks), saved by `tribo run --out` as a run
 directory; then times `tribo-fit diagnose RUN --json` on each and prints the
 wall time, the CPU time, the peak resident memory and the bytes per sample, and
 what the diagnosis accepted.
 
 usage: diagnose_record_bench.py BUILD_DIR WORK_DIR [--lengths 1,4,16] [--reuse] [--tribo-fit PATH]
-                                [--baseline PATH] [--reports DIR]
+                                [--baseline PATH] [--reports DIR] [--config FILE]
        (--lengths: how many times the three loads are run: 1 is about 200 s;
         --reuse: keep run directories already in WORK_DIR;
         --baseline: a second tribo-fit (e.g. built from main) timed on each record
         just before the first, so that both see the same load: the table gives a
         row for each, and says whether their diagnoses name the same effects;
-        --reports: keep each JSON report there)
+        --reports: keep each JSON report there;
+        --config: the daemon config to record on, default config/tribod.textproto)
 
 Figures (this build beside main's, the command, the load, where the CPU goes):
 docs/identification.md, "Cost". Not part of the test suite: each record takes
@@ -37,14 +38,14 @@ for p in (os.path.join(ROOT, "client", "python"),):
         sys.path.insert(0, p)
 
 
-def write_inputs(build, work, repeats):
+def write_inputs(build, work, repeats, base_config):
     sys.path.insert(0, os.path.join(build, "python"))
     from google.protobuf import text_format
     from tribo_client import load_protocol_file
     from tribo_client.campaign.spec import set_field
     from tribo.v1 import daemon_config_pb2
     config = daemon_config_pb2.DaemonConfig()
-    with open(os.path.join(ROOT, "config", "tribod.textproto")) as f:
+    with open(base_config) as f:
         text_format.Parse(f.read(), config)
     set_field(config, "controller.lateral_displacement.setpoint_weight_p", 1.0)
     config_path = os.path.join(work, "tribod.textproto")
@@ -114,11 +115,13 @@ def main():
     ap.add_argument("--baseline", help="a second tribo-fit timed on each record just before the first")
     ap.add_argument("--reports", help="a directory for each diagnosis' JSON report")
     ap.add_argument("--record-only", action="store_true", help="make the run directories, time nothing")
+    ap.add_argument("--config", default=os.path.join(ROOT, "config", "tribod.textproto"),
+                    help="the daemon config to record on (default config/tribod.textproto)")
     args = ap.parse_args()
     build, work = os.path.abspath(args.build), os.path.abspath(args.work)
     os.makedirs(work, exist_ok=True)
     repeats = [int(k) for k in args.lengths.split(",")]
-    config_path, protocols = write_inputs(build, work, repeats)
+    config_path, protocols = write_inputs(build, work, repeats, os.path.abspath(args.config))
     runs = record(build, work, config_path, protocols, args.reuse)
     if args.record_only:
         return

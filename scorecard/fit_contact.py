@@ -4,7 +4,9 @@ rows only, and writes the split's config (scorecard/splits.json).
 
   /usr/bin/python3 scorecard/fit_contact.py --split NAME [--evaluations N] [--dwell-evaluations N]
 
-Starts from config/tribod.textproto with the split's "fixed" fields, then fits
+Starts from config/instruments/fitted_contact.textproto (the contact law the
+default-law splits refit: direct effect on the tip's velocity, slip law, dwell
+term) with the split's "fixed" fields, then fits
 its parameter groups in this order, each on the rows tribo-scorecard --split
 NAME marks "fit" (seed 1):
 
@@ -26,7 +28,7 @@ NAME marks "fit" (seed 1):
               Fig. 4.22 (the full figure: about 9 s of CPU per evaluation).
 
 --law slip_rate fits the contact of config/instruments/slip_rate_contact/
-instead (docs/simulated_instrument.md, "The slip-rate contact"): the direct
+instead (docs/simulated_instrument.md, "The default contact: the slip-rate law"): the direct
 effect on the slip rate, Dieterich's ageing law, no separate dwell term. Its
 "contact" group is a, b, Dc, V* and r with a and b held inside the literature's
 range relative to the friction level (SLIP_RATE_COEFF_RANGE, through a scaled
@@ -35,7 +37,7 @@ logit) and Dc inside the contact's length scale (SLIP_RATE_DC_RANGE_M);
 config/instruments/slip_rate_contact/NAME.textproto.
 
 A group the split does not fit must be fixed by it (its "fixed" entries):
-otherwise its values would be the default's, fitted on every row. Prints each
+otherwise its values would be the fitted contact's, fitted on every row. Prints each
 evaluation; writes config/instruments/cross_validation/NAME.textproto (the
 split's "config") with the fitted values, the fit rows and the loss in its
 header. Parameter groups are data below (GROUPS): a new contact law's
@@ -56,11 +58,13 @@ from scipy.optimize import minimize
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCORECARD = os.path.join(ROOT, "build", "scorecard", "tribo-scorecard")
-BASE = os.path.join(ROOT, "config", "tribod.textproto")
+# The base every split is written from: the fitted contact's law and start
+# values; --law slip_rate sets its own law fields on it.
+BASE = os.path.join(ROOT, "config", "instruments", "fitted_contact.textproto")
 SPLITS = os.path.join(ROOT, "scorecard", "splits.json")
 MAKE_CONFIG = os.path.join(ROOT, "scorecard", "make_config.py")
 MU_13_5 = 0.0996          # §4.4: Amontons mu at 13.5 µm/s
-LATERAL_SPRING_N_PER_M = 116.0  # config/tribod.textproto: the transducer's lateral spring k
+LATERAL_SPRING_N_PER_M = 116.0  # config/tribod.textproto, fitted_contact.textproto: the transducer's lateral spring k
 
 
 def logit(p):
@@ -71,7 +75,7 @@ def sigmoid(u):
     return 1 / (1 + math.exp(-u))
 
 
-# The fitted groups: their config fields, start values (the default's), and
+# The fitted groups: their config fields, start values (the fitted contact's), and
 # how the optimiser sees each one (log: positive; logit: in (0, 1)).
 GROUPS = {
     "loop_gains": {
@@ -142,7 +146,7 @@ def slip_rate_values(q):
 
 
 # Start: a = 0.04 mu, b = 0.035 mu (a - b within §4.4.3's flatness), Dc 1 µm,
-# V* and r the default's.
+# V* and r the fitted contact's.
 SLIP_RATE_START = [bounded_to_unit(0.04 * MU_13_5, *SLIP_RATE_COEFF_RANGE),
                    bounded_to_unit(0.035 * MU_13_5, *SLIP_RATE_COEFF_RANGE),
                    bounded_to_unit(1.0e-6, *SLIP_RATE_DC_RANGE_M), 2.11532e-06,
@@ -275,12 +279,12 @@ def load_split(name):
     for g, spec in GROUPS.items():
         if g not in fitted and not fixed_fields & set(spec["fields"]):
             sys.exit(f"fit_contact.py: split {name}: group {g} is neither fitted nor fixed: its values would be the "
-                     f"default's, fitted on every row")
+                     f"fitted contact's, fitted on every row")
     return split
 
 
 def without_comments(text):
-    """The textproto without its comments (they describe the default's fit)."""
+    """The textproto without its comments (they describe its fit)."""
     out = []
     for line in text.splitlines():
         in_string, cut = False, len(line)
@@ -306,9 +310,9 @@ def header(split, report, loss_values, fit_rows, law_flag="", path=""):
         f'Instrument configuration of the scorecard\'s split "{split["name"]}" (scorecard/splits.json). '
         + split.get("about", ""),
         f"Written by `/usr/bin/python3 scorecard/fit_contact.py {law_flag}--split {split['name']}` "
-        f"({datetime.date.today().isoformat()}): config/tribod.textproto with the fields below fitted on the "
-        "split's fit rows only (seed 1). Everything else is config/tribod.textproto's, whose comments give the "
-        "sources (left out here: they describe the default's fit). Score it with "
+        f"({datetime.date.today().isoformat()}): config/instruments/fitted_contact.textproto with the fields below "
+        "fitted on the split's fit rows only (seed 1). Everything else is that file's, whose comments give the "
+        "sources (left out here: they describe its fit). Score it with "
         f"`tribo-scorecard {'--config ' + path + ' ' if law_flag else ''}--split {split['name']}` (docs/simulated_instrument.md, "
         "\"The cross-validated scorecard\").",
         "Fit rows (besides splits.json's calibration rows): " + "; ".join(selector(s) for s in fit_rows) + ".",

@@ -275,17 +275,18 @@ TEST(DiagnosisSim, SampleCreepMovesTheForceLessThanTheRecordCanReveal) {
 }
 
 // The contact law as a decision on held-out data (base-model
-// choice; DiagnosisOptions::choose_base_contact): on the default instrument
-// (elasto-plastic presliding and rate-and-state, dwell off) plain LuGre
+// choice; DiagnosisOptions::choose_base_contact): on the fitted contact
+// (config/instruments/fitted_contact.textproto: elasto-plastic presliding and
+// rate-and-state, dwell off) plain LuGre
 // leaves a structured residual and a richer contact is kept; on the plain
 // LuGre instrument LuGre is kept. Neither contact is reported as an effect.
 TEST(DiagnosisSim, TheContactLawIsChosenOnHeldOutData) {
   DiagnosisOptions options = options_for_runs();
   options.choose_base_contact = true;
   const MeasuredSeries fitted_contact =
-      testing::simulated_identification_run(testing::default_instrument_identification_config(), 1);
+      testing::simulated_identification_run(testing::fitted_contact_identification_config(), 1);
   const Diagnosis d = diagnose(fitted_contact, options);
-  report("default instrument, contact chosen", d);
+  report("fitted contact, contact chosen", d);
   ASSERT_TRUE(d.base_contact);
   for (const auto& o : d.base_contact->options) std::cout << "    contact " << o.name << ": held-out RMS " << o.heldout_rms << " N " << o.note << "\n";
   EXPECT_NE(d.base_contact->chosen, "lugre");
@@ -299,12 +300,14 @@ TEST(DiagnosisSim, TheContactLawIsChosenOnHeldOutData) {
   EXPECT_TRUE(plain.accepted.empty()) << accepted_names(plain);
 }
 
-// The default instrument's identification run at 5 uN of lateral force
-// noise, with `inject` applied to its config, as the contact-choice
-// reliability map runs and diagnoses it.
+// The fitted contact's identification run at 5 uN of lateral force noise,
+// with `inject` applied to its config, as the contact-choice reliability map
+// (config/campaigns/identification_reliability_contact_choice.toml, on the
+// fitted contact) runs and diagnoses it. The contact-choice tests below hold
+// that contact's figures (its breakaway ratio 0.917 among them).
 DiagnoseOutcome diagnose_default_run_with_contact_choice(std::uint64_t seed, const std::function<void(v1::DaemonConfig&)>& inject) {
   const MeasuredSeries s = testing::simulated_identification_record(
-      testing::default_instrument_identification_config([&](v1::DaemonConfig& c) {
+      testing::fitted_contact_identification_config([&](v1::DaemonConfig& c) {
         c.mutable_sim()->mutable_sensors()->set_lateral_force_noise_n(5e-6);
         inject(c);
       }),
@@ -320,7 +323,7 @@ DiagnoseOutcome diagnose_clean_default_run_with_contact_choice(std::uint64_t see
 }
 
 // A contact law replaces LuGre only if it is physical and predicts the
-// held-out passes no worse than LuGre. On the default instrument's clean run
+// held-out passes no worse than LuGre. On the fitted contact's clean run
 // (seed 4, lateral force noise 5 uN, as the contact-choice reliability map
 // runs it) LuGre and the elasto-plastic fits are past their bounds and the
 // rate-and-state contact is not: taken as the only physical one it was kept
@@ -330,7 +333,7 @@ TEST(DiagnosisSim, AContactThatPredictsWorseThanLugreIsNotChosen) {
   const DiagnoseOutcome outcome = diagnose_clean_default_run_with_contact_choice(4);
   ASSERT_TRUE(outcome.error.empty()) << outcome.error;
   const Diagnosis& d = outcome.diagnosis;
-  report("default instrument, clean, seed 4, contact chosen", d);
+  report("fitted contact, clean, seed 4, contact chosen", d);
   ASSERT_TRUE(d.base_contact);
   const auto& options = d.base_contact->options;
   const auto chosen = std::find_if(options.begin(), options.end(), [&](const auto& o) { return o.name == d.base_contact->chosen; });
@@ -356,7 +359,7 @@ TEST(DiagnosisSim, ACandidateWhoseGainIsTheContactsOwnIsNotAccepted) {
   });
   ASSERT_TRUE(outcome.error.empty()) << outcome.error;
   const Diagnosis& d = outcome.diagnosis;
-  report("default instrument, frictional lag 20 ms, seed 4, contact chosen", d);
+  report("fitted contact, frictional lag 20 ms, seed 4, contact chosen", d);
   ASSERT_TRUE(d.base_contact);
   EXPECT_EQ(d.base_contact->chosen, "lugre+elasto_plastic+rate_state");
   for (const auto& a : d.accepted) EXPECT_NE(a.effect, Effect::kDrift);
@@ -376,7 +379,7 @@ void expect_a_physical_nested_contact(std::uint64_t seed) {
     const DiagnoseOutcome outcome = diagnose_clean_default_run_with_contact_choice(seed);
     ASSERT_TRUE(outcome.error.empty()) << outcome.error;
     const Diagnosis& d = outcome.diagnosis;
-    report("default instrument, clean, contact chosen, seed " + std::to_string(seed), d);
+    report("fitted contact, clean, contact chosen, seed " + std::to_string(seed), d);
     ASSERT_TRUE(d.base_contact);
     const auto& options = d.base_contact->options;
     const auto nested = std::find_if(options.begin(), options.end(), [](const auto& o) { return o.name == "lugre+elasto_plastic+rate_state"; });
@@ -399,7 +402,7 @@ void expect_a_physical_nested_contact(std::uint64_t seed) {
   }
 }
 
-TEST(DiagnosisSim, TheNestedRateStateContactIsPhysicalOnTheDefaultInstrument) { expect_a_physical_nested_contact(1); }
+TEST(DiagnosisSim, TheNestedRateStateContactIsPhysicalOnTheFittedContact) { expect_a_physical_nested_contact(1); }
 
 // Seed 2 is open: with the held-contact integrator at h lambda <= 1.5 (the
 // default) the nested fit lands elsewhere (static level 0.0148 against a
@@ -409,7 +412,7 @@ TEST(DiagnosisSim, TheNestedRateStateContactIsPhysicalOnTheDefaultInstrument) { 
 // fine-step reference test's bound; the noise floor is 10 uN): the contact
 // choice flips on a difference far below the noise, so its fit's restarts
 // do not reach one optimum from both. Run with --gtest_also_run_disabled_tests.
-TEST(DiagnosisSim, DISABLED_TheNestedRateStateContactIsPhysicalOnTheDefaultInstrumentSeed2) {
+TEST(DiagnosisSim, DISABLED_TheNestedRateStateContactIsPhysicalOnTheFittedContactSeed2) {
   expect_a_physical_nested_contact(2);
 }
 

@@ -25,8 +25,8 @@ v1::DaemonConfig identification_config(const ConfigEdit& edit) {
   return identification_config_from("/config/instruments/lugre_plain.textproto", edit);
 }
 
-v1::DaemonConfig default_instrument_identification_config(const ConfigEdit& edit) {
-  return identification_config_from("/config/tribod.textproto", [&](v1::DaemonConfig& c) {
+v1::DaemonConfig fitted_contact_identification_config(const ConfigEdit& edit) {
+  return identification_config_from("/config/instruments/fitted_contact.textproto", [&](v1::DaemonConfig& c) {
     c.mutable_sim()->mutable_friction()->mutable_dwell_stiction()->set_enabled(false);
     if (edit) edit(c);
   });

@@ -25,11 +25,12 @@ using ConfigEdit = std::function<void(v1::DaemonConfig&)>;
 // The base config of the identification runs (see above).
 v1::DaemonConfig identification_config(const ConfigEdit& edit = {});
 
-// The same two changes on the default instrument (config/tribod.textproto:
-// the dissertation-fitted contact, elasto-plastic presliding and
-// rate-and-state), with its dwell strengthening off so that a run holds the
-// contact law alone.
-v1::DaemonConfig default_instrument_identification_config(const ConfigEdit& edit = {});
+// The same two changes on the fitted contact
+// (config/instruments/fitted_contact.textproto: elasto-plastic presliding and
+// rate-and-state with the direct effect on the tip's velocity, curve-fitted to
+// Table 5.1), with its dwell strengthening off so that a run holds the contact
+// law alone. The contact-choice tests and their figures were written on it.
+v1::DaemonConfig fitted_contact_identification_config(const ConfigEdit& edit = {});
 
 // The identification protocol on the simulated instrument with this config:
 // lateral position, lateral force (the sensor's: friction plus the plate's

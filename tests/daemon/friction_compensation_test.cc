@@ -1,7 +1,10 @@
 // The friction compensation in the loop (docs/friction_compensation.md): the
 // protocol's field and its validation, the controller's bumpless switching,
 // the supervisor's watch on the compensation, the start document's record of
-// the model, and what it does on the default simulated instrument.
+// the model, and what it does on the simulated instrument with the fitted
+// contact (config/instruments/fitted_contact.textproto: the figures of
+// docs/friction_compensation.md and the reports in tests/data/friction_reports
+// were measured and identified on it).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -40,7 +43,7 @@ using tribo::testing::find;
 
 TEST(FrictionCompensationProtocol, CompilesTheProtocolsModelIntoItsDisplacementSegments) {
   const v1::Protocol p = with_friction_model(shipped_protocol("breakaway.textproto"), identification_report());
-  const ProtocolCheck c = validate_protocol(p, tribo::testing::default_config());
+  const ProtocolCheck c = validate_protocol(p, tribo::testing::fitted_contact_config());
   ASSERT_TRUE(c.ok()) << all(c);
   ASSERT_EQ(c.load_function.friction_models().size(), 1u);
   for (const SegmentPlan& plan : c.load_function.segments()) {
@@ -55,7 +58,7 @@ TEST(FrictionCompensationProtocol, ASegmentSwitchesItOffOrNamesItsOwn) {
   v1::FrictionCompensation& own = *p.mutable_segments(2)->mutable_friction_compensation();
   own.set_report_file("other.json");
   own.set_report_json(tribo::testing::scaled_report(identification_report(), 0.7, 1));
-  const ProtocolCheck c = validate_protocol(p, tribo::testing::default_config());
+  const ProtocolCheck c = validate_protocol(p, tribo::testing::fitted_contact_config());
   ASSERT_TRUE(c.ok()) << all(c);
   ASSERT_EQ(c.load_function.friction_models().size(), 2u);
   EXPECT_EQ(c.load_function.segments()[0].friction_model, -1);
@@ -65,7 +68,7 @@ TEST(FrictionCompensationProtocol, ASegmentSwitchesItOffOrNamesItsOwn) {
 }
 
 TEST(FrictionCompensationProtocol, RefusalsNameTheFieldAndTheReason) {
-  const v1::DaemonConfig config = tribo::testing::default_config();
+  const v1::DaemonConfig config = tribo::testing::fitted_contact_config();
   // A model the compensation cannot evaluate.
   std::string text = identification_report();
   text.replace(text.find("\"tilt_offset\"", text.find("\"final_model\"")), 13, "\"backlash\"");
@@ -97,7 +100,7 @@ TEST(FrictionCompensationProtocol, RefusalsNameTheFieldAndTheReason) {
 }
 
 TEST(FrictionCompensationProtocol, RefusesAModelThatWouldAskMoreOfTheDriveThanTheSupervisorAllows) {
-  v1::DaemonConfig config = tribo::testing::default_config();
+  v1::DaemonConfig config = tribo::testing::fitted_contact_config();
   // The standard scratch at 1000 µN: mu_s N + |tilt| N + (Fv + sigma1) v is about 124 µN.
   config.mutable_supervisor()->set_max_friction_compensation_n(100e-6);
   const ProtocolCheck c =
@@ -118,7 +121,7 @@ TEST(FrictionCompensationProtocol, RefusesAModelThatWouldAskMoreOfTheDriveThanTh
 // of the drive the longer the run: the validator bounds its state by the
 // time from the run's start to each segment's end (identified_friction_bound).
 TEST(FrictionCompensationProtocol, BoundsARateAndStateModelByTheRunsDuration) {
-  v1::DaemonConfig config = tribo::testing::default_config();
+  v1::DaemonConfig config = tribo::testing::fitted_contact_config();
   config.mutable_supervisor()->set_max_friction_compensation_n(250e-6);
   nlohmann::json j = nlohmann::json::parse(identification_report());
   j["final_model"]["effects"].push_back("rate_state");
@@ -152,7 +155,7 @@ IdentifiedFriction fixture_model() {
 // off does not step the drive, although the compensation's share does.
 TEST(FrictionCompensationController, SwitchingOnAndOffIsBumpless) {
   const IdentifiedFriction model = fixture_model();
-  Controller controller(controller_params_from_config(tribo::testing::default_config()));
+  Controller controller(controller_params_from_config(tribo::testing::fitted_contact_config()));
   hal::SensorFrame frame;
   frame.lateral_position_m = 2e-6;
   frame.normal_force_n = 5e-3;
@@ -216,7 +219,7 @@ std::vector<double> observer_along(const IdentifiedFriction& model, const Observ
 // rest), and nothing else of its input changes.
 TEST(FrictionCompensationController, TheObserverIsDrivenByTheCommandedVelocityOfNTicksAgo) {
   const IdentifiedFriction model = fixture_model();
-  v1::DaemonConfig config = tribo::testing::default_config();
+  v1::DaemonConfig config = tribo::testing::fitted_contact_config();
   constexpr int kDelay = 25;  // 2.5 ms at 10 kHz
   config.mutable_controller()->mutable_friction_compensation()->set_velocity_delay_s(
       kDelay / config.controller().loop_rate_hz());
@@ -247,7 +250,7 @@ TEST(FrictionCompensationController, TheObserverIsDrivenByTheCommandedVelocityOf
 // driving velocity rises as 1 - exp(-t / tau), and the delay comes before it.
 TEST(FrictionCompensationController, TheObserverIsDrivenByTheCommandedVelocityThroughAFirstOrderLag) {
   const IdentifiedFriction model = fixture_model();
-  v1::DaemonConfig config = tribo::testing::default_config();
+  v1::DaemonConfig config = tribo::testing::fitted_contact_config();
   auto& fc = *config.mutable_controller()->mutable_friction_compensation();
   constexpr double kTau = 0.0753;
   constexpr int kDelay = 100;  // 10 ms at 10 kHz
@@ -278,7 +281,7 @@ TEST(FrictionCompensationController, TheObserverIsDrivenByTheCommandedVelocityTh
 // observer, bit for bit the compensation of the observer on the command.
 TEST(FrictionCompensationController, NoDelayDrivesTheObserverWithThePresentCommandedVelocity) {
   const IdentifiedFriction model = fixture_model();
-  const ControllerParams params = controller_params_from_config(tribo::testing::default_config());
+  const ControllerParams params = controller_params_from_config(tribo::testing::fitted_contact_config());
   ASSERT_EQ(params.friction_velocity_delay_ticks, 0u);
   Controller controller(params);
   std::vector<double> commanded, compensation;
@@ -292,12 +295,12 @@ TEST(FrictionCompensationController, NoDelayDrivesTheObserverWithThePresentComma
 }
 
 TEST(FrictionCompensationSupervisor, NonFiniteOrExcessiveCompensationTrips) {
-  SafetySupervisor s(supervisor_params_from_config(tribo::testing::default_config()));
+  SafetySupervisor s(supervisor_params_from_config(tribo::testing::fitted_contact_config()));
   EXPECT_TRUE(s.compensation_allowed(1.5e-3, 1));
   EXPECT_FALSE(s.compensation_allowed(2.5e-3, 2)) << "beyond limits.max_lateral_force_n, the default limit";
   EXPECT_EQ(s.trip().reason, TripReason::kFrictionCompensation);
   EXPECT_EQ(s.trip().tick, 2u);
-  SafetySupervisor t(supervisor_params_from_config(tribo::testing::default_config()));
+  SafetySupervisor t(supervisor_params_from_config(tribo::testing::fitted_contact_config()));
   EXPECT_FALSE(t.compensation_allowed(std::nan(""), 3));
   EXPECT_EQ(t.trip().reason, TripReason::kFrictionCompensation);
 }
@@ -306,7 +309,7 @@ TEST(FrictionCompensationSupervisor, NonFiniteOrExcessiveCompensationTrips) {
 // yields a compensation that is not finite; the run trips before the
 // command reaches the backend and unloads safely.
 TEST(FrictionCompensationSupervisor, ANonFiniteCompensationNeverReachesTheBackend) {
-  const v1::DaemonConfig config = tribo::testing::default_config();
+  const v1::DaemonConfig config = tribo::testing::fitted_contact_config();
   const ProtocolCheck check = validate_protocol(shipped_protocol("standard_scratch.textproto"), config);
   ASSERT_TRUE(check.ok());
   std::vector<SegmentPlan> plans = check.load_function.segments();
@@ -335,7 +338,7 @@ TEST(FrictionCompensationSupervisor, ANonFiniteCompensationNeverReachesTheBacken
 // The rest run on the default simulated instrument, through the daemon's loop.
 
 TEST(FrictionCompensationRun, TheStartDocumentRecordsTheReportsHashAndParameters) {
-  const auto run = run_in_process(tribo::testing::default_config(),
+  const auto run = run_in_process(tribo::testing::fitted_contact_config(),
                                   with_friction_model(shipped_protocol("standard_scratch.textproto"),
                                                       identification_report(), "identification.json"),
                                   1);
@@ -356,7 +359,7 @@ TEST(FrictionCompensationRun, TheStartDocumentRecordsTheReportsHashAndParameters
 // forward, the identified friction lowers it at every speed, and the
 // reversals follow the setpoint more closely.
 TEST(FrictionCompensationRun, LowersTheOvershootAfterBreakAwayAndTheErrorAtReversals) {
-  const v1::DaemonConfig config = tribo::testing::default_config();
+  const v1::DaemonConfig config = tribo::testing::fitted_contact_config();
   const v1::Protocol protocol = shipped_protocol("breakaway_velocities.textproto");
   const auto before = run_in_process(config, protocol, 1);
   const auto after = run_in_process(config, with_friction_model(protocol, identification_report()), 1);
@@ -391,7 +394,7 @@ TEST(FrictionCompensationRun, LowersTheOvershootAfterBreakAwayAndTheErrorAtRever
 // tip within 1.3x of the commanded velocity at 4, 18 and 36 µm/s; with the
 // commanded speed driving the state (the rest the same) it does not at 4 µm/s.
 TEST(FrictionCompensationRun, ARateAndStateModelWhoseStateFollowsTheTipMeetsTheOvershootGoal) {
-  v1::DaemonConfig config = tribo::testing::default_config();
+  v1::DaemonConfig config = tribo::testing::fitted_contact_config();
   config.mutable_supervisor()->set_max_friction_compensation_n(0.004);  // the model's bound: 2.75 mN
   auto& fc = *config.mutable_controller()->mutable_friction_compensation();
   fc.set_velocity_lag_s(0.0753);
@@ -417,7 +420,7 @@ TEST(FrictionCompensationRun, ARateAndStateModelWhoseStateFollowsTheTipMeetsTheO
 // The transducer reads the drive less the spring: with the compensation in
 // the drive, the friction the summary reports is still the contact's.
 TEST(FrictionCompensationRun, TheReportedFrictionIsTheContactsWithinItsNoise) {
-  const v1::DaemonConfig config = tribo::testing::default_config();
+  const v1::DaemonConfig config = tribo::testing::fitted_contact_config();
   const v1::Protocol protocol = shipped_protocol("standard_scratch.textproto");
   for (std::uint64_t seed : {1, 2}) {
     const auto without = run_in_process(config, protocol, seed);

@@ -20,9 +20,12 @@
 namespace tribo::sim {
 namespace {
 
+// The compact path serves the fitted contact's law (the direct effect on the
+// tip's velocity); the default's direct effect on the slip rate takes the
+// general path (compact_rk4_applies).
 LateralPlant fitted_plant() {
   v1::DaemonConfig config;
-  const std::string path = std::string(TRIBO_SOURCE_DIR) + "/config/instruments/dissertation_fit.textproto";
+  const std::string path = std::string(TRIBO_SOURCE_DIR) + "/config/instruments/fitted_contact.textproto";
   if (auto error = daemon::load_daemon_config(path, config)) throw std::runtime_error(*error);
   const InstrumentParams p = instrument_params_from_config(config.sim());
   return LateralPlant{p.lateral, p.friction};

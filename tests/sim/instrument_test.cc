@@ -140,6 +140,10 @@ TEST(SimConfig, DefaultIsValidAndErrorsNameFieldValueAndLimit) {
   EXPECT_NE(snap->find("snaps the plate down"), std::string::npos) << *snap;
 
   v1::SimConfig hysteresis = c;
+  // The default's direct effect on the slip rate refuses presliding hysteresis
+  // (its own message, SlipRateDirectEffect tests); the element bound is checked
+  // with the direct effect on the tip's velocity.
+  hysteresis.mutable_friction()->mutable_rate_state()->set_direct_effect_rate(v1::RATE_STATE_DIRECT_TIP_VELOCITY);
   hysteresis.mutable_friction()->mutable_presliding_hysteresis()->set_enabled(true);
   hysteresis.mutable_friction()->mutable_presliding_hysteresis()->set_elements(12);
   const auto elements = validate_sim_config(hysteresis);
@@ -154,7 +158,7 @@ TEST(SimConfig, DefaultIsValidAndErrorsNameFieldValueAndLimit) {
   EXPECT_EQ(*unstable, "sim.integrator.max_h_lambda = 2: must be in (0, 1.8]");
 
   v1::SimConfig off = c;  // parameters of a disabled effect are not checked
-  off.mutable_friction()->mutable_dwell_stiction()->set_enabled(false);  // on in the default
+  off.mutable_friction()->mutable_dwell_stiction()->set_enabled(false);  // off in the default too
   off.mutable_friction()->mutable_dwell_stiction()->set_time_constant_s(-1);
   EXPECT_EQ(validate_sim_config(off), std::nullopt);
   off.mutable_friction()->mutable_dwell_stiction()->set_enabled(true);

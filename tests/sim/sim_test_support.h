@@ -23,13 +23,24 @@ inline v1::DaemonConfig default_config() {
   return config;
 }
 
+// The contact curve-fitted to Table 5.1 and Fig. 4.22
+// (config/instruments/fitted_contact.textproto: the direct effect on the tip's
+// velocity, a dwell term), everything else the default's. Tests that hold that
+// contact's figures use it.
+inline v1::DaemonConfig fitted_contact_config() {
+  v1::DaemonConfig config;
+  const std::string path = std::string(TRIBO_SOURCE_DIR) + "/config/instruments/fitted_contact.textproto";
+  if (auto error = daemon::load_daemon_config(path, config)) throw std::runtime_error(*error);
+  return config;
+}
+
 // The plain LuGre plant: config/instruments/lugre_plain.textproto (LuGre with
 // its Stribeck curve, Appendix C's loop gains) with the default's position
 // ADC range (excitation 3.5 V; lugre_plain keeps the 5 V that saturated at
 // +13.77 um). Tests of the LuGre plant, of
 // its optional effects one at a time and of the integrator use it: they test
 // the plant model on a declared plant, not the default instrument (whose
-// contact adds elasto-plastic presliding, rate-and-state and dwell:
+// contact adds elasto-plastic presliding and rate-and-state:
 // tests/sim/breakaway_test.cc).
 inline v1::DaemonConfig plain_lugre_config() {
   v1::DaemonConfig config;

@@ -1,11 +1,13 @@
 #!/usr/bin/python3
 """Tribo's default simulated instrument as a generator family: the
 identification protocol (config/protocols/identification.textproto) run on
-config/tribod.textproto with the identification map's base overrides (those
+config/instruments/fitted_contact.textproto (the contact curve-fitted to Table
+5.1 and Fig. 4.22, the default's when the family was frozen: its validation
+seeds stay the records they were) with the identification map's base overrides (those
 of config/campaigns/identification_reliability.toml: the loop weights its
 setpoint in P, no tip tilt and no dwell stiction in the clean plant), and at
 most one effect of the sim switched on at a strength. The plant's contact is
-the default one (LuGre with elasto-plastic presliding and rate-and-state):
+that config's (LuGre with elasto-plastic presliding and rate-and-state):
 those two laws are in every record (base effects). Loaded segments only, as
 the map diagnoses them.
 
@@ -28,7 +30,7 @@ for p in (os.path.join(ROOT, "client", "python"), os.path.join(ROOT, "build", "p
 
 import numpy as np  # noqa: E402
 
-CONFIG = os.path.join(ROOT, "config", "tribod.textproto")
+CONFIG = os.path.join(ROOT, "config", "instruments", "fitted_contact.textproto")
 PROTOCOL = os.path.join(ROOT, "config", "protocols", "identification.textproto")
 MAP = os.path.join(ROOT, "config", "campaigns", "identification_reliability.toml")
 
