@@ -71,9 +71,11 @@ class HeldContactStep {
   }
 
   // 1/g at the point with the bristle at z: one evaluation of S (with the
-  // direct effect on the slip rate, S solved with it: stribeck_n_at_deflection).
-  double inverse_scale(ContactPoint c, double z) const {
-    return m_.lugre.sigma0_n_per_m / stribeck_n_at_deflection(m_, in_.levels, c, z);
+  // direct effect on the slip rate, S solved with it from a nearby point's
+  // 1/g, guess_q, if > 0: stribeck_n_at_deflection).
+  double inverse_scale(ContactPoint c, double z, double guess_q) const {
+    const double sigma0 = m_.lugre.sigma0_n_per_m;
+    return sigma0 / stribeck_n_at_deflection(m_, in_.levels, c, z, guess_q > 0 ? sigma0 / guess_q : 0.0);
   }
 
   struct Rate {
@@ -171,6 +173,7 @@ bool integrate_lateral_held(const LateralPlant& plant, const LateralInputs& in, 
   Slow slow{state.contact_age_s, state.rate_state_s};
   int evaluations = 0;
   bool stopped = false;
+  double q_guess = memory ? memory->end_inverse_scale_per_m : 0.0;  // 1/g at the last sub-step's end
   for (int i = 0; i < substeps; ++i) {
     // The law at the sub-step's start.
     double q0 = 0, alpha0 = 1;
@@ -185,7 +188,7 @@ bool integrate_lateral_held(const LateralPlant& plant, const LateralInputs& in, 
     } else {
       const ContactPoint c = step.point(s, slow);
       if (contact) {
-        q0 = step.inverse_scale(c, s.z);
+        q0 = step.inverse_scale(c, s.z, q_guess);
         ++evaluations;
       }
       const HeldContactStep::Rate rate = step.rate_with_friction(s, q0);
@@ -202,7 +205,6 @@ bool integrate_lateral_held(const LateralPlant& plant, const LateralInputs& in, 
       hold = 0.5 * plant.friction.lugre.sigma1_n_s_per_m * alpha0 * std::fabs(s.v - in.sample_velocity_m_per_s) *
                  std::fabs(s.z) * dq <= tolerance_n;
     }
-    if (memory) *memory = contact ? HeldContactMemory{q0, h} : HeldContactMemory{};
     step.hold_drive(s, k1, h);
     // The law at the Euler half step (S only where it is not held).
     const Fast mid = add_scaled(s, k1, h / 2);
@@ -210,7 +212,7 @@ bool integrate_lateral_held(const LateralPlant& plant, const LateralInputs& in, 
     const ContactPoint c_mid = step.point(mid, slow_mid);
     double q_mid = q0;
     if (!hold) {
-      q_mid = step.inverse_scale(c_mid, mid.z);
+      q_mid = step.inverse_scale(c_mid, mid.z, q0);
       ++evaluations;
     }
     const Fast k2 = step.rate(mid, q_mid);
@@ -218,6 +220,8 @@ bool integrate_lateral_held(const LateralPlant& plant, const LateralInputs& in, 
     const Fast k3 = step.rate(add_scaled(s, k2, h / 2), q_mid);
     // 1/g at the end, extrapolated linearly (bounded to a factor 2 of q_mid).
     const double q_end = std::clamp(2.0 * q_mid - q0, 0.5 * q_mid, 2.0 * q_mid);
+    q_guess = q_end;
+    if (memory) *memory = contact ? HeldContactMemory{q0, h, q_end} : HeldContactMemory{};
     const Fast k4 = step.rate(add_scaled(s, k3, h), q_end);
     s = Fast{s.x + h / 6 * (k1.x + 2.0 * (k2.x + k3.x) + k4.x), s.v + h / 6 * (k1.v + 2.0 * (k2.v + k3.v) + k4.v),
              s.z + h / 6 * (k1.z + 2.0 * (k2.z + k3.z) + k4.z)};

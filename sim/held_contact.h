@@ -46,10 +46,12 @@ LateralEvaluation held_contact_start(const LateralPlant& plant, const LateralInp
 
 // What the scheme remembers from one sub-step to the next (across ticks):
 // 1/g at the last sub-step's start and that sub-step's length (0: none, as
-// after contact is made).
+// after contact is made), and 1/g extrapolated to its end (where the next
+// evaluation of S starts its solve, with the direct effect on the slip rate).
 struct HeldContactMemory {
   double inverse_scale_per_m = 0;
   double step_s = 0;
+  double end_inverse_scale_per_m = 0;
 };
 
 // Advances s by dt_s in `substeps` equal sub-steps; true if the plate touched
