@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 namespace tribo::sim {
 
@@ -50,6 +51,18 @@ DriveOverSubstep linearise_drive(const DriveField& f, double x0, double reach_m)
   const double curvature = 6.0 * (pull_pos * inv_pos * inv_pos + pull_neg * inv_neg * inv_neg);
   d.linear = 0.5 * curvature * reach_m * reach_m <= kLinearDriveError_n;
   return d;
+}
+
+// d(alpha u)/du at u = z / g: how much the bristle's slip alpha |v| u moves
+// per unit change of u, and so of 1/g. In the elasto-plastic blend alpha
+// itself rises with u, by dalpha/du = pi / (1 - r) sqrt(alpha (1 - alpha))
+// (alpha = (1 + sin theta) / 2: cos theta = 2 sqrt(alpha (1 - alpha))), up to
+// pi / (2 (1 - r)): 19 at r = 0.917, 110 at r = 0.986, where alpha alone
+// would understate the change that holding S makes.
+double slip_sensitivity(const LugreParams& p, double alpha, double u) {
+  const double r = p.breakaway_ratio;
+  if (!(r > 0) || !(alpha > 0 && alpha < 1)) return alpha;
+  return alpha + std::fabs(u) * std::numbers::pi / (1 - r) * std::sqrt(alpha * (1 - alpha));
 }
 
 class HeldContactStep {
@@ -202,8 +215,8 @@ bool integrate_lateral_held(const LateralPlant& plant, const LateralInputs& in, 
     bool hold = !contact || step.stays_elastic(s, k1, q0, h);
     if (!hold && memory && memory->step_s > 0 && tolerance_n > 0) {
       const double dq = std::fabs(q0 - memory->inverse_scale_per_m) * (h / memory->step_s);
-      hold = 0.5 * plant.friction.lugre.sigma1_n_s_per_m * alpha0 * std::fabs(s.v - in.sample_velocity_m_per_s) *
-                 std::fabs(s.z) * dq <= tolerance_n;
+      hold = 0.5 * plant.friction.lugre.sigma1_n_s_per_m * slip_sensitivity(plant.friction.lugre, alpha0, s.z * q0) *
+                 std::fabs(s.v - in.sample_velocity_m_per_s) * std::fabs(s.z) * dq <= tolerance_n;
     }
     step.hold_drive(s, k1, h);
     // The law at the Euler half step (S only where it is not held).

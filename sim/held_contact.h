@@ -58,9 +58,10 @@ struct HeldContactMemory {
 // a stop. `first`, if given, is lateral_derivative at s (the first sub-step's
 // law at its start). With a memory and a tolerance > 0, S is also held at its
 // start value (one evaluation) where the friction force that holding it can
-// move within the sub-step, 1/2 sigma1 alpha |v| |z| |dq| with dq the change
-// of 1/g over the previous sub-step scaled to this one, is at most
-// tolerance_n. law_evaluations, if given, is increased by the number of
+// move within the sub-step, 1/2 sigma1 (alpha + |u| dalpha/du) |v| |z| |dq|
+// (u = z / g; the blend's slope counts: the slip alpha |v| u moves with u
+// through alpha too) with dq the change of 1/g over the previous sub-step
+// scaled to this one, is at most tolerance_n. law_evaluations, if given, is increased by the number of
 // evaluations of S made (for tests and benchmarks).
 bool integrate_lateral_held(const LateralPlant& plant, const LateralInputs& in, double dt_s, int substeps,
                             LateralState& s, const LateralEvaluation* first, double tolerance_n = 0,
