@@ -172,8 +172,8 @@ TEST_P(FineStepReference, DirectEffectOnTheSlipRateIsWithinItsTolerances) {
 // approach, load and scratch). After it this contact hunts under the position loop (in the
 // hold the tip creeps at 0.1-3 um/s in bursts while the integral action winds up; in the
 // unload it sticks and slips as the load falls, its velocity crossing zero), and there the
-// run depends on rounding: references at h lambda 0.01 and 0.0099 differ by up to 38 uN
-// after 0.2 s of the hold, 0.01 and 0.005 by 46 uN, 0.005 and 0.0025 by 40 uN. No
+// run depends on rounding: the references at h lambda 0.01 and 0.02 part by up to 68 uN and
+// 48 nm over the break-away run, and halving the step or changing it by 1 % does as much. No
 // integrator follows such a stretch tick by tick. The window ends at the first tick where
 // the reference and a second one at twice its step differ by more than a tenth of the
 // largest-tick tolerances (friction 0.5 uN, position 0.3 nm); the whole run is printed.
