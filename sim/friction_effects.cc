@@ -92,7 +92,7 @@ SpeedTerms speed_terms(const FrictionModel& m, const FrictionLevels& levels, dou
   if (levels.strengthening_n > 0) {
     t.strengthening_log = std::log1p(std::fabs(vs) / m.velocity_strengthening.reference_velocity_m_per_s);
   }
-  if (levels.rate_state_n > 0) {
+  if (levels.rate_state_n > 0 && direct_v != 0.0) {  // log1p(0) = 0
     t.direct_log = std::log1p(std::fabs(direct_v) * (1.0 / m.rate_state.reference_velocity_m_per_s));
   }
   return t;
@@ -133,50 +133,87 @@ double stribeck_n(const FrictionModel& m, const FrictionLevels& levels, const Co
                      speed_terms(m, levels, c.stribeck_velocity_m_per_s, direct_velocity(m, c)), c.velocity_m_per_s);
 }
 
-double stribeck_n_at_deflection(const FrictionModel& m, const FrictionLevels& levels, ContactPoint& c, double z) {
+namespace {
+
+// d alpha / d|u| and d^2 alpha / d|u|^2 of the elasto-plastic blend where
+// alpha is its value: alpha = (1 + sin theta) / 2, theta = pi (|u| - (1 + r)/2)
+// / (1 - r) in [-pi/2, pi/2], so cos theta = 2 sqrt(alpha (1 - alpha)) and
+// sin theta = 2 alpha - 1: both without a trigonometric function; 0 outside
+// the blend (alpha 0 or 1).
+struct BlendSlopes {
+  double first = 0, second = 0;
+};
+
+BlendSlopes blend_slopes(double breakaway_ratio, double alpha) {
+  if (breakaway_ratio <= 0 || !(alpha > 0 && alpha < 1)) return {};
+  const double k = std::numbers::pi / (1 - breakaway_ratio);
+  return BlendSlopes{k * std::sqrt(alpha * (1 - alpha)), -k * k * (alpha - 0.5)};
+}
+
+}  // namespace
+
+double stribeck_n_at_deflection(const FrictionModel& m, const FrictionLevels& levels, ContactPoint& c, double z,
+                                double guess_n) {
   if (!(levels.rate_state_n > 0) || !direct_effect_on_slip_rate(m.rate_state)) return stribeck_n(m, levels, c);
   const PointTerms t = point_terms(m, levels, c);
   SpeedTerms speed = speed_terms(m, levels, c.stribeck_velocity_m_per_s, 0.0);
-  const double v = c.velocity_m_per_s, sigma0 = m.lugre.sigma0_n_per_m;
-  const double inverse_v_star = 1.0 / m.rate_state.reference_velocity_m_per_s;
-  auto s_at = [&](double slip) {
-    speed.direct_log = std::log1p(std::fabs(slip) * inverse_v_star);
+  const double v = c.velocity_m_per_s, sigma0 = m.lugre.sigma0_n_per_m, r = m.lugre.breakaway_ratio;
+  const double v_star = m.rate_state.reference_velocity_m_per_s, inverse_v_star = 1.0 / v_star;
+  // S is affine in L = ln(1 + |v_s| / V*) above the floor: S(L) = S(0) + K L.
+  auto s_of = [&](double log_term) {
+    speed.direct_log = log_term;
     return stribeck_at(m, levels, t, speed, v);
   };
-  auto slip_at = [&](double s) {
-    const double g = s / sigma0;
-    return plasticity(m.lugre.breakaway_ratio, v, z, g) * std::fabs(v) * z / g;
-  };
-  // G(S) = S - F(S) rises with S; G(lo) <= 0 <= G(hi).
-  double lo = s_at(0.0);
-  const double slip_lo = slip_at(lo);
-  if (slip_lo == 0.0) {  // stuck (alpha = 0) or at rest: no slip whatever S
+  const double s0 = s_of(0.0);
+  const double u0 = z * sigma0 / s0;
+  if (plasticity(r, v, u0, 1.0) * std::fabs(v) * u0 == 0.0) {  // stuck (alpha = 0) or at rest: no slip whatever S
     c.slip_rate_m_per_s = 0.0;
-    return lo;
+    return s0;
   }
-  double hi = s_at(slip_lo);
-  double g_lo = lo - hi;
-  double slip_hi = slip_at(hi);
-  double g_hi = hi - s_at(slip_hi);
-  double s = hi, slip = slip_hi;
-  int side = 0;
-  for (int i = 0; i < kSlipRateIterations && std::fabs(g_hi) > kSlipRateResidual * hi && hi - lo > 1e-14 * hi; ++i) {
-    s = g_hi == g_lo ? 0.5 * (lo + hi) : hi - g_hi * (hi - lo) / (g_hi - g_lo);
-    slip = slip_at(s);
-    const double g_s = s - s_at(slip);
-    if (std::fabs(g_s) <= kSlipRateResidual * s) break;
-    if (g_s > 0) {
-      hi = s, g_hi = g_s;
-      if (side == 1) g_lo *= 0.5;  // Illinois: the end kept twice is halved
-      side = 1;
+  const double slope = s_of(1.0) - s0;
+  const double speed_abs = std::fabs(v);
+  // H(L) = L - ln(1 + w / V*), w = |v_s| = |v| alpha(u) |u|, u = sigma0 z / S(L):
+  // w falls as S rises, so H' >= 1 and the root L* is unique; an L below it
+  // bounds it from above by ln(1 + w/V*) there, one above from below. Halley's
+  // method (H'' from the blend's own slopes) from the guess's L, or from 0,
+  // within that bracket, bisecting where a step leaves it.
+  double lo = 0.0, hi = HUGE_VAL;
+  double log_term = 0.0;
+  if (guess_n > 0 && slope > 0) log_term = std::max(0.0, (guess_n - s0) / slope);
+  double slip = 0.0, fixed = 0.0;
+  for (int i = 0; i < kSlipRateIterations; ++i) {
+    const double s = s_of(log_term);
+    const double u = z * sigma0 / s;
+    const double alpha = plasticity(r, v, u, 1.0);
+    slip = alpha * speed_abs * u;  // signed as z
+    const double w = std::fabs(slip);
+    fixed = std::log1p(w * inverse_v_star);
+    const double h = log_term - fixed;
+    if (!(std::fabs(h) * slope > kSlipRateResidual * s)) break;
+    if (h < 0) {
+      lo = std::max(lo, log_term);
+      hi = std::min(hi, fixed);
     } else {
-      lo = s, g_lo = g_s;
-      if (side == -1) g_hi *= 0.5;
-      side = -1;
+      hi = std::min(hi, log_term);
+      lo = std::max(lo, fixed);
     }
+    // Derivatives along L: |u|' = -|u| K / S, |u|'' = 2 |u| K^2 / S^2.
+    const double uabs = std::fabs(u), ks = slope / s;
+    const double du = -uabs * ks, ddu = 2.0 * uabs * ks * ks;
+    const BlendSlopes b = blend_slopes(r, alpha);
+    const double dphi = alpha + uabs * b.first, ddphi = 2.0 * b.first + uabs * b.second;  // of alpha |u|
+    const double dw = speed_abs * dphi * du, ddw = speed_abs * (ddphi * du * du + dphi * ddu);
+    const double inverse_level = 1.0 / (v_star + w);
+    const double dh = 1.0 - dw * inverse_level;
+    const double ddh = (dw * dw * inverse_level - ddw) * inverse_level;
+    const double denominator = 2.0 * dh * dh - h * ddh;
+    double next = denominator > 0 ? log_term - 2.0 * h * dh / denominator : log_term - h / dh;
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    if (next == log_term || hi - lo <= 1e-15 * hi) break;
+    log_term = next;
   }
   c.slip_rate_m_per_s = slip;
-  return s_at(slip);
+  return s_of(fixed);
 }
 
 double static_friction_n(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c,

@@ -201,21 +201,26 @@ ContactStateRates contact_state_rates(const FrictionModel& m, const ContactPoint
 // S at the point with the bristle at deflection z (single LuGre bristle,
 // elasto-plastic ratio m.lugre.breakaway_ratio). With the direct effect on the
 // slip rate, S and the slip rate v_s = alpha(z, g) |v| z / g, g = S / sigma0,
-// depend on each other: S = F(S) with F(S) = S at v_s(S). v_s falls as S
-// rises and S rises with |v_s|, so F is non-increasing and the root of
-// S - F(S) is unique and lies in [S(v_s = 0), F(S(v_s = 0))]; it is found by
-// the Illinois (regula falsi) method in that bracket, stopping where
-// |S - F(S)| <= kSlipRateResidual S, after at most kSlipRateIterations
-// evaluations of S: bounded, without allocation (measured on the default's
-// contact at 9810 uN over the blend and 0.1 um/s to 1 mm/s: at most 22).
-// Plain fixed-point iteration is not used: in the elasto-plastic blend alpha
-// rises by up to pi / (2 (1 - r)) per unit z/g (19 at r = 0.917), and |F'|
-// exceeds 1 there at loading rates of a few V*. The solved v_s is left in
-// c's slip_rate_m_per_s. Otherwise stribeck_n(m, levels, c).
+// depend on each other: S = F(S) with F(S) = S at v_s(S). S is affine in
+// L = ln(1 + |v_s| / V*) (slope K = N_rs a M_p M_d, above the floor), and
+// H(L) = L - ln(1 + |v_s(S(L))| / V*) rises with L (dH/dL >= 1: |v_s| falls
+// as S rises), so the root is unique. It is found by Halley's method on H
+// (its second derivative from the blend's own slopes, no further
+// transcendental function), from guess_n's L (S of a nearby evaluation: the previous sub-step's, the
+// sub-step's start; none: L = 0), kept within the bracket that each
+// evaluation gives (an L below the root bounds it from above by
+// ln(1 + |v_s|/V*) there, one above from below) by bisecting where a step
+// leaves it, stopping where |S - F(S)| = K |H| <= kSlipRateResidual S, after at
+// most kSlipRateIterations evaluations (one logarithm each), without
+// allocation. F(S) of the last evaluation is returned. In the elasto-plastic
+// blend alpha rises by up to pi / (2 (1 - r)) per unit z/g (19 at r = 0.917)
+// and |F'| exceeds 1 at loading rates of a few V*: plain fixed-point iteration
+// diverges there, Halley's within the bracket does not. The solved v_s is left
+// in c's slip_rate_m_per_s. Otherwise stribeck_n(m, levels, c).
 inline constexpr int kSlipRateIterations = 32;
 inline constexpr double kSlipRateResidual = 1e-12;
 double stribeck_n_at_deflection(const FrictionModel& m, const FrictionLevels& levels, ContactPoint& c,
-                                double bristle_m);
+                                double bristle_m, double guess_n = 0);
 
 // S at rest, pushed towards sgn(direction): the most the contact holds stuck.
 double static_friction_n(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c,

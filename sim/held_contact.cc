@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 namespace tribo::sim {
 
@@ -52,6 +53,18 @@ DriveOverSubstep linearise_drive(const DriveField& f, double x0, double reach_m)
   return d;
 }
 
+// d(alpha u)/du at u = z / g: how much the bristle's slip alpha |v| u moves
+// per unit change of u, and so of 1/g. In the elasto-plastic blend alpha
+// itself rises with u, by dalpha/du = pi / (1 - r) sqrt(alpha (1 - alpha))
+// (alpha = (1 + sin theta) / 2: cos theta = 2 sqrt(alpha (1 - alpha))), up to
+// pi / (2 (1 - r)): 19 at r = 0.917, 110 at r = 0.986, where alpha alone
+// would understate the change that holding S makes.
+double slip_sensitivity(const LugreParams& p, double alpha, double u) {
+  const double r = p.breakaway_ratio;
+  if (!(r > 0) || !(alpha > 0 && alpha < 1)) return alpha;
+  return alpha + std::fabs(u) * std::numbers::pi / (1 - r) * std::sqrt(alpha * (1 - alpha));
+}
+
 class HeldContactStep {
  public:
   HeldContactStep(const LateralPlant& plant, const LateralInputs& in)
@@ -71,9 +84,11 @@ class HeldContactStep {
   }
 
   // 1/g at the point with the bristle at z: one evaluation of S (with the
-  // direct effect on the slip rate, S solved with it: stribeck_n_at_deflection).
-  double inverse_scale(ContactPoint c, double z) const {
-    return m_.lugre.sigma0_n_per_m / stribeck_n_at_deflection(m_, in_.levels, c, z);
+  // direct effect on the slip rate, S solved with it from a nearby point's
+  // 1/g, guess_q, if > 0: stribeck_n_at_deflection).
+  double inverse_scale(ContactPoint c, double z, double guess_q) const {
+    const double sigma0 = m_.lugre.sigma0_n_per_m;
+    return sigma0 / stribeck_n_at_deflection(m_, in_.levels, c, z, guess_q > 0 ? sigma0 / guess_q : 0.0);
   }
 
   struct Rate {
@@ -171,6 +186,7 @@ bool integrate_lateral_held(const LateralPlant& plant, const LateralInputs& in, 
   Slow slow{state.contact_age_s, state.rate_state_s};
   int evaluations = 0;
   bool stopped = false;
+  double q_guess = memory ? memory->end_inverse_scale_per_m : 0.0;  // 1/g at the last sub-step's end
   for (int i = 0; i < substeps; ++i) {
     // The law at the sub-step's start.
     double q0 = 0, alpha0 = 1;
@@ -185,7 +201,7 @@ bool integrate_lateral_held(const LateralPlant& plant, const LateralInputs& in, 
     } else {
       const ContactPoint c = step.point(s, slow);
       if (contact) {
-        q0 = step.inverse_scale(c, s.z);
+        q0 = step.inverse_scale(c, s.z, q_guess);
         ++evaluations;
       }
       const HeldContactStep::Rate rate = step.rate_with_friction(s, q0);
@@ -199,10 +215,9 @@ bool integrate_lateral_held(const LateralPlant& plant, const LateralInputs& in, 
     bool hold = !contact || step.stays_elastic(s, k1, q0, h);
     if (!hold && memory && memory->step_s > 0 && tolerance_n > 0) {
       const double dq = std::fabs(q0 - memory->inverse_scale_per_m) * (h / memory->step_s);
-      hold = 0.5 * plant.friction.lugre.sigma1_n_s_per_m * alpha0 * std::fabs(s.v - in.sample_velocity_m_per_s) *
-                 std::fabs(s.z) * dq <= tolerance_n;
+      hold = 0.5 * plant.friction.lugre.sigma1_n_s_per_m * slip_sensitivity(plant.friction.lugre, alpha0, s.z * q0) *
+                 std::fabs(s.v - in.sample_velocity_m_per_s) * std::fabs(s.z) * dq <= tolerance_n;
     }
-    if (memory) *memory = contact ? HeldContactMemory{q0, h} : HeldContactMemory{};
     step.hold_drive(s, k1, h);
     // The law at the Euler half step (S only where it is not held).
     const Fast mid = add_scaled(s, k1, h / 2);
@@ -210,7 +225,7 @@ bool integrate_lateral_held(const LateralPlant& plant, const LateralInputs& in, 
     const ContactPoint c_mid = step.point(mid, slow_mid);
     double q_mid = q0;
     if (!hold) {
-      q_mid = step.inverse_scale(c_mid, mid.z);
+      q_mid = step.inverse_scale(c_mid, mid.z, q0);
       ++evaluations;
     }
     const Fast k2 = step.rate(mid, q_mid);
@@ -218,6 +233,8 @@ bool integrate_lateral_held(const LateralPlant& plant, const LateralInputs& in, 
     const Fast k3 = step.rate(add_scaled(s, k2, h / 2), q_mid);
     // 1/g at the end, extrapolated linearly (bounded to a factor 2 of q_mid).
     const double q_end = std::clamp(2.0 * q_mid - q0, 0.5 * q_mid, 2.0 * q_mid);
+    q_guess = q_end;
+    if (memory) *memory = contact ? HeldContactMemory{q0, h, q_end} : HeldContactMemory{};
     const Fast k4 = step.rate(add_scaled(s, k3, h), q_end);
     s = Fast{s.x + h / 6 * (k1.x + 2.0 * (k2.x + k3.x) + k4.x), s.v + h / 6 * (k1.v + 2.0 * (k2.v + k3.v) + k4.v),
              s.z + h / 6 * (k1.z + 2.0 * (k2.z + k3.z) + k4.z)};

@@ -46,19 +46,22 @@ LateralEvaluation held_contact_start(const LateralPlant& plant, const LateralInp
 
 // What the scheme remembers from one sub-step to the next (across ticks):
 // 1/g at the last sub-step's start and that sub-step's length (0: none, as
-// after contact is made).
+// after contact is made), and 1/g extrapolated to its end (where the next
+// evaluation of S starts its solve, with the direct effect on the slip rate).
 struct HeldContactMemory {
   double inverse_scale_per_m = 0;
   double step_s = 0;
+  double end_inverse_scale_per_m = 0;
 };
 
 // Advances s by dt_s in `substeps` equal sub-steps; true if the plate touched
 // a stop. `first`, if given, is lateral_derivative at s (the first sub-step's
 // law at its start). With a memory and a tolerance > 0, S is also held at its
 // start value (one evaluation) where the friction force that holding it can
-// move within the sub-step, 1/2 sigma1 alpha |v| |z| |dq| with dq the change
-// of 1/g over the previous sub-step scaled to this one, is at most
-// tolerance_n. law_evaluations, if given, is increased by the number of
+// move within the sub-step, 1/2 sigma1 (alpha + |u| dalpha/du) |v| |z| |dq|
+// (u = z / g; the blend's slope counts: the slip alpha |v| u moves with u
+// through alpha too) with dq the change of 1/g over the previous sub-step
+// scaled to this one, is at most tolerance_n. law_evaluations, if given, is increased by the number of
 // evaluations of S made (for tests and benchmarks).
 bool integrate_lateral_held(const LateralPlant& plant, const LateralInputs& in, double dt_s, int substeps,
                             LateralState& s, const LateralEvaluation* first, double tolerance_n = 0,

@@ -253,7 +253,8 @@ bool integrate_lateral_split(const LateralPlant& plant, const LateralInputs& in,
   return stopped;
 }
 
-double limit_to_static_friction(const LateralPlant& plant, const LateralInputs& in, LateralState& s) {
+double limit_to_static_friction(const LateralPlant& plant, const LateralInputs& in, LateralState& s,
+                                double guess_n) {
   if (!in.levels.in_contact()) return 0.0;
   const FrictionModel& m = plant.friction;
   const ContactPoint c = contact_point(plant, in, s);
@@ -273,12 +274,12 @@ double limit_to_static_friction(const LateralPlant& plant, const LateralInputs& 
     // S sliding depends on the bristle through the slip rate: at the
     // deflection the limit leaves (the caller's next evaluation's S).
     ContactPoint at = c;
-    both.sliding_n = stribeck_n_at_deflection(m, in.levels, at, s.bristle_m);
+    both.sliding_n = stribeck_n_at_deflection(m, in.levels, at, s.bristle_m, guess_n);
     const double before = s.bristle_m;
     s.bristle_m = limit(s.bristle_m, 1.0, both.sliding_n, both.static_n);
     if (s.bristle_m == before) return both.sliding_n;
     at = c;
-    return stribeck_n_at_deflection(m, in.levels, at, s.bristle_m);
+    return stribeck_n_at_deflection(m, in.levels, at, s.bristle_m, both.sliding_n);
   }
   const double sliding_n = stribeck_n(m, in.levels, c);
   for (int i = 0; i < hy.elements; ++i) {

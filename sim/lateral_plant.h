@@ -178,7 +178,10 @@ bool integrate_lateral_split(const LateralPlant& plant, const LateralInputs& in,
 // instead of one over the next few nm.
 // Returns S (stribeck_n) at the contact point, which the limit leaves as it
 // was (it moves only the bristles); 0 out of contact.
-double limit_to_static_friction(const LateralPlant& plant, const LateralInputs& in, LateralState& s);
+// guess_n: S of a nearby evaluation (the last sub-step's), where the solve of
+// S with the slip rate starts (stribeck_n_at_deflection); 0: none.
+double limit_to_static_friction(const LateralPlant& plant, const LateralInputs& in, LateralState& s,
+                                double guess_n = 0);
 
 // Stored energy: kinetic, spring, bristle (or elements), backlash coupling,
 // and the potentials of the held drive field and tip force. With no sample

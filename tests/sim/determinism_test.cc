@@ -102,7 +102,10 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{"config/instruments/lugre_plain.textproto", "stop_start", kStopStart},
                       Case{"config/instruments/lugre_plain.textproto", "scratch", kScratch},
                       Case{"config/instruments/appendix_c.textproto", "stop_start", kStopStart},
-                      Case{"config/instruments/appendix_c.textproto", "scratch", kScratch}),
+                      Case{"config/instruments/appendix_c.textproto", "scratch", kScratch},
+                      // the slip-rate contact: S solved from a guess carried across ticks
+                      Case{"config/instruments/slip_rate_contact/all.textproto", "stop_start", kStopStart},
+                      Case{"config/instruments/slip_rate_contact/all.textproto", "scratch", kScratch}),
     [](const ::testing::TestParamInfo<Case>& info) {
       std::string name = std::string(info.param.config);
       name = name.substr(name.rfind('/') + 1);
