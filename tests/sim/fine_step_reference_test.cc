@@ -1,4 +1,5 @@
-// The default instrument against a fine-step reference: the same closed-loop
+// The default instrument (and the curve-fitted contact) against a fine-step
+// reference: the same closed-loop
 // run (config, protocol, seed, sensor noise; through the daemon's loop) with
 // the contact law evaluated at every RK4 stage and integrator.max_h_lambda
 // 0.01 (sub-steps 100 times finer than RK4's accurate setting, 150 times
@@ -126,9 +127,11 @@ void expect_within_noise_floors(const Channels& now, const v1::DaemonConfig& con
   EXPECT_LT(now.normal_force_un.max, normal_floor_un / 2);
 }
 
-TEST_P(FineStepReference, DefaultInstrumentIsWithinItsTolerances) {
+// The curve-fitted contact (config/instruments/fitted_contact.textproto: the direct effect on
+// the tip's velocity, a dwell term) over the whole run: it does not hunt after the slide.
+TEST_P(FineStepReference, FittedContactIsWithinItsTolerances) {
   const Case& c = GetParam();
-  const v1::DaemonConfig config = config_file("config/tribod.textproto");
+  const v1::DaemonConfig config = config_file("config/instruments/fitted_contact.textproto");
   const ProtocolRun ref = run_protocol(fine_reference(config), c.protocol(), 1);
   const ProtocolRun run = run_protocol(config, c.protocol(), 1);
   const ProtocolRun previous = run_protocol(law_at_every_stage(config), c.protocol(), 1);
@@ -137,20 +140,20 @@ TEST_P(FineStepReference, DefaultInstrumentIsWithinItsTolerances) {
   ASSERT_EQ(run.samples.size(), ref.samples.size());
   const Channels now = compare(run, ref);
   std::printf("  %s, %zu ticks:\n", c.name, ref.samples.size());
-  print("default (held contact law)", now, run);
+  print("fitted contact (held contact law)", now, run);
   print("the law at every RK4 stage, h lambda 1", compare(previous, ref), previous);
 
   expect_within_noise_floors(now, config);
 }
 
-// The same for the default instrument with the rate-and-state direct effect
+// The same for the fitted contact's parameters with the rate-and-state direct effect
 // on the slip rate (rate_state.direct_effect_rate = RATE_STATE_DIRECT_SLIP_RATE:
 // S solved with the slip rate at each evaluation), with the same tolerances:
 // the held-contact scheme evaluates the coupled law at a sub-step's start and
 // middle, the reference at every stage of RK4 at a 100 times finer step.
 TEST_P(FineStepReference, DirectEffectOnTheSlipRateIsWithinItsTolerances) {
   const Case& c = GetParam();
-  v1::DaemonConfig config = config_file("config/tribod.textproto");
+  v1::DaemonConfig config = config_file("config/instruments/fitted_contact.textproto");
   config.mutable_sim()->mutable_friction()->mutable_rate_state()->set_direct_effect_rate(
       v1::RATE_STATE_DIRECT_SLIP_RATE);
   const ProtocolRun ref = run_protocol(fine_reference(config), c.protocol(), 1);
@@ -165,7 +168,8 @@ TEST_P(FineStepReference, DirectEffectOnTheSlipRateIsWithinItsTolerances) {
   expect_within_noise_floors(now, config);
 }
 
-// The slip-rate contact the scorecard fits (config/instruments/slip_rate_contact/all.textproto:
+// The default instrument, whose contact is the slip-rate law the scorecard fits
+// (config/tribod.textproto, the friction section of slip_rate_contact/all.textproto:
 // a/mu 0.047, b/mu 0.044, D_c 0.35 um, V* 0.006 um/s, ageing law, no dwell term, r 0.986),
 // with the same tolerances, from the start until the reference stops being reproducible,
 // which must be after the protocol's sliding segment (the break-away and its slide; the
@@ -203,9 +207,9 @@ v1::DaemonConfig reference_at(v1::DaemonConfig config, double max_h_lambda) {
   return config;
 }
 
-TEST_P(FineStepReference, SlipRateContactIsWithinItsTolerancesWhileTheReferenceIsReproducible) {
+TEST_P(FineStepReference, DefaultInstrumentIsWithinItsTolerancesWhileTheReferenceIsReproducible) {
   const Case& c = GetParam();
-  const v1::DaemonConfig config = config_file("config/instruments/slip_rate_contact/all.textproto");
+  const v1::DaemonConfig config = config_file("config/tribod.textproto");
   const ProtocolRun ref = run_protocol(fine_reference(config), c.protocol(), 1);
   const ProtocolRun coarser_ref = run_protocol(reference_at(config, 0.02), c.protocol(), 1);
   const ProtocolRun run = run_protocol(config, c.protocol(), 1);
@@ -228,11 +232,11 @@ TEST_P(FineStepReference, SlipRateContactIsWithinItsTolerancesWhileTheReferenceI
   const Channels now = compare_through(run, ref, end);
   std::printf("  %s, ticks 0-%zu of %zu (the references part after; the slide ends at %zu):\n", c.name, end,
               ref.samples.size(), c.slide_end_tick);
-  print("slip-rate contact (held contact law)", now, run);
+  print("default (held contact law)", now, run);
   print("the law at every RK4 stage, h lambda 1", compare_through(previous, ref, end), previous);
   print("reference at h lambda 0.02", references, coarser_ref);
   std::printf("  the whole run:\n");
-  print("slip-rate contact (held contact law)", compare(run, ref), run);
+  print("default (held contact law)", compare(run, ref), run);
   print("the law at every RK4 stage, h lambda 1", compare(previous, ref), previous);
   print("reference at h lambda 0.02", compare(coarser_ref, ref), coarser_ref);
 
