@@ -131,9 +131,10 @@ constexpr double kMaxAlternativeMotionRatio = 1.5;
 // than its statistical error is known no better than that move (on the
 // independent generator the contact stiffness moves 2-9 % between the loop
 // models with and without the servo's yield, against errors of 1-2 %).
-void add_motion_systematic(const ModelData& primary, const MeasuredSeries& alternative, const MotionSegmentation& motion,
+void add_motion_systematic(const ModelData& primary, const MeasuredSeries& alternative_motion, const MotionSegmentation& motion,
                            const std::vector<char>& in_fit, const std::vector<char>& heldout, double heldout_rms,
                            const DiagnosisOptions& options, FitResult& fit) {
+  const MeasuredSeries alternative = with_motion_of(primary.series, alternative_motion);
   ModelData data(alternative, motion);
   data.set_drift_intervals(primary.drift_intervals());
   const FitResult refit = fit_model(data, fit.params, in_fit, options.lugre.fit);
