@@ -131,9 +131,10 @@ constexpr double kMaxAlternativeMotionRatio = 1.5;
 // than its statistical error is known no better than that move (on the
 // independent generator the contact stiffness moves 2-9 % between the loop
 // models with and without the servo's yield, against errors of 1-2 %).
-void add_motion_systematic(const ModelData& primary, const MeasuredSeries& alternative, const MotionSegmentation& motion,
+void add_motion_systematic(const ModelData& primary, const MeasuredSeries& alternative_motion, const MotionSegmentation& motion,
                            const std::vector<char>& in_fit, const std::vector<char>& heldout, double heldout_rms,
                            const DiagnosisOptions& options, FitResult& fit) {
+  const MeasuredSeries alternative = with_motion_of(primary.series, alternative_motion);
   ModelData data(alternative, motion);
   data.set_drift_intervals(primary.drift_intervals());
   const FitResult refit = fit_model(data, fit.params, in_fit, options.lugre.fit);
@@ -307,9 +308,11 @@ bool accepted_when_injected(const ModelData& data, const EvaluatedFit& current, 
   const std::vector<double> injected = force_with_effect(data, current, effect, s);
   ModelData record = data;
   record.fitted_force = &injected;
-  const EvaluatedFit refit = evaluate_fit(record, fit_model(record, current.fit.params, in_fit, options.lugre.fit));
+  EvaluatedFit refit = evaluate_fit(record, fit_model(record, current.fit.params, in_fit, options.lugre.fit));
   const SignatureInput input{record, refit.fit.params, refit.model, refit.friction, in_fit};
   Signature sig = compute_signature(effect, SignatureContext(input));
+  // The friction part served the signature only: not held through the fit.
+  std::vector<double>().swap(refit.friction);
   if (!sig.applicable) return false;
   sig.score_t = score_test(record, refit.fit.params, refit.model, effect, sig, in_fit);
   if (std::max(sig.strength, sig.score_t / options.score_t_threshold) < options.min_signature_strength) return false;
@@ -855,10 +858,9 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
   out.adequacy = judge_model_adequacy(data, out.final_fit);
   if (!out.adequacy.describes_record) withdraw_effects(out);
   for (auto& a : out.accepted) a.parameters = parameters_of(out.final_fit, a.effect);
-  out.model_after = current.model;
   out.after = {error_stats(series.force_n, current.model, in_fit), error_stats(series.force_n, current.model, heldout),
                error_stats(series.force_n, current.model, everything)};
-  out.heldout_by_condition = by_condition(series, out.motion, out.model_before, out.model_after);
+  out.heldout_by_condition = by_condition(series, out.motion, out.model_before, current.model);
   for (auto& [e, st] : status) out.rejected.push_back(st);
   if (options.minimum_detectable && out.adequacy.describes_record) {
     add_minimum_detectable(in, current, out);
@@ -870,6 +872,9 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
 
   add_residual_and_warnings(in, current, velocity_steps_on_lugre, out);
   for (std::string& w : refits_in_place_of_effects) out.warnings.push_back(std::move(w));
+  // Moved, not copied, once nothing reads the current model any more (the
+  // checks above each hold a refit of it).
+  out.model_after = std::move(current.model);
   return out;
 }
 

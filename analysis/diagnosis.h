@@ -90,7 +90,8 @@ struct DiagnosisOptions {
   // model (same samples): the final model is refitted on it, and each
   // parameter's shift is its motion-model systematic error
   // (ParamEstimate::motion_systematic), added to its standard error in
-  // quadrature. Decisions are taken before, on the errors without it.
+  // quadrature. Decisions are taken before, on the errors without it. Only
+  // its motion columns are read (keep_motion_only(), analysis/measured_series.h).
   const MeasuredSeries* alternative_motion = nullptr;
 };
 

@@ -73,6 +73,7 @@ DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r)
     });
   }
   if (alternative && alternative->loop_taps == 0) alternative.reset();
+  if (alternative) keep_motion_only(*alternative);
 
   DiagnosisOptions options;
   options.base.fit_mass = r.fit_mass;

@@ -236,7 +236,78 @@ std::size_t ModelParams::free_count() const {
   return static_cast<std::size_t>(std::count_if(specs.begin(), specs.end(), [](const ParamSpec& s) { return !s.fixed; }));
 }
 
-ModelData::ModelData(const MeasuredSeries& s, const MotionSegmentation& m) : series(s), motion(m), fitted_force(&s.force_n) {
+namespace {
+
+std::shared_ptr<const DriveArrays> drive_arrays(const MeasuredSeries& s, const MotionSegmentation& m) {
+  const std::size_t n = s.size();
+  // At rest the measured velocity is sensor noise; fed to LuGre, its |v|
+  // term would drain the bristle (the dither effect of docs/physics_and_sources.md "The simulated
+  // instrument") although the contact does not move. The model is therefore
+  // driven at zero velocity while the tip rests: inside each hold, from the
+  // first to the last sample within four position-noise widths of the resting
+  // position (the hold's edges, found on smoothed speed, can hold the end and
+  // the start of motion). The width is the record's noise floor as well: a
+  // smoothed position carries almost no white noise, and a band of its width
+  // held nothing (the model's state then ran through every hold on the
+  // smoother's velocity, 178 -> -8 µN over one hold of the independent
+  // generator's rate_state seed-3 file).
+  DriveArrays a;
+  std::vector<double>& drive_velocity = a.drive_velocity;
+  drive_velocity = s.velocity_m_per_s;
+  const double band = 4 * std::max({m.position_noise_m, s.position_noise_m, 1e-300});
+  std::vector<char>& at_rest = a.at_rest;
+  at_rest.assign(n, 0);
+  for (const Hold& h : m.holds) {
+    for (std::size_t i = h.first; i <= h.last; ++i) at_rest[i] = 1;
+  }
+  for (const Hold& h : m.holds) {
+    std::vector<double> xs(s.position_m.begin() + static_cast<std::ptrdiff_t>(h.first),
+                           s.position_m.begin() + static_cast<std::ptrdiff_t>(h.last) + 1);
+    const double rest = median(xs);
+    std::size_t first = h.first, last = h.last;
+    while (first < last && std::fabs(s.position_m[first] - rest) > band) ++first;
+    while (last > first && std::fabs(s.position_m[last] - rest) > band) --last;
+    for (std::size_t i = first; i <= last; ++i) drive_velocity[i] = 0.0;
+  }
+  // The mean velocity over each sample interval: the position increment when
+  // the velocity was derived from the position (central differences smear a
+  // motion onset half a sample early), else the mean of the measured ends.
+  std::vector<double>& step_velocity = a.step_velocity;
+  step_velocity.assign(n, 0.0);
+  for (std::size_t i = 1; i < n; ++i) {
+    if (drive_velocity[i - 1] == 0.0 && drive_velocity[i] == 0.0) continue;
+    step_velocity[i] = s.velocity_measured ? 0.5 * (drive_velocity[i - 1] + drive_velocity[i])
+                                           : (s.position_m[i] - s.position_m[i - 1]) / (s.time_s[i] - s.time_s[i - 1]);
+  }
+  // Only where a slip trend may be fitted (one way only): on other records it
+  // would cost eight bytes a sample for nothing.
+  if (slides_one_way(m)) {
+    a.slip_m.assign(n, 0.0);
+    for (std::size_t i = 1; i < n; ++i) {
+      a.slip_m[i] = a.slip_m[i - 1] + std::fabs(step_velocity[i]) * (s.time_s[i] - s.time_s[i - 1]);
+    }
+  }
+  const double t0 = s.time_s.front(), span = std::max(s.time_s.back() - t0, 1e-30);
+  a.normalised_time.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double u = (s.time_s[i] - t0) / span;
+    a.normalised_time[i] = 2 * u - 1;
+  }
+  return std::make_shared<const DriveArrays>(std::move(a));
+}
+
+}  // namespace
+
+ModelData::ModelData(const MeasuredSeries& s, const MotionSegmentation& m)
+    : series(s),
+      motion(m),
+      fitted_force(&s.force_n),
+      arrays_(drive_arrays(s, m)),
+      drive_velocity(arrays_->drive_velocity),
+      at_rest(arrays_->at_rest),
+      step_velocity(arrays_->step_velocity),
+      slip_m(arrays_->slip_m),
+      normalised_time(arrays_->normalised_time) {
   const std::size_t n = s.size();
   std::vector<double> force, speed, accel, normal;
   for (std::size_t i = 0; i < n; ++i) {
@@ -264,56 +335,7 @@ ModelData::ModelData(const MeasuredSeries& s, const MotionSegmentation& m) : ser
     normal_ref = std::max(median(normal), 1e-30);
     mu_scale = std::max(median(mu), 1e-12);
   }
-  // At rest the measured velocity is sensor noise; fed to LuGre, its |v|
-  // term would drain the bristle (the dither effect of docs/physics_and_sources.md "The simulated
-  // instrument") although the contact does not move. The model is therefore
-  // driven at zero velocity while the tip rests: inside each hold, from the
-  // first to the last sample within four position-noise widths of the resting
-  // position (the hold's edges, found on smoothed speed, can hold the end and
-  // the start of motion). The width is the record's noise floor as well: a
-  // smoothed position carries almost no white noise, and a band of its width
-  // held nothing (the model's state then ran through every hold on the
-  // smoother's velocity, 178 -> -8 µN over one hold of the independent
-  // generator's rate_state seed-3 file).
-  drive_velocity = s.velocity_m_per_s;
-  const double band = 4 * std::max({m.position_noise_m, s.position_noise_m, 1e-300});
-  at_rest.assign(n, 0);
-  for (const Hold& h : m.holds) {
-    for (std::size_t i = h.first; i <= h.last; ++i) at_rest[i] = 1;
-  }
-  for (const Hold& h : m.holds) {
-    std::vector<double> xs(s.position_m.begin() + static_cast<std::ptrdiff_t>(h.first),
-                           s.position_m.begin() + static_cast<std::ptrdiff_t>(h.last) + 1);
-    const double rest = median(xs);
-    std::size_t first = h.first, last = h.last;
-    while (first < last && std::fabs(s.position_m[first] - rest) > band) ++first;
-    while (last > first && std::fabs(s.position_m[last] - rest) > band) --last;
-    for (std::size_t i = first; i <= last; ++i) drive_velocity[i] = 0.0;
-  }
-  // The mean velocity over each sample interval: the position increment when
-  // the velocity was derived from the position (central differences smear a
-  // motion onset half a sample early), else the mean of the measured ends.
-  step_velocity.assign(n, 0.0);
-  for (std::size_t i = 1; i < n; ++i) {
-    if (drive_velocity[i - 1] == 0.0 && drive_velocity[i] == 0.0) continue;
-    step_velocity[i] = s.velocity_measured ? 0.5 * (drive_velocity[i - 1] + drive_velocity[i])
-                                           : (s.position_m[i] - s.position_m[i - 1]) / (s.time_s[i] - s.time_s[i - 1]);
-  }
-  // Only where a slip trend may be fitted (one way only): on other records it
-  // would cost eight bytes a sample in every copy of the data for nothing.
-  if (slides_one_way(m)) {
-    slip_m.assign(n, 0.0);
-    for (std::size_t i = 1; i < n; ++i) {
-      slip_m[i] = slip_m[i - 1] + std::fabs(step_velocity[i]) * (s.time_s[i] - s.time_s[i - 1]);
-    }
-  }
-  const double t0 = s.time_s.front(), span = std::max(s.time_s.back() - t0, 1e-30);
   set_drift_intervals(static_cast<int>(m.passes.size()) / 2);
-  normalised_time.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const double u = (s.time_s[i] - t0) / span;
-    normalised_time[i] = 2 * u - 1;
-  }
 }
 
 ModelParams base_params(const ModelData& d, const ModelStructure& st) {

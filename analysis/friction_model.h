@@ -18,6 +18,7 @@
 
 #include <array>
 #include <cstddef>
+#include <memory>
 #include <functional>
 #include <optional>
 #include <string>
@@ -82,8 +83,22 @@ struct ModelParams {
 // Cubic B-spline basis values at u in [0, 1] with n uniform intervals (n + 3 functions).
 std::vector<double> cubic_bspline_basis(double u, int intervals);
 
+// The per-sample arrays that drive a model, derived once from the record
+// and its segmentation (ModelData's constructor).
+struct DriveArrays {
+  std::vector<double> drive_velocity;   // the measured velocity, zero inside holds
+  std::vector<char> at_rest;            // inside a hold (motion segmentation)
+  std::vector<double> step_velocity;    // mean velocity over (t[i-1], t[i]); [0] unused
+  std::vector<double> slip_m;           // distance slid since the record began (|step_velocity| dt summed);
+                                        // only for records that slide one way only, else empty
+  std::vector<double> normalised_time;  // time mapped to [-1, 1] over the record
+};
+
 struct ModelData {
   ModelData(const MeasuredSeries& series, const MotionSegmentation& motion);
+  // A copy shares the per-sample arrays (DriveArrays): the copies that point
+  // fitted_force at an injected force cost no array a sample.
+  ModelData(const ModelData&) = default;
 
   const MeasuredSeries& series;
   const MotionSegmentation& motion;
@@ -96,8 +111,7 @@ struct ModelData {
   // Drift: a cubic B-spline in time over the record, by default one knot
   // interval per two passes (3 to 12 intervals), the knots at quantiles of the fitted
   // samples' times (friction_model.cc); the basis functions sum to one, so
-  // the offset is held fixed while drift is in the model. Also the
-  // normalised time u in [-1, 1].
+  // the offset is held fixed while drift is in the model.
   int drift_functions = 6;
   std::vector<double> drift_knot_time_s;
   // Sets the drift spline to this many knot intervals (3 to 12), the knots
@@ -106,7 +120,6 @@ struct ModelData {
   int drift_intervals() const { return drift_functions - 3; }
   // Time mapped to [0, 1], piecewise linearly, knot k to k / intervals.
   double drift_spline_coordinate(double time_s) const;
-  std::vector<double> normalised_time;
   // The drift functions' values at sample i into out[0, drift_functions),
   // computed when needed: a stored table would cost drift_functions doubles
   // per sample. Returns the first of the four that are not zero.
@@ -117,11 +130,16 @@ struct ModelData {
   // detectable strength, analysis/diagnosis.cc); never null after
   // construction. Copy the data to point it elsewhere.
   const std::vector<double>* fitted_force = nullptr;
-  std::vector<double> drive_velocity;  // the measured velocity, zero inside holds
-  std::vector<char> at_rest;           // inside a hold (motion segmentation)
-  std::vector<double> step_velocity;   // mean velocity over (t[i-1], t[i]); [0] unused
-  std::vector<double> slip_m;          // distance slid since the record began (|step_velocity| dt summed);
-                                       // only for records that slide one way only, else empty
+
+ private:
+  std::shared_ptr<const DriveArrays> arrays_;  // before the references to its arrays
+
+ public:
+  const std::vector<double>& drive_velocity;
+  const std::vector<char>& at_rest;
+  const std::vector<double>& step_velocity;
+  const std::vector<double>& slip_m;
+  const std::vector<double>& normalised_time;
 };
 
 // The base LuGre model (no effects) with rough initial values.

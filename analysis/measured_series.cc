@@ -84,7 +84,6 @@ void derive_motion_smoothed(MeasuredSeries& s, bool loop_force, bool velocity_ju
   if (s.velocity_m_per_s.empty()) {
     s.velocity_m_per_s = std::move(m.velocity_m_per_s);
     s.velocity_measured = false;
-    s.measured_position_m = std::move(s.position_m);
     s.position_m = std::move(m.position_m);
   }
   if (s.acceleration_m_per_s2.empty()) {
@@ -93,13 +92,27 @@ void derive_motion_smoothed(MeasuredSeries& s, bool loop_force, bool velocity_ju
   }
 }
 
+void keep_motion_only(MeasuredSeries& s) {
+  for (auto* column : {&s.time_s, &s.force_n, &s.normal_force_n, &s.reference_m}) std::vector<double>().swap(*column);
+  std::vector<std::uint32_t>().swap(s.segment);
+}
+
+MeasuredSeries with_motion_of(const MeasuredSeries& series, const MeasuredSeries& motion) {
+  MeasuredSeries out = motion;
+  out.source = series.source;
+  out.force_unit = series.force_unit;
+  out.time_s = series.time_s;
+  out.force_n = series.force_n;
+  out.normal_force_n = series.normal_force_n;
+  return out;
+}
+
 MeasuredSeries slice(const MeasuredSeries& s, std::size_t first, std::size_t last) {
   MeasuredSeries out;
   out.source = s.source;
   out.force_unit = s.force_unit;
   out.time_s = cut(s.time_s, first, last);
   out.position_m = cut(s.position_m, first, last);
-  out.measured_position_m = cut(s.measured_position_m, first, last);
   out.velocity_m_per_s = cut(s.velocity_m_per_s, first, last);
   out.acceleration_m_per_s2 = cut(s.acceleration_m_per_s2, first, last);
   out.force_n = cut(s.force_n, first, last);

@@ -18,7 +18,6 @@ struct MeasuredSeries {
   std::string force_unit = "N";
   std::vector<double> time_s;
   std::vector<double> position_m;             // measured, or the smoother's estimate (derive_motion_smoothed)
-  std::vector<double> measured_position_m;    // the record's own position when position_m is an estimate; else empty
   std::vector<double> velocity_m_per_s;       // measured, or derived by derive_motion()
   std::vector<double> acceleration_m_per_s2;  // measured, or derived by derive_motion()
   std::vector<double> force_n;
@@ -54,10 +53,21 @@ void derive_motion(MeasuredSeries& series, double smoothing_s);
 // motion-model intensity estimated from the record), and records the
 // position noise floor and the estimator in any case.
 // When the velocity is derived, the position becomes the smoother's estimate
-// too (the record's own stays in measured_position_m): the model's bristle
-// is driven by position increments, and raw increments carry the full
-// position noise (10 nm at 500 Hz is 5 um/s).
+// too, in place of the record's own (nothing after the estimate reads that):
+// the model's bristle is driven by position increments, and raw increments
+// carry the full position noise (10 nm at 500 Hz is 5 um/s).
 void derive_motion_smoothed(MeasuredSeries& series, bool loop_force = false, bool velocity_jumps = false);
+
+// Keeps only what the motion estimate gave (position, velocity, acceleration
+// and the estimator's figures): another estimate of a series' motion, kept
+// beside that series without a second copy of its other columns.
+void keep_motion_only(MeasuredSeries& series);
+
+// The series' time, force and normal load with the position, velocity and
+// acceleration of motion (a keep_motion_only() estimate of the same samples):
+// what a model is fitted to; without the reference and segment columns,
+// which only the motion estimate and segmentation read.
+MeasuredSeries with_motion_of(const MeasuredSeries& series, const MeasuredSeries& motion);
 
 // The samples [first, last) as a new series (for slicing long recordings).
 MeasuredSeries slice(const MeasuredSeries& series, std::size_t first, std::size_t last);
