@@ -4,7 +4,7 @@
     build/bench/lugre_fit_export DIR            # writes DIR/problem.csv and DIR/tribo_fit.json
     /usr/bin/python3 analysis/bench_scipy_lugre.py DIR
 
-The model is the base LuGre model of analysis/friction_model.cc, load-scaled,
+The model is the base LuGre model of analysis/models/friction_model.cc, load-scaled,
 exponential Stribeck shape, re-implemented here in plain Python (per-sample
 loop, no compiled extension): the bristle state advanced exactly over each
 sample interval at the interval's mean velocity, with the same sub-steps where

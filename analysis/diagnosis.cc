@@ -9,15 +9,15 @@
 #include <map>
 #include <utility>
 
-#include "analysis/autodiff.h"
-#include "analysis/candidate_fit.h"
-#include "analysis/creep_in_holds.h"
-#include "analysis/message_format.h"
-#include "analysis/motion_estimate.h"
+#include "analysis/models/autodiff.h"
+#include "analysis/effects/candidate_fit.h"
+#include "analysis/effects/creep_in_holds.h"
+#include "analysis/report/message_format.h"
+#include "analysis/motion/motion_estimate.h"
 #include "analysis/parallel_for.h"
-#include "analysis/physical_bounds.h"
-#include "analysis/residual_structure.h"
-#include "analysis/regression.h"
+#include "analysis/models/physical_bounds.h"
+#include "analysis/effects/residual_structure.h"
+#include "analysis/effects/regression.h"
 
 namespace tribo::analysis {
 
@@ -395,7 +395,7 @@ AcceptedEffect drift_from_holds(const CreepInHolds& creep, const std::string& fo
   return a;
 }
 
-// Drift from the holds of minutes (analysis/creep_in_holds.h), as a creep
+// Drift from the holds of minutes (analysis/effects/creep_in_holds.h), as a creep
 // under a stuck contact or a drift of the force reading: the pass model
 // cannot show a creep, since it holds a stuck contact's force constant and
 // the passes forget the creep, and on a protocol of few long holds the
@@ -638,7 +638,7 @@ void record_round_status(const Diagnosis& out, std::size_t first_trial, std::opt
 }
 
 // The minimum detectable strength of each effect not accepted, on the final
-// model (analysis/detectability.h), raised to the record's resolution and to
+// model (analysis/effects/detectability.h), raised to the record's resolution and to
 // the candidate's own fitted error, checked by injection, or withheld.
 void add_minimum_detectable(const RoundInputs& in, const EvaluatedFit& current, Diagnosis& out) {
   const ModelData& data = in.data;

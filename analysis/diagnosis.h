@@ -3,7 +3,7 @@
 // the error before and after.
 //
 // Each round: every candidate effect not yet accepted gets its residual
-// signature (analysis/residual_signatures.h) on the fit samples and a score
+// signature (analysis/effects/residual_signatures.h) on the fit samples and a score
 // test (the residual regressed on the extension's sensitivities, the one
 // statistic comparable across effects, used to rank); those showing the
 // effect are fitted as extensions of the present model (first the new
@@ -32,20 +32,20 @@
 #include <string>
 #include <vector>
 
-#include "analysis/contact_choice.h"
-#include "analysis/creep_in_holds.h"
-#include "analysis/detectability.h"
-#include "analysis/drift_knot_choice.h"
-#include "analysis/effect.h"
-#include "analysis/evaluated_fit.h"
-#include "analysis/friction_model.h"
-#include "analysis/model_adequacy.h"
-#include "analysis/lugre_fit.h"
-#include "analysis/measured_series.h"
-#include "analysis/model_adequacy.h"
-#include "analysis/model_fit.h"
-#include "analysis/motion_segmentation.h"
-#include "analysis/residual_signatures.h"
+#include "analysis/models/contact_choice.h"
+#include "analysis/effects/creep_in_holds.h"
+#include "analysis/effects/detectability.h"
+#include "analysis/effects/drift_knot_choice.h"
+#include "analysis/effects/effect.h"
+#include "analysis/models/evaluated_fit.h"
+#include "analysis/models/friction_model.h"
+#include "analysis/models/model_adequacy.h"
+#include "analysis/models/lugre_fit.h"
+#include "analysis/input/measured_series.h"
+#include "analysis/models/model_adequacy.h"
+#include "analysis/models/model_fit.h"
+#include "analysis/motion/motion_segmentation.h"
+#include "analysis/effects/residual_signatures.h"
 
 namespace tribo::analysis {
 
@@ -73,7 +73,7 @@ struct DiagnosisOptions {
   // are not modelled). Twice the work, on records with holds.
   bool choose_state_from_rest = false;
   // For each effect not accepted: the strength this record would reveal
-  // (analysis/detectability.h).
+  // (analysis/effects/detectability.h).
   bool minimum_detectable = true;
   // The contact law as a decision on held-out data ("base-model
   // choice"): plain LuGre, LuGre with Dupont's elasto-plastic presliding, and
@@ -91,7 +91,7 @@ struct DiagnosisOptions {
   // parameter's shift is its motion-model systematic error
   // (ParamEstimate::motion_systematic), added to its standard error in
   // quadrature. Decisions are taken before, on the errors without it. Only
-  // its motion columns are read (keep_motion_only(), analysis/measured_series.h).
+  // its motion columns are read (keep_motion_only(), analysis/input/measured_series.h).
   const MeasuredSeries* alternative_motion = nullptr;
 };
 
@@ -155,10 +155,10 @@ struct Diagnosis {
   std::optional<BaseContactChoice> base_contact;
   std::optional<DriftKnotChoice> drift_knots;  // when drift is a candidate
   // Drift as a creep under a stuck contact, assessed on records with holds
-  // of minutes (analysis/creep_in_holds.h); accepted, drift is accepted with it.
+  // of minutes (analysis/effects/creep_in_holds.h); accepted, drift is accepted with it.
   std::optional<CreepInHolds> creep;
   FitResult final_fit;
-  // Whether the final model describes the record (analysis/model_adequacy.h):
+  // Whether the final model describes the record (analysis/models/model_adequacy.h):
   // when it does not, no effect is accepted (those the rounds took are in
   // rejected, with the reason).
   ModelAdequacy adequacy;

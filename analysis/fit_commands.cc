@@ -5,9 +5,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "analysis/diagnosis_report.h"
+#include "analysis/report/diagnosis_report.h"
 #include "analysis/parallel_for.h"
-#include "analysis/scratch_metrics.h"
+#include "analysis/metrics/scratch_metrics.h"
 
 namespace tribo::analysis {
 

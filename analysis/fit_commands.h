@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "analysis/diagnosis.h"
-#include "analysis/effect.h"
-#include "analysis/measured_series.h"
+#include "analysis/effects/effect.h"
+#include "analysis/input/measured_series.h"
 #include "tribo/v1/api.pb.h"
 
 namespace tribo::analysis {

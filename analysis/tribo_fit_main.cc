@@ -21,13 +21,13 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/diagnosis.h"
-#include "analysis/diagnosis_report.h"
+#include "analysis/report/diagnosis_report.h"
 #include "analysis/fit_commands.h"
-#include "analysis/scratch_metrics.h"
-#include "analysis/series_input.h"
+#include "analysis/metrics/scratch_metrics.h"
+#include "analysis/input/series_input.h"
 #include "proto/run_files.h"
-#include "analysis/steady_state_diagnosis.h"
-#include "analysis/stribeck_fit.h"
+#include "analysis/effects/steady_state_diagnosis.h"
+#include "analysis/models/stribeck_fit.h"
 
 namespace {
 

@@ -5,8 +5,8 @@
 #include <benchmark/benchmark.h>
 
 #include "analysis/diagnosis.h"
-#include "analysis/lugre_fit.h"
-#include "analysis/model_fit.h"
+#include "analysis/models/lugre_fit.h"
+#include "analysis/models/model_fit.h"
 #include "tests/analysis/synthetic_run.h"
 
 namespace tribo::analysis {
@@ -90,7 +90,7 @@ void BM_Diagnosis200s(benchmark::State& state) {
 }
 BENCHMARK(BM_Diagnosis200s)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(1);
 
-// What the minimum detectable strengths add (analysis/detectability.h): the
+// What the minimum detectable strengths add (analysis/effects/detectability.h): the
 // base fit alone (no candidate rounds) without (0) and with (1) the figure
 // for every effect, on one thread so that the CPU time is the whole cost.
 void BM_MinimumDetectable200s(benchmark::State& state) {

@@ -11,7 +11,7 @@
 #include <iostream>
 
 #include <nlohmann/json.hpp>
-#include "analysis/lugre_fit.h"
+#include "analysis/models/lugre_fit.h"
 #include "tests/analysis/synthetic_run.h"
 
 using namespace tribo::analysis;

@@ -7,10 +7,10 @@
 
 #include <google/protobuf/util/json_util.h>
 
-#include "analysis/run_metrics.h"
-#include "analysis/segment_spans.h"
-#include "analysis/scratch_metrics.h"
-#include "analysis/tip_tilt.h"
+#include "analysis/metrics/run_metrics.h"
+#include "analysis/metrics/segment_spans.h"
+#include "analysis/metrics/scratch_metrics.h"
+#include "analysis/metrics/tip_tilt.h"
 #include "client/segment_reader.h"
 #include "proto/sample_record.h"
 
@@ -62,7 +62,7 @@ v1::RunSummary summary_header(const RunDocuments& run, std::uint64_t sample_coun
 // The tilt the summary corrects with: the passes' offset where the run slid
 // both ways; a hold's estimate alone is not checked, and on a contact that
 // holds a force at rest it reads less than the tilt, so it is reported but
-// not used (analysis/tip_tilt.h).
+// not used (analysis/metrics/tip_tilt.h).
 std::optional<double> set_tilt(v1::RunSummary& s, const std::optional<analysis::TipTiltEstimate>& hold,
                                const std::optional<analysis::PassesTiltEstimate>& passes) {
   if (hold) {

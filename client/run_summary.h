@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "analysis/run_metrics.h"
-#include "analysis/scratch_metrics.h"
-#include "analysis/tip_tilt.h"
+#include "analysis/metrics/run_metrics.h"
+#include "analysis/metrics/scratch_metrics.h"
+#include "analysis/metrics/tip_tilt.h"
 #include "client/tribo_client.h"
 #include "tribo/v1/summary.pb.h"
 

@@ -1,6 +1,6 @@
 // Reads a recorded samples.csv back one protocol segment at a time, so that
 // a run of any length is summarised in bounded memory. A segment here is what
-// analysis/segment_spans.h calls a span: the consecutive samples of one
+// analysis/metrics/segment_spans.h calls a span: the consecutive samples of one
 // segment index, without those of a safe unload (which end a span).
 //
 // Memory is bounded by a cap on the samples held for one segment. A longer

@@ -10,7 +10,7 @@ namespace {
 
 double sign_of(double v) { return v >= 0 ? 1.0 : -1.0; }
 
-// Dupont's alpha(z, v) as tribo-fit evaluates it (analysis/friction_model.cc).
+// Dupont's alpha(z, v) as tribo-fit evaluates it (analysis/models/friction_model.cc).
 double plasticity(double ratio, double v, double z, double g) {
   if ((z > 0) != (v > 0) || z == 0) return 0.0;
   const double zabs = std::fabs(z);

@@ -1,7 +1,7 @@
 // The friction model an identification found (tribo-fit diagnose --json,
 // its final_model), in the form the real-time friction observer evaluates:
 // plain numbers, SI, no allocation. The equations are those tribo-fit fits
-// (analysis/friction_model.h), restricted to the extensions whose states the
+// (analysis/models/friction_model.h), restricted to the extensions whose states the
 // observer can carry along a motion (daemon/friction_report.h says which a
 // report may use):
 //

@@ -6,7 +6,7 @@
 #include <string>
 
 #include "analysis/diagnosis.h"
-#include "analysis/series_input.h"
+#include "analysis/input/series_input.h"
 
 namespace tribo::testing {
 

@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/contact_choice.h"
+#include "analysis/models/contact_choice.h"
 
 namespace tribo::analysis {
 namespace {

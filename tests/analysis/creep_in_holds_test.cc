@@ -1,4 +1,4 @@
-// Drift as a creep under a stuck contact (analysis/creep_in_holds.h) on the
+// Drift as a creep under a stuck contact (analysis/effects/creep_in_holds.h) on the
 // simulated instrument's default config (config/tribod.textproto: the
 // elasto-plastic contact holds its force at rest) with the protocol of holds
 // of minutes (config/protocols/creep_holds.textproto), diagnosed as
@@ -14,7 +14,7 @@
 #include <gtest/gtest.h>
 
 #include "analysis/diagnosis.h"
-#include "analysis/diagnosis_report.h"
+#include "analysis/report/diagnosis_report.h"
 #include "analysis/fit_commands.h"
 #include "tests/analysis/sim_identification_run.h"
 

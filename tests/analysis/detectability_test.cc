@@ -1,6 +1,6 @@
 // The normal quantile behind the minimum detectable strength's 90 % margin
-// (analysis/detectability.h), against tabulated values.
-#include "analysis/detectability.h"
+// (analysis/effects/detectability.h), against tabulated values.
+#include "analysis/effects/detectability.h"
 
 #include <gtest/gtest.h>
 

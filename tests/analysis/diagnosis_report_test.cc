@@ -10,8 +10,8 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/diagnosis.h"
-#include "analysis/diagnosis_report.h"
-#include "analysis/friction_model.h"
+#include "analysis/report/diagnosis_report.h"
+#include "analysis/models/friction_model.h"
 #include "daemon/friction_observer.h"
 #include "daemon/friction_report.h"
 

@@ -37,7 +37,7 @@
 #include <Eigen/QR>
 #include <gtest/gtest.h>
 
-#include "analysis/diagnosis_report.h"
+#include "analysis/report/diagnosis_report.h"
 #include "analysis/fit_commands.h"
 #include "tests/analysis/analysis_test_support.h"
 #include "tests/analysis/sim_identification_run.h"

@@ -1,14 +1,14 @@
 // The drift spline's knot count, chosen by leaving each fitted pass out
-// (analysis/drift_knot_choice.h): a straight drift takes the fewest
+// (analysis/effects/drift_knot_choice.h): a straight drift takes the fewest
 // intervals, a drift that wanders within the record takes more.
-#include "analysis/drift_knot_choice.h"
+#include "analysis/effects/drift_knot_choice.h"
 
 #include <cmath>
 #include <numbers>
 
 #include <gtest/gtest.h>
 
-#include "analysis/motion_segmentation.h"
+#include "analysis/motion/motion_segmentation.h"
 #include "sim/noise_source.h"
 #include "tests/analysis/synthetic_run.h"
 

@@ -14,8 +14,8 @@
 #include <gtest/gtest.h>
 
 #include "analysis/diagnosis.h"
-#include "analysis/model_fit.h"
-#include "analysis/regression.h"
+#include "analysis/models/model_fit.h"
+#include "analysis/effects/regression.h"
 #include "tests/analysis/synthetic_run.h"
 
 extern "C" {

@@ -3,9 +3,9 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/autodiff.h"
-#include "analysis/friction_model.h"
-#include "analysis/model_fit.h"
+#include "analysis/models/autodiff.h"
+#include "analysis/models/friction_model.h"
+#include "analysis/models/model_fit.h"
 #include "tests/analysis/synthetic_run.h"
 
 namespace tribo::analysis {
@@ -117,7 +117,7 @@ TEST(FrictionModel, AutodiffJacobianMatchesFiniteDifferencesForEveryEffect) {
   }
 }
 
-// The fit evaluates its trial points with their Jacobian (analysis/model_fit.cc,
+// The fit evaluates its trial points with their Jacobian (analysis/models/model_fit.cc,
 // ModelFunctor) and takes the residual from the dual numbers' values: they
 // must be the plain simulation's, bit for bit, for every effect and every
 // derivative width, or the fit would change with that choice.
@@ -164,7 +164,7 @@ TEST(FrictionModel, TheAutodiffSimulationsForceIsThePlainOneBitForBit) {
 
 // The Jacobian fills the columns of additive parameters (offset, mass, tilt,
 // drift, Fv) from the data instead of carrying them through the simulation
-// as dual numbers (analysis/friction_model.h, AdditiveColumn): every entry
+// as dual numbers (analysis/models/friction_model.h, AdditiveColumn): every entry
 // must still be the one the dual numbers give, for every column, with and
 // without the pass start from rest and with direction asymmetry (which
 // scales Fv: carried), backlash (whose gaps evaluate no friction). With the

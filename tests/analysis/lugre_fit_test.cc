@@ -3,7 +3,7 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/lugre_fit.h"
+#include "analysis/models/lugre_fit.h"
 #include "tests/analysis/synthetic_run.h"
 
 namespace tribo::analysis {

@@ -5,8 +5,8 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/measured_series.h"
-#include "analysis/series_input.h"
+#include "analysis/input/measured_series.h"
+#include "analysis/input/series_input.h"
 #include "proto/run_files.h"
 #include "proto/sample_record.h"
 

@@ -1,13 +1,13 @@
-// Whether the final model describes the record (analysis/model_adequacy.h):
+// Whether the final model describes the record (analysis/models/model_adequacy.h):
 // a model past a physical bound names no effect. A negative viscous
 // coefficient counts once its 95 % interval lies below zero, however small
 // its force at the record's speeds (the base bounds alone let -0.5 N s/m
 // through on a record sliding at micrometres per second).
 #include <gtest/gtest.h>
 
-#include "analysis/model_adequacy.h"
-#include "analysis/measured_series.h"
-#include "analysis/motion_segmentation.h"
+#include "analysis/models/model_adequacy.h"
+#include "analysis/input/measured_series.h"
+#include "analysis/motion/motion_segmentation.h"
 #include "tests/analysis/synthetic_run.h"
 
 namespace tribo::analysis {

@@ -1,6 +1,6 @@
-// The motion estimate from a noisy position record (analysis/motion_estimate.h):
+// The motion estimate from a noisy position record (analysis/motion/motion_estimate.h):
 // noise floor from the record, velocity by the RTS smoother.
-#include "analysis/motion_estimate.h"
+#include "analysis/motion/motion_estimate.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/measured_series.h"
+#include "analysis/input/measured_series.h"
 
 namespace tribo::analysis {
 namespace {

@@ -3,7 +3,7 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/motion_segmentation.h"
+#include "analysis/motion/motion_segmentation.h"
 #include "tests/analysis/synthetic_run.h"
 
 namespace tribo::analysis {

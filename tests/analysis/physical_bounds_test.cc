@@ -5,7 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "analysis/diagnosis.h"
-#include "analysis/physical_bounds.h"
+#include "analysis/models/physical_bounds.h"
 #include "tests/analysis/synthetic_run.h"
 
 namespace tribo::analysis {

@@ -15,7 +15,7 @@
 #include <gtest/gtest.h>
 
 #include "analysis/diagnosis.h"
-#include "analysis/measured_series.h"
+#include "analysis/input/measured_series.h"
 
 namespace tribo::analysis {
 namespace {

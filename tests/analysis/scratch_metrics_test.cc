@@ -2,7 +2,7 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/scratch_metrics.h"
+#include "analysis/metrics/scratch_metrics.h"
 #include "proto/sample_record.h"
 
 namespace tribo::analysis {

@@ -3,7 +3,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "analysis/series_input.h"
+#include "analysis/input/series_input.h"
 #include "tests/daemon/service_test_support.h"
 
 namespace tribo::testing {

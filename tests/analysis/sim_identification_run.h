@@ -2,7 +2,7 @@
 // identification protocol (config/protocols/identification.textproto) in the
 // real-time loop in-process (tests/daemon/service_test_support.h,
 // run_in_loop), on the default config with one edit, and the recorded
-// samples as the analysis reads a recorded run (analysis/series_input.h).
+// samples as the analysis reads a recorded run (analysis/input/series_input.h).
 //
 // The base config differs from config/tribod.textproto in two documented
 // ways: the lateral loop weights its setpoint in P (b = 1, the protocol's
@@ -15,7 +15,7 @@
 #include <functional>
 #include <string>
 
-#include "analysis/measured_series.h"
+#include "analysis/input/measured_series.h"
 #include "tribo/v1/daemon_config.pb.h"
 
 namespace tribo::testing {

@@ -9,8 +9,8 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/series_input.h"
-#include "analysis/steady_state_diagnosis.h"
+#include "analysis/input/series_input.h"
+#include "analysis/effects/steady_state_diagnosis.h"
 
 namespace tribo::analysis {
 namespace {

@@ -3,7 +3,7 @@
 
 #include <gtest/gtest.h>
 
-#include "analysis/stribeck_fit.h"
+#include "analysis/models/stribeck_fit.h"
 
 namespace tribo::analysis {
 namespace {

@@ -14,7 +14,7 @@
 
 #include <cstdint>
 
-#include "analysis/measured_series.h"
+#include "analysis/input/measured_series.h"
 
 namespace tribo::testing {
 

@@ -10,7 +10,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "analysis/segment_spans.h"
+#include "analysis/metrics/segment_spans.h"
 #include "client/run_stream_writer.h"
 #include "client/run_summary.h"
 #include "client/segment_reader.h"

@@ -5,7 +5,7 @@
 
 #include <cmath>
 
-#include "analysis/tip_tilt.h"
+#include "analysis/metrics/tip_tilt.h"
 #include "client/run_summary.h"
 #include "tests/daemon/service_test_support.h"
 #include "tests/sim/sim_test_support.h"
@@ -34,7 +34,7 @@ v1::RunSummary summarize(const v1::DaemonConfig& config, const v1::Protocol& pro
 }
 
 // On the plain LuGre plant (tests/sim/sim_test_support.h), a declared plant:
-// the estimate (analysis/tip_tilt.h) reads -N tan(theta) in a loaded hold,
+// the estimate (analysis/metrics/tip_tilt.h) reads -N tan(theta) in a loaded hold,
 // which assumes that the contact gives way to the tilt's push while the load
 // comes on, as LuGre's creep does. The default contact holds a
 // force below break-away (elasto-plastic presliding), so what its hold reads
@@ -72,7 +72,7 @@ struct StandardScratch : ::testing::Test {
 };
 
 // The standard scratch's only loaded rest is its load ramp, which the
-// estimate refuses (analysis/tip_tilt.h): no tilt, no corrected friction,
+// estimate refuses (analysis/metrics/tip_tilt.h): no tilt, no corrected friction,
 // and the text says so.
 TEST_F(StandardScratch, WithoutALoadedHoldTheTiltIsNotMeasured) {
   EXPECT_FALSE(tilted->has_tilt_tan());

@@ -10,7 +10,7 @@
 #include <optional>
 #include <vector>
 
-#include "analysis/run_metrics.h"
+#include "analysis/metrics/run_metrics.h"
 #include "daemon/controller.h"
 #include "daemon/protocol_validator.h"
 #include "daemon/run_loop.h"

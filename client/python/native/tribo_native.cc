@@ -20,9 +20,9 @@
 #include <string>
 #include <vector>
 
-#include "analysis/effect.h"
+#include "analysis/effects/effect.h"
 #include "analysis/fit_commands.h"
-#include "analysis/series_input.h"
+#include "analysis/input/series_input.h"
 #include "daemon/daemon_config.h"
 #include "daemon/protocol_validator.h"
 #include "daemon/validation_messages.h"

@@ -1,0 +1,524 @@
+#include "analysis/motion/motion_estimate.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Core>
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+
+namespace tribo::analysis {
+
+namespace {
+
+// Samples of the friction force in the loop model: this one and the two
+// before it (a channel skew of a sample, a step of the servo's response).
+constexpr int kForceTaps = 3;
+
+using Mat3 = Eigen::Matrix3d;
+using Vec3 = Eigen::Vector3d;
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+void transition(double dt, double q, Mat3& F, Mat3& Q) {
+  F << 1, dt, 0.5 * dt * dt, 0, 1, dt, 0, 0, 1;
+  const double d2 = dt * dt, d3 = d2 * dt, d4 = d3 * dt, d5 = d4 * dt;
+  Q << d5 / 20, d4 / 8, d3 / 6, d4 / 8, d3 / 3, d2 / 2, d3 / 6, d2 / 2, dt;
+  Q *= q;
+}
+
+// The forward filter's log-likelihood and, with `innovations`, what the
+// velocity-jump test needs: each sample's innovation, its variance and the
+// filter's gain. The smoother (smooth_motion) forms the filtered states
+// again, chunk by chunk, rather than hold them for the whole record.
+struct FilterPass {
+  double log_likelihood = 0;
+  std::vector<double> innovation, innovation_var;
+  std::vector<Vec3> gain;
+};
+
+// Where the velocity may jump (a speed step of the drive): at[i] lets it
+// change between samples i - 1 and i by anything of the order of
+// variance^0.5, on top of the white jerk.
+struct VelocityJumps {
+  std::vector<char> at;
+  double variance = 0;
+};
+
+// The prediction's covariance from sample i - 1's filtered one.
+Mat3 predicted_covariance(const Mat3& F, const Mat3& P, const Mat3& Q, const VelocityJumps& jumps, std::size_t i) {
+  Mat3 before = P;
+  if (!jumps.at.empty() && jumps.at[i]) before(1, 1) += jumps.variance;
+  return F * before * F.transpose() + Q;
+}
+
+// The filter's state: the mean and covariance after a sample (before the
+// first: the diffuse prior).
+struct FilterState {
+  Vec3 mean;
+  Mat3 cov;
+};
+
+// Positions in units of the noise (y / r_sd), so r = 1 and every number is of
+// order one; q in the same units.
+FilterState prior_state(const std::vector<double>& t, const std::vector<double>& y) {
+  FilterState s{Vec3(y[0], 0, 0), Mat3::Zero()};
+  const double span = std::max(t.back() - t.front(), 1e-12);
+  const double ybig = 1e6;  // diffuse start for velocity and acceleration (noise units)
+  s.cov(0, 0) = 1;
+  s.cov(1, 1) = ybig / span * ybig / span;
+  s.cov(2, 2) = s.cov(1, 1) / (span * span);
+  return s;
+}
+
+// The innovation of a sample, its variance and the gain it was taken with.
+struct FilterUpdate {
+  double innovation = 0, variance = 0;
+  Vec3 gain;
+};
+
+// Takes sample i into the state (that after sample i - 1).
+FilterUpdate filter_step(const std::vector<double>& t, const std::vector<double>& y, double q, const VelocityJumps& jumps,
+                         std::size_t i, FilterState& state) {
+  Vec3 mp = state.mean;
+  Mat3 Pp = state.cov;
+  if (i > 0) {
+    Mat3 F, Q;
+    transition(t[i] - t[i - 1], q, F, Q);
+    mp = F * state.mean;
+    Pp = predicted_covariance(F, state.cov, Q, jumps, i);
+  }
+  FilterUpdate u;
+  u.variance = Pp(0, 0) + 1.0;
+  u.innovation = y[i] - mp(0);
+  u.gain = Pp.col(0) / u.variance;
+  state.mean = mp + u.gain * u.innovation;
+  state.cov = Pp - u.gain * Pp.row(0);
+  state.cov = 0.5 * (state.cov + state.cov.transpose());
+  return u;
+}
+
+FilterPass kalman(const std::vector<double>& t, const std::vector<double>& y, double q, const VelocityJumps& jumps,
+                  bool innovations = false) {
+  const std::size_t n = y.size();
+  FilterPass out;
+  if (innovations) {
+    out.innovation.resize(n);
+    out.innovation_var.resize(n);
+    out.gain.resize(n);
+  }
+  FilterState state = prior_state(t, y);
+  for (std::size_t i = 0; i < n; ++i) {
+    const FilterUpdate u = filter_step(t, y, q, jumps, i, state);
+    if (i > 0) out.log_likelihood += -0.5 * (std::log(u.variance) + u.innovation * u.innovation / u.variance);
+    if (innovations) {
+      out.innovation[i] = u.innovation;
+      out.innovation_var[i] = u.variance;
+      out.gain[i] = u.gain;
+    }
+  }
+  return out;
+}
+
+// The Rauch-Tung-Striebel smoother (the forward filter, then the backward
+// pass) into position, velocity and acceleration (times `scale`), and each
+// sample's smoothed velocity standard deviation (noise units). The filtered
+// states are kept for one chunk of samples at a time: the forward pass keeps
+// the state at each chunk's start, and the backward pass forms each chunk's
+// states again from there (the same operations, so the same values). Holding
+// them for the whole record took 96 bytes a sample, twice over when the two
+// motion estimates run at once.
+void smooth_motion(const std::vector<double>& t, const std::vector<double>& y, double q, const VelocityJumps& jumps,
+                   double scale, std::vector<double>& position, std::vector<double>& velocity,
+                   std::vector<double>& acceleration, std::vector<double>& velocity_sd) {
+  constexpr std::size_t kChunk = 4096;
+  const std::size_t n = y.size(), chunks = (n + kChunk - 1) / kChunk;
+  std::vector<FilterState> chunk_start(chunks);
+  FilterState state = prior_state(t, y);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (i % kChunk == 0) chunk_start[i / kChunk] = state;
+    filter_step(t, y, q, jumps, i, state);
+  }
+  position.resize(n);
+  velocity.resize(n);
+  acceleration.resize(n);
+  velocity_sd.resize(n);
+  std::vector<FilterState> filtered(std::min(n, kChunk));
+  Vec3 next_smooth = Vec3::Zero();
+  Mat3 Ps = Mat3::Zero();
+  Mat3 F, Q;
+  for (std::size_t c = chunks; c-- > 0;) {
+    const std::size_t first = c * kChunk, last = std::min(n, first + kChunk);
+    state = chunk_start[c];
+    for (std::size_t i = first; i < last; ++i) {
+      filter_step(t, y, q, jumps, i, state);
+      filtered[i - first] = state;
+    }
+    for (std::size_t i = last; i-- > first;) {
+      const FilterState& f = filtered[i - first];
+      Vec3 smooth;
+      if (i == n - 1) {
+        smooth = f.mean;
+        Ps = f.cov;
+      } else {
+        transition(t[i + 1] - t[i], q, F, Q);
+        const Vec3 predicted_mean = F * f.mean;
+        const Mat3 predicted_cov = predicted_covariance(F, f.cov, Q, jumps, i + 1);
+        const Mat3 gain = f.cov * F.transpose() * predicted_cov.inverse();
+        smooth = f.mean + gain * (next_smooth - predicted_mean);
+        Ps = f.cov + gain * (Ps - predicted_cov) * gain.transpose();
+      }
+      velocity_sd[i] = std::sqrt(std::max(Ps(1, 1), 0.0));
+      position[i] = smooth(0) * scale;
+      velocity[i] = smooth(1) * scale;
+      acceleration[i] = smooth(2) * scale;
+      next_smooth = smooth;
+    }
+  }
+}
+
+// The jerk intensity (noise units) of largest likelihood: a log grid from a
+// jerk that moves the position by 1e-3 noise widths over the record to one
+// that moves it by 1e3 widths per sample, then golden section.
+double max_likelihood_jerk(const std::vector<double>& t, const std::vector<double>& y, const VelocityJumps& jumps, double dt) {
+  const double span = t.back() - t.front();
+  const double lo = std::log(1e-6 / std::pow(span, 5)), hi = std::log(1e6 / std::pow(dt, 5));
+  auto ll = [&](double log_q) { return kalman(t, y, std::exp(log_q), jumps).log_likelihood; };
+  const int grid = 16;
+  double best_lq = lo, best = -std::numeric_limits<double>::infinity();
+  for (int k = 0; k <= grid; ++k) {
+    const double lq = lo + (hi - lo) * k / grid;
+    const double v = ll(lq);
+    if (v > best) best = v, best_lq = lq;
+  }
+  double a = best_lq - (hi - lo) / grid, b = best_lq + (hi - lo) / grid;
+  const double g = 0.5 * (std::sqrt(5.0) - 1);
+  double c = b - g * (b - a), d = a + g * (b - a);
+  double fc = ll(c), fd = ll(d);
+  for (int it = 0; it < 20; ++it) {
+    if (fc > fd) {
+      b = d, d = c, fd = fc, c = b - g * (b - a), fc = ll(c);
+    } else {
+      a = c, c = d, fc = fd, d = a + g * (b - a), fd = ll(d);
+    }
+  }
+  return std::exp(0.5 * (a + b));
+}
+
+// The chi-square (one degree) level exceeded with probability p.
+double chi_square_1_quantile(double p) {
+  double lo = 0, hi = 200;
+  for (int it = 0; it < 100; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (std::erfc(std::sqrt(0.5 * mid)) > p ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+// Samples after which the velocity jumped, by the generalised likelihood
+// ratio test of Willsky and Jones (1976, IEEE Trans. Autom. Control 21): a
+// jump nu after sample j - 1 leaves in the innovations that follow a
+// signature g_k nu the filter's gains determine, so nu's estimate and the
+// test l(j) = (sum g_k e_k / s_k)^2 / sum g_k^2 / s_k (chi-square, one
+// degree, under no jump) come from one pass. A jump is an l above the level
+// a 1 % chance over all the record's samples allows (Bonferroni) that is the
+// largest within its signature's length either side: a jump's own signature
+// correlates with those of its neighbours, and l has side lobes there (at
+// -9 and +9 samples of a 3 -> 10 um/s step at 10 Hz, 0.14 um of noise: l
+// 29.5 and 22.3 beside 136, above the level of 21.6).
+struct FoundJump {
+  std::size_t at = 0;      // the velocity jumps between samples at - 1 and at
+  std::size_t length = 0;  // samples holding 90 % of its signature's information
+  double size = 0;         // its estimate (noise units per second): the sign is what matters
+};
+
+std::vector<FoundJump> jumps_by_likelihood_ratio(const std::vector<double>& t, const FilterPass& f, const VelocityJumps& jumps) {
+  const std::size_t n = t.size(), window = 200;
+  const double level = chi_square_1_quantile(0.01 / static_cast<double>(n));
+  std::vector<double> l(n, 0.0), size(n, 0.0);
+  std::vector<std::size_t> length(n, 0);  // samples holding 90 % of the signature's information
+  std::vector<double> information;
+  for (std::size_t j = 1; j < n; ++j) {
+    if (jumps.at[j]) continue;
+    Vec3 d(0, 1, 0);
+    double num = 0, den = 0;
+    information.clear();
+    for (std::size_t k = j; k < std::min(n, j + window); ++k) {
+      const double h = t[k] - t[k - 1];
+      const Vec3 dp(d(0) + h * d(1) + 0.5 * h * h * d(2), d(1) + h * d(2), d(2));
+      const double g = dp(0), w = g * g / f.innovation_var[k];
+      num += g * f.innovation[k] / f.innovation_var[k];
+      den += w;
+      information.push_back(den);
+      d = dp - f.gain[k] * g;
+      // The filter has taken the jump up: what is left adds nothing.
+      if (k > j + 8 && w < 1e-6 * den) break;
+    }
+    if (!(den > 0)) continue;
+    l[j] = num * num / den;
+    size[j] = num / den;
+    length[j] = static_cast<std::size_t>(std::lower_bound(information.begin(), information.end(), 0.9 * den) - information.begin()) + 1;
+  }
+  std::vector<FoundJump> found;
+  for (std::size_t j = 1; j < n; ++j) {
+    if (l[j] <= level) continue;
+    const std::size_t from = j > length[j] ? j - length[j] : 1, to = std::min(n, j + length[j] + 1);
+    if (std::all_of(l.begin() + static_cast<std::ptrdiff_t>(from), l.begin() + static_cast<std::ptrdiff_t>(to),
+                    [&](double other) { return other <= l[j]; })) {
+      found.push_back({j, length[j], size[j]});
+    }
+  }
+  return found;
+}
+
+// Whether the force follows a jump of the velocity: every contact answers a
+// sudden change of speed at once with a change of force of the same sign (the
+// direct effect of rate-and-state friction, Dieterich 1979; LuGre's bristle
+// damping). Over the jump's signature length either side, the mean force must
+// move with the jump by more than the one-sided level z of its noise (force
+// noise from first differences, white). On basalt velstep4 the drive's
+// position surged 10 -> 14 -> 10 um/s twice a few seconds after its step,
+// with no force change (-0.0001 in mu where a = 0.013 gives +0.0046).
+bool force_follows(const std::vector<double>& force, double force_noise, const FoundJump& jump, double z) {
+  const std::size_t n = force.size(), w = std::max<std::size_t>(jump.length, 1);
+  if (jump.at < w || jump.at + w > n) return true;  // at an edge: no force to judge by
+  double before = 0, after = 0;
+  for (std::size_t k = 0; k < w; ++k) {
+    before += force[jump.at - 1 - k];
+    after += force[jump.at + k];
+  }
+  const double change = (after - before) / static_cast<double>(w);
+  const double along = jump.size > 0 ? change : -change;
+  return along > z * force_noise * std::sqrt(2.0 / static_cast<double>(w));
+}
+
+// White-noise RMS of a force from its first differences (median absolute
+// value: the steps and transients stay out of it).
+double first_difference_noise(const std::vector<double>& y) {
+  std::vector<double> d;
+  d.reserve(y.size());
+  for (std::size_t i = 1; i < y.size(); ++i) d.push_back(std::abs(y[i] - y[i - 1]));
+  return median(d) / 0.6745 / std::sqrt(2.0);
+}
+
+
+}  // namespace
+
+double third_difference_noise(const std::vector<double>& y) {
+  if (y.size() < 8) return 0;
+  std::vector<double> d;
+  d.reserve(y.size());
+  for (std::size_t i = 3; i < y.size(); ++i) d.push_back(std::abs(y[i] - 3 * y[i - 1] + 3 * y[i - 2] - y[i - 3]));
+  // Median absolute value of a normal variable is 0.6745 sigma.
+  return median(d) / 0.6745 / std::sqrt(20.0);
+}
+
+double resolution_of(const std::vector<double>& y) {
+  double best = std::numeric_limits<double>::infinity();
+  double scale = 0;
+  for (double v : y) scale = std::max(scale, std::abs(v));
+  for (std::size_t i = 1; i < y.size(); ++i) {
+    const double d = std::abs(y[i] - y[i - 1]);
+    if (d > 1e-12 * scale) best = std::min(best, d);
+  }
+  return std::isfinite(best) ? best : 0.0;
+}
+
+MotionEstimate estimate_motion(const std::vector<double>& t, const std::vector<double>& x, bool velocity_jumps,
+                               const std::vector<double>& force) {
+  MotionEstimate out;
+  out.estimator = velocity_jumps ? "rts_constant_acceleration_with_velocity_jumps" : "rts_constant_acceleration";
+  const std::size_t n = x.size();
+  out.position_resolution_m = resolution_of(x);
+  double noise = third_difference_noise(x);
+  noise = std::max(noise, out.position_resolution_m / std::sqrt(12.0));
+  if (!(noise > 0)) {
+    double scale = 0;
+    for (double v : x) scale = std::max(scale, std::abs(v));
+    noise = std::max(1e-9 * scale, 1e-15);
+  }
+  out.position_noise_m = noise;
+  std::vector<double> y(n);
+  for (std::size_t i = 0; i < n; ++i) y[i] = x[i] / noise;
+  if (n < 4) {
+    out.position_m = x;
+    out.velocity_m_per_s.assign(n, 0.0);
+    out.acceleration_m_per_s2.assign(n, 0.0);
+    return out;
+  }
+  std::vector<double> dts;
+  for (std::size_t i = 1; i < n; ++i) dts.push_back(t[i] - t[i - 1]);
+  const double dt = std::max(median(dts), 1e-12);
+  // The jerk intensity with the velocity jumps found so far, then the jumps
+  // it reveals (a step smoothed over by a jerk raised to follow it), twice.
+  // A jump's prior is diffuse, a hundred times the largest one-sample speed:
+  // its size is the data's, not drawn towards none.
+  VelocityJumps jumps;
+  jumps.at.assign(n, 0);
+  for (std::size_t i = 1; i < n && velocity_jumps; ++i) {
+    const double v = 100 * std::fabs(y[i] - y[i - 1]) / std::max(t[i] - t[i - 1], 1e-12);
+    jumps.variance = std::max(jumps.variance, v * v);
+  }
+  double q = max_likelihood_jerk(t, y, jumps, dt);
+  const bool judge_by_force = force.size() == n;
+  const double force_noise = judge_by_force ? first_difference_noise(force) : 0.0;
+  // A jump the force did not follow is not tested again when the next pass
+  // finds it (or its neighbour within its length): a second look at the same
+  // force would be a second chance for its noise.
+  std::vector<FoundJump> not_followed;
+  const auto judged_before = [&](const FoundJump& j) {
+    return std::any_of(not_followed.begin(), not_followed.end(), [&](const FoundJump& r) {
+      return (j.at > r.at ? j.at - r.at : r.at - j.at) <= r.length;
+    });
+  };
+  for (int pass = 0; pass < (velocity_jumps ? 2 : 0); ++pass) {
+    const auto found = jumps_by_likelihood_ratio(t, kalman(t, y, q, jumps, true), jumps);
+    // One-sided, a 1 % chance over the jumps tested.
+    const double z = std::sqrt(chi_square_1_quantile(0.02 / static_cast<double>(std::max<std::size_t>(found.size(), 1))));
+    bool added = false;
+    for (const FoundJump& j : found) {
+      if (judge_by_force && judged_before(j)) continue;
+      if (judge_by_force && !force_follows(force, force_noise, j, z)) {
+        not_followed.push_back(j);
+        continue;
+      }
+      jumps.at[j.at] = 1;
+      added = true;
+    }
+    if (!added) break;
+    q = max_likelihood_jerk(t, y, jumps, dt);
+  }
+  out.velocity_jumps_force_did_not_follow = static_cast<int>(not_followed.size());
+  out.jerk_intensity = q * noise * noise;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (jumps.at[i]) out.velocity_jumps.push_back(i);
+  }
+  std::vector<double> velocity_sd;
+  smooth_motion(t, y, q, jumps, noise, out.position_m, out.velocity_m_per_s, out.acceleration_m_per_s2, velocity_sd);
+  out.velocity_std_m_per_s = median(velocity_sd) * noise;
+  return out;
+}
+
+MotionEstimate estimate_motion_with_reference(const std::vector<double>& t, const std::vector<double>& x,
+                                              const std::vector<double>& r, const std::vector<double>& force,
+                                              bool velocity_jumps, const std::vector<double>& force_for_jumps) {
+  const std::size_t n = x.size();
+  if (r.size() != n || n < 400) return estimate_motion(t, x, velocity_jumps, force_for_jumps);
+  std::vector<double> dts;
+  for (std::size_t i = 1; i < n; ++i) dts.push_back(t[i] - t[i - 1]);
+  const double dt = std::max(median(dts), 1e-12);
+  // An impulse response on the sample grid needs uniform sampling.
+  for (double h : dts) {
+    if (std::fabs(h - dt) > 0.01 * dt) return estimate_motion(t, x, velocity_jumps, force_for_jumps);
+  }
+  std::vector<double>().swap(dts);
+  // x[i] ~ sum_k h_k r[i - k] + c, k from -lead to lag: any linear loop whose
+  // response settles within the window (0.2 s, at most 200 taps), a few
+  // taps of lead for a clock skew between the channels.
+  const int lead = 4;
+  const int lag = std::clamp(static_cast<int>(std::lround(0.2 / dt)), 8, 200);
+  const int taps = lead + lag + 1;
+  // Given the force (--motion-estimator rts_loop_force), the friction force
+  // is the loop's other input: a finite servo stiffness lets the tip yield to
+  // it (by F / k_servo). Left out, that yield goes to the smoother, which
+  // rounds off its jumps at reversals, and the presliding displacement comes
+  // out larger than it was (contact stiffness 2-9 % low on the independent
+  // generator). Within a few samples only: a 0.2 s force window also fits
+  // slow friction changes into the motion (measured on the generator's clean
+  // files: the Stribeck velocity then 2-21 % low, 3 of 10 files accepting an
+  // effect).
+  const int force_taps = force.size() == n ? kForceTaps : 0;
+  double force_scale = 0, reference_scale = 0;
+  for (std::size_t i = 0; i < n && force_taps > 0; ++i) {
+    force_scale = std::max(force_scale, std::fabs(force[i]));
+    reference_scale = std::max(reference_scale, std::fabs(r[i] - r[0]));
+  }
+  // Columns of one magnitude for the normal equations (metres and newtons).
+  const double force_unit = force_scale > 0 && reference_scale > 0 ? reference_scale / force_scale : 1.0;
+  const double r0 = r[0];
+  // Each column of the regression is a window of n samples sliding along a
+  // padded channel (the record's ends repeated): reference tap k (k from
+  // -lead to lag, column k + lead) reads r[i - k] - r0 at
+  // reference_padded[lag - k + i]; force tap k reads force[i - k] at
+  // force_padded[force_taps - 1 - k + i], in units of one magnitude with
+  // the reference (metres and newtons).
+  std::vector<double> reference_padded(n + static_cast<std::size_t>(taps) - 1);
+  for (std::size_t j = 0; j < reference_padded.size(); ++j) {
+    const long i = static_cast<long>(j) - lag;
+    reference_padded[j] = (i < 0 ? r[0] : (i >= static_cast<long>(n) ? r[n - 1] : r[static_cast<std::size_t>(i)])) - r0;
+  }
+  std::vector<double> force_padded(force_taps > 0 ? n + static_cast<std::size_t>(force_taps) - 1 : 0);
+  for (std::size_t j = 0; j < force_padded.size(); ++j) {
+    const long i = static_cast<long>(j) - (force_taps - 1);
+    force_padded[j] = force_unit * (i < 0 ? force[0] : force[static_cast<std::size_t>(i)]);
+  }
+  // Column c of the regression at sample i: reference tap c reads
+  // reference_padded[taps - 1 - c + i], force tap k reads
+  // force_padded[force_taps - 1 - k + i]; the last column is the constant.
+  const Eigen::Index cols = taps + force_taps + 1;
+  const auto fill_row = [&](std::size_t i, Eigen::VectorXd& row) {
+    for (int c = 0; c < taps; ++c) row[c] = reference_padded[static_cast<std::size_t>(taps - 1 - c) + i];
+    for (int k = 0; k < force_taps; ++k) row[taps + k] = force_padded[static_cast<std::size_t>(force_taps - 1 - k) + i];
+    row[taps + force_taps] = 1.0;
+  };
+  // The normal equations by a rank-one update per sample, in sample order.
+  // Forming them from sums over the windows and shifting those by a sample
+  // is cheaper (a few percent of the diagnosis' CPU) but sums in another
+  // order; the reference taps are nearly collinear, and that rounding moved
+  // the final model of an 800 s record past its standard errors.
+  Eigen::MatrixXd xtx = Eigen::MatrixXd::Zero(cols, cols);
+  Eigen::VectorXd xty = Eigen::VectorXd::Zero(cols);
+  Eigen::VectorXd row(cols);
+  for (std::size_t i = 0; i < n; ++i) {
+    fill_row(i, row);
+    xtx.selfadjointView<Eigen::Lower>().rankUpdate(row);
+    xty += row * (x[i] - r0);
+  }
+  xtx = xtx.selfadjointView<Eigen::Lower>();
+  const Eigen::VectorXd coef = xtx.ldlt().solve(xty);
+  std::vector<double> e(n);  // the loop model's residual
+  std::vector<double> xm(n);
+  double mean_x = 0, tss = 0, sse = 0;
+  for (double v : x) mean_x += v;
+  mean_x /= static_cast<double>(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    double value = coef[taps + force_taps];
+    for (int c = 0; c < taps; ++c) value += coef[c] * reference_padded[static_cast<std::size_t>(taps - 1 - c) + i];
+    for (int k = 0; k < force_taps; ++k) value += coef[taps + k] * force_padded[static_cast<std::size_t>(force_taps - 1 - k) + i];
+    xm[i] = value + r0;
+    tss += (x[i] - mean_x) * (x[i] - mean_x);
+    sse += (x[i] - xm[i]) * (x[i] - xm[i]);
+  }
+  std::vector<double>().swap(reference_padded);
+  std::vector<double>().swap(force_padded);
+  if (!(tss > 0) || !std::isfinite(sse) || sse > 0.1 * tss) return estimate_motion(t, x, velocity_jumps, force_for_jumps);
+  for (std::size_t i = 0; i < n; ++i) e[i] = x[i] - xm[i];
+  MotionEstimate out = estimate_motion(t, e, velocity_jumps, force_for_jumps);
+  // The noise floor and resolution belong to the record's position.
+  out.position_resolution_m = resolution_of(x);
+  out.position_noise_m = std::max(third_difference_noise(x), out.position_resolution_m / std::sqrt(12.0));
+  std::vector<double>().swap(e);
+  // The loop model's motion is noise-free: its derivatives by differences.
+  for (std::size_t i = 0; i < n; ++i) {
+    out.position_m[i] += xm[i];
+    if (i == 0 || i + 1 == n) continue;
+    out.velocity_m_per_s[i] += (xm[i + 1] - xm[i - 1]) / (t[i + 1] - t[i - 1]);
+    out.acceleration_m_per_s2[i] += (xm[i + 1] - 2 * xm[i] + xm[i - 1]) / (dt * dt);
+  }
+  out.estimator = std::string(force_taps > 0 ? "rts_constant_acceleration_on_reference_and_force_loop_residual"
+                                              : "rts_constant_acceleration_on_reference_loop_residual") +
+                  (velocity_jumps ? "_with_velocity_jumps" : "");
+  out.loop_taps = taps;
+  out.loop_force_taps = force_taps;
+  for (int k = 0; k < force_taps; ++k) out.loop_force_response_m_per_n += coef[taps + k] * force_unit;
+  out.loop_variance_explained = 1.0 - sse / tss;
+  return out;
+}
+
+}  // namespace tribo::analysis
