@@ -153,12 +153,10 @@ BlendSlopes blend_slopes(double breakaway_ratio, double alpha) {
   return BlendSlopes{k * std::sqrt(alpha * (1 - alpha)), -k * k * (alpha - 0.5)};
 }
 
-}  // namespace
-
-double stribeck_n_at_deflection(const FrictionModel& m, const FrictionLevels& levels, ContactPoint& c, double z,
-                                double guess_n) {
-  if (!(levels.rate_state_n > 0) || !direct_effect_on_slip_rate(m.rate_state)) return stribeck_n(m, levels, c);
-  const PointTerms t = point_terms(m, levels, c);
+// stribeck_n_at_deflection with the point's terms given, the direct effect
+// on the slip rate.
+double solve_at_deflection(const FrictionModel& m, const FrictionLevels& levels, const PointTerms& t, ContactPoint& c,
+                           double z, double guess_n) {
   SpeedTerms speed = speed_terms(m, levels, t, c.stribeck_velocity_m_per_s, 0.0);
   const double v = c.velocity_m_per_s, sigma0 = m.lugre.sigma0_n_per_m, r = m.lugre.breakaway_ratio;
   const double v_star = m.rate_state.reference_velocity_m_per_s, inverse_v_star = 1.0 / v_star;
@@ -232,6 +230,23 @@ double stribeck_n_at_deflection(const FrictionModel& m, const FrictionLevels& le
   }
   c.slip_rate_m_per_s = slip;
   return s_of(fixed);
+}
+
+}  // namespace
+
+double stribeck_n_at_deflection(const FrictionModel& m, const FrictionLevels& levels, ContactPoint& c, double z,
+                                double guess_n) {
+  if (!(levels.rate_state_n > 0) || !direct_effect_on_slip_rate(m.rate_state)) return stribeck_n(m, levels, c);
+  return solve_at_deflection(m, levels, point_terms(m, levels, c), c, z, guess_n);
+}
+
+SlidingAndStatic stribeck_at_deflection_and_static_n(const FrictionModel& m, const FrictionLevels& levels,
+                                                     ContactPoint& c, double z, double direction, double guess_n) {
+  if (!(levels.rate_state_n > 0) || !direct_effect_on_slip_rate(m.rate_state)) {
+    return stribeck_and_static_n(m, levels, c, direction);
+  }
+  const PointTerms t = point_terms(m, levels, c);
+  return SlidingAndStatic{solve_at_deflection(m, levels, t, c, z, guess_n), stribeck_at(m, levels, t, kAtRest, direction)};
 }
 
 double static_friction_n(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c,

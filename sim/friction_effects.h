@@ -239,6 +239,13 @@ struct SlidingAndStatic {
 SlidingAndStatic stribeck_and_static_n(const FrictionModel& m, const FrictionLevels& levels,
                                        const ContactPoint& c, double direction);
 
+// stribeck_n_at_deflection (c's slip rate set as there) and static_friction_n
+// at the same point, its terms (dwell, the rate-and-state state's log, M_p)
+// evaluated once: the same values bit for bit.
+SlidingAndStatic stribeck_at_deflection_and_static_n(const FrictionModel& m, const FrictionLevels& levels,
+                                                     ContactPoint& c, double bristle_m, double direction,
+                                                     double guess_n = 0);
+
 // Lower bound on M_p M_d over all positions and directions (for step sizes).
 double modulation_floor(const FrictionModel& m);
 
