@@ -86,9 +86,11 @@ struct SpeedTerms {
   double direct_log = 0;
 };
 
-SpeedTerms speed_terms(const FrictionModel& m, const FrictionLevels& levels, double vs, double direct_v) {
+SpeedTerms speed_terms(const FrictionModel& m, const FrictionLevels& levels, const PointTerms& point, double vs,
+                       double direct_v) {
   SpeedTerms t;
-  t.shape = stribeck_shape(m.lugre, vs);
+  // Where Fs D = Fc the shape multiplies 0: S is the same without its exp.
+  if (point.fs != levels.coulomb_n) t.shape = stribeck_shape(m.lugre, vs);
   if (levels.strengthening_n > 0) {
     t.strengthening_log = std::log1p(std::fabs(vs) / m.velocity_strengthening.reference_velocity_m_per_s);
   }
@@ -129,8 +131,9 @@ double direct_velocity(const FrictionModel& m, const ContactPoint& c) {
 }  // namespace
 
 double stribeck_n(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c) {
-  return stribeck_at(m, levels, point_terms(m, levels, c),
-                     speed_terms(m, levels, c.stribeck_velocity_m_per_s, direct_velocity(m, c)), c.velocity_m_per_s);
+  const PointTerms t = point_terms(m, levels, c);
+  return stribeck_at(m, levels, t, speed_terms(m, levels, t, c.stribeck_velocity_m_per_s, direct_velocity(m, c)),
+                     c.velocity_m_per_s);
 }
 
 namespace {
@@ -150,13 +153,11 @@ BlendSlopes blend_slopes(double breakaway_ratio, double alpha) {
   return BlendSlopes{k * std::sqrt(alpha * (1 - alpha)), -k * k * (alpha - 0.5)};
 }
 
-}  // namespace
-
-double stribeck_n_at_deflection(const FrictionModel& m, const FrictionLevels& levels, ContactPoint& c, double z,
-                                double guess_n) {
-  if (!(levels.rate_state_n > 0) || !direct_effect_on_slip_rate(m.rate_state)) return stribeck_n(m, levels, c);
-  const PointTerms t = point_terms(m, levels, c);
-  SpeedTerms speed = speed_terms(m, levels, c.stribeck_velocity_m_per_s, 0.0);
+// stribeck_n_at_deflection with the point's terms given, the direct effect
+// on the slip rate.
+double solve_at_deflection(const FrictionModel& m, const FrictionLevels& levels, const PointTerms& t, ContactPoint& c,
+                           double z, double guess_n) {
+  SpeedTerms speed = speed_terms(m, levels, t, c.stribeck_velocity_m_per_s, 0.0);
   const double v = c.velocity_m_per_s, sigma0 = m.lugre.sigma0_n_per_m, r = m.lugre.breakaway_ratio;
   const double v_star = m.rate_state.reference_velocity_m_per_s, inverse_v_star = 1.0 / v_star;
   // S is affine in L = ln(1 + |v_s| / V*) above the floor: S(L) = S(0) + K L.
@@ -207,13 +208,45 @@ double stribeck_n_at_deflection(const FrictionModel& m, const FrictionLevels& le
     const double dh = 1.0 - dw * inverse_level;
     const double ddh = (dw * dw * inverse_level - ddw) * inverse_level;
     const double denominator = 2.0 * dh * dh - h * ddh;
-    double next = denominator > 0 ? log_term - 2.0 * h * dh / denominator : log_term - h / dh;
-    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    bool halley = denominator > 0;
+    double next = halley ? log_term - 2.0 * h * dh / denominator : log_term - h / dh;
+    if (!(next > lo && next < hi)) {
+      next = 0.5 * (lo + hi);
+      halley = false;
+    }
     if (next == log_term || hi - lo <= 1e-15 * hi) break;
+    const double step = std::fabs(next - log_term), curvature = ddh / dh;
+    if (halley && step <= 1e-3 && slope * step * step * step * (1.0 + curvature * curvature) <= kSlipRateResidual * s) {
+      // Halley's step leaves an error of order (H''/H')^2 times its cube
+      // (the third derivative's share of the same order): below the
+      // residual's tolerance here, S and v_s are taken at next without the
+      // logarithm of evaluating H there.
+      const double s_next = s_of(next);
+      const double u_next = z * sigma0 / s_next;
+      c.slip_rate_m_per_s = plasticity(r, v, u_next, 1.0) * speed_abs * u_next;
+      return s_next;
+    }
     log_term = next;
   }
   c.slip_rate_m_per_s = slip;
   return s_of(fixed);
+}
+
+}  // namespace
+
+double stribeck_n_at_deflection(const FrictionModel& m, const FrictionLevels& levels, ContactPoint& c, double z,
+                                double guess_n) {
+  if (!(levels.rate_state_n > 0) || !direct_effect_on_slip_rate(m.rate_state)) return stribeck_n(m, levels, c);
+  return solve_at_deflection(m, levels, point_terms(m, levels, c), c, z, guess_n);
+}
+
+SlidingAndStatic stribeck_at_deflection_and_static_n(const FrictionModel& m, const FrictionLevels& levels,
+                                                     ContactPoint& c, double z, double direction, double guess_n) {
+  if (!(levels.rate_state_n > 0) || !direct_effect_on_slip_rate(m.rate_state)) {
+    return stribeck_and_static_n(m, levels, c, direction);
+  }
+  const PointTerms t = point_terms(m, levels, c);
+  return SlidingAndStatic{solve_at_deflection(m, levels, t, c, z, guess_n), stribeck_at(m, levels, t, kAtRest, direction)};
 }
 
 double static_friction_n(const FrictionModel& m, const FrictionLevels& levels, const ContactPoint& c,
@@ -225,7 +258,7 @@ SlidingAndStatic stribeck_and_static_n(const FrictionModel& m, const FrictionLev
                                        const ContactPoint& c, double direction) {
   const PointTerms t = point_terms(m, levels, c);
   return SlidingAndStatic{
-      stribeck_at(m, levels, t, speed_terms(m, levels, c.stribeck_velocity_m_per_s, direct_velocity(m, c)),
+      stribeck_at(m, levels, t, speed_terms(m, levels, t, c.stribeck_velocity_m_per_s, direct_velocity(m, c)),
                   c.velocity_m_per_s),
       stribeck_at(m, levels, t, kAtRest, direction)};
 }

@@ -212,7 +212,10 @@ ContactStateRates contact_state_rates(const FrictionModel& m, const ContactPoint
 // ln(1 + |v_s|/V*) there, one above from below) by bisecting where a step
 // leaves it, stopping where |S - F(S)| = K |H| <= kSlipRateResidual S, after at
 // most kSlipRateIterations evaluations (one logarithm each), without
-// allocation. F(S) of the last evaluation is returned. In the elasto-plastic
+// allocation. F(S) of the last evaluation is returned; or, where a Halley step
+// of size d (at most 1e-3) leaves an error whose estimate K d^3 (1 + (H''/H')^2)
+// is within kSlipRateResidual S, S at the step's end, and the slip rate there,
+// without the logarithm of a further evaluation. In the elasto-plastic
 // blend alpha rises by up to pi / (2 (1 - r)) per unit z/g (19 at r = 0.917)
 // and |F'| exceeds 1 at loading rates of a few V*: plain fixed-point iteration
 // diverges there, Halley's within the bracket does not. The solved v_s is left
@@ -235,6 +238,13 @@ struct SlidingAndStatic {
 };
 SlidingAndStatic stribeck_and_static_n(const FrictionModel& m, const FrictionLevels& levels,
                                        const ContactPoint& c, double direction);
+
+// stribeck_n_at_deflection (c's slip rate set as there) and static_friction_n
+// at the same point, its terms (dwell, the rate-and-state state's log, M_p)
+// evaluated once: the same values bit for bit.
+SlidingAndStatic stribeck_at_deflection_and_static_n(const FrictionModel& m, const FrictionLevels& levels,
+                                                     ContactPoint& c, double bristle_m, double direction,
+                                                     double guess_n = 0);
 
 // Lower bound on M_p M_d over all positions and directions (for step sizes).
 double modulation_floor(const FrictionModel& m);

@@ -266,15 +266,16 @@ double limit_to_static_friction(const LateralPlant& plant, const LateralInputs& 
   const PreslidingHysteresisParams& hy = m.presliding_hysteresis;
   if (!hy.enabled) {
     // S sliding and at rest share the point's terms: one evaluation of them.
-    SlidingAndStatic both = stribeck_and_static_n(m, in.levels, c, s.bristle_m);
     if (!direct_effect_on_slip_rate(m.rate_state)) {
+      const SlidingAndStatic both = stribeck_and_static_n(m, in.levels, c, s.bristle_m);
       s.bristle_m = limit(s.bristle_m, 1.0, both.sliding_n, both.static_n);
       return both.sliding_n;
     }
     // S sliding depends on the bristle through the slip rate: at the
     // deflection the limit leaves (the caller's next evaluation's S).
     ContactPoint at = c;
-    both.sliding_n = stribeck_n_at_deflection(m, in.levels, at, s.bristle_m, guess_n);
+    const SlidingAndStatic both =
+        stribeck_at_deflection_and_static_n(m, in.levels, at, s.bristle_m, s.bristle_m, guess_n);
     const double before = s.bristle_m;
     s.bristle_m = limit(s.bristle_m, 1.0, both.sliding_n, both.static_n);
     if (s.bristle_m == before) return both.sliding_n;
