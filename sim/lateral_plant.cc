@@ -163,15 +163,18 @@ void substep(const LateralPlant& plant, const LateralInputs& in, double h, bool 
 
 // Solution of dz/dt = v - alpha a z over h for frozen v and alpha (a = |v|/g):
 // exact for plain LuGre. With elasto-plastic presliding alpha rises to 1 as
-// |z| reaches g, so a bristle loading towards g stops there instead of at the
-// frozen-alpha target g/alpha.
-double relax_bristle(double breakaway_ratio, double g, double v, double z, double h) {
+// |z| reaches the steady deflection g_ss, so a bristle loading towards it
+// stops there instead of at the frozen-alpha target g/alpha. g_ss is g
+// unless S depends on z (the direct effect on the slip rate): then g is S at
+// the present z's slip rate, below the steady S at slip rate |v|, and a
+// bristle held at that g sits in the blend (alpha ~ 0) with dz/dt ~ v.
+double relax_bristle(double breakaway_ratio, double g, double g_ss, double v, double z, double h) {
   if (v == 0.0) return z;
   const double alpha = plasticity(breakaway_ratio, v, z, g);
   const double rate = alpha * std::fabs(v) / g;
   double next = rate > 0 ? v / rate + (z - v / rate) * std::exp(-rate * h) : z + v * h;
-  const double limit = v > 0 ? g : -g;
-  const bool was_inside = std::fabs(z) <= g;
+  const double limit = v > 0 ? g_ss : -g_ss;
+  const bool was_inside = std::fabs(z) <= g_ss;
   if (was_inside && (v > 0 ? next > limit : next < limit)) next = limit;
   return next;
 }
@@ -207,10 +210,17 @@ void relax_contact(const LateralPlant& plant, const LateralInputs& in, double h,
   const double g = stribeck_n_at_deflection(m, in.levels, c, s.bristle_m) / m.lugre.sigma0_n_per_m;
   const PreslidingHysteresisParams& hy = m.presliding_hysteresis;
   if (!hy.enabled) {
-    s.bristle_m = relax_bristle(m.lugre.breakaway_ratio, g, v, s.bristle_m, h);
+    // In steady sliding dz/dt = 0: the slip rate is v and |z| = g there.
+    double g_ss = g;
+    if (in.levels.rate_state_n > 0 && direct_effect_on_slip_rate(m.rate_state)) {
+      c.slip_rate_m_per_s = v;
+      g_ss = stribeck_n(m, in.levels, c) / m.lugre.sigma0_n_per_m;
+    }
+    s.bristle_m = relax_bristle(m.lugre.breakaway_ratio, g, g_ss, v, s.bristle_m, h);
   } else {
     for (int i = 0; i < hy.elements; ++i) {
-      s.slip_m[i] = relax_bristle(hy.breakaway_ratio, slip_share(hy, i) * g, v, s.slip_m[i], h);
+      const double gi = slip_share(hy, i) * g;
+      s.slip_m[i] = relax_bristle(hy.breakaway_ratio, gi, gi, v, s.slip_m[i], h);
     }
   }
   relax_state(h / 2);

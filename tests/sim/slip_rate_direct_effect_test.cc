@@ -15,6 +15,7 @@
 #include "sim/friction_effects.h"
 #include "sim/instrument_params.h"
 #include "sim/lateral_plant.h"
+#include "sim/step_size.h"
 #include "tests/sim/sim_test_support.h"
 
 namespace tribo::sim {
@@ -156,6 +157,46 @@ TEST(SlipRateDirectEffect, TheSlipOnsetDoesNotRiseWithTheLoadingRate) {
   EXPECT_NEAR(tip_slow, held_n + r * a_n * std::log1p(slow / v_star), tolerance_n);
   EXPECT_NEAR(tip_fast, held_n + r * a_n * std::log1p(fast / v_star), tolerance_n);
   EXPECT_GT(tip_fast - tip_slow, 100 * tolerance_n);  // the default's rise is resolved
+}
+
+// Near zero load (the zero-load protocol: a few nN of contact force, g of
+// order 1e-13 m) the bristle relaxes in nanoseconds and the split scheme
+// lands it on its steady deflection in one tick: z = g at the slip rate v,
+// dz/dt = 0, the force S (and sigma2 v). Held at g of its present (lower) slip rate it sat in
+// the elasto-plastic blend with dz/dt ~ v, adding sigma1 v (2 uN at
+// 0.4 um/s) to an S of a few nN.
+TEST(SlipRateDirectEffect, TheSplitSchemeLandsALightContactOnSteadySliding) {
+  LateralPlant plant;
+  plant.axis = LateralAxisParams{1e-3, 116, 0.008, {}};
+  plant.friction = contact(DirectEffectRate::kSlipRate);
+  const LugreParams& p = plant.friction.lugre;
+  LateralInputs in;
+  in.drive = ideal_drive_field(2e-4);
+  in.levels = contact_levels(plant.friction, 20e-9, 0, 1);
+  LateralState s;
+  // 0.1 uN of net pull: the plate speeds up by 0.1 um/s a tick, as under the
+  // position loop, and the steady g rises with it.
+  s.position_m = (2e-4 - 1e-7) / plant.axis.spring_n_per_m;
+  s.velocity_m_per_s = 4e-7;
+  s.rate_state_s = plant.friction.rate_state.memory_length_m / s.velocity_m_per_s;  // sliding's state
+  const double dt_s = 1e-3;
+  for (int tick = 0; tick < 5; ++tick) {
+    const StepPlan plan = plan_substeps(lateral_rate_bounds(plant, in, s, lateral_derivative(plant, in, s), dt_s),
+                                        dt_s, 1.5, 1000);
+    ASSERT_TRUE(plan.split);
+    integrate_lateral_split(plant, in, dt_s, plan.substeps, s);
+    const LateralEvaluation e = lateral_derivative(plant, in, s);
+    const double v = s.velocity_m_per_s;
+    ContactPoint c{v, v, s.position_m, 0.0, s.rate_state_s};
+    c.slip_rate_m_per_s = v;
+    const double steady_n = stribeck_n(plant.friction, in.levels, c);
+    ASSERT_GT(v, 0.0);
+    EXPECT_LT(steady_n, 5e-9);  // the light contact this is about
+    EXPECT_NEAR(s.bristle_m, steady_n / p.sigma0_n_per_m, 1e-3 * steady_n / p.sigma0_n_per_m) << tick;
+    EXPECT_LT(std::fabs(e.rate.bristle_m), 1e-3 * v) << tick;
+    // F = sigma0 z + sigma1 dz/dt + sigma2 v: S and the viscous term.
+    EXPECT_NEAR(e.friction_n, steady_n + p.sigma2_n_s_per_m * v, 0.05 * steady_n) << tick;
+  }
 }
 
 // The slip rate is solved for one bristle: with Maxwell-slip elements the
