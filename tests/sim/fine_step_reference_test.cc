@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -58,16 +59,17 @@ struct Difference {
   double rms = 0, max = 0;
 };
 
+// Over ticks [0, end) (the whole run: end = the shorter run's length).
 template <class Get>
-Difference difference(const ProtocolRun& a, const ProtocolRun& b, Get get, double unit) {
+Difference difference(const ProtocolRun& a, const ProtocolRun& b, std::size_t end, Get get, double unit) {
   Difference d;
-  const std::size_t n = std::min(a.samples.size(), b.samples.size());
-  for (std::size_t k = 0; k < n; ++k) {
+  end = std::min({end, a.samples.size(), b.samples.size()});
+  for (std::size_t k = 0; k < end; ++k) {
     const double e = std::fabs(get(a, k) - get(b, k)) / unit;
     d.rms += e * e;
     d.max = std::max(d.max, e);
   }
-  d.rms = std::sqrt(d.rms / static_cast<double>(n));
+  d.rms = std::sqrt(d.rms / static_cast<double>(end));
   return d;
 }
 
@@ -75,12 +77,12 @@ struct Channels {
   Difference friction_un, lateral_force_un, position_nm, normal_force_un;
 };
 
-Channels compare(const ProtocolRun& run, const ProtocolRun& ref) {
+Channels compare(const ProtocolRun& run, const ProtocolRun& ref, std::size_t end = SIZE_MAX) {
   return Channels{
-      difference(run, ref, [](const ProtocolRun& r, std::size_t k) { return r.friction_n[k]; }, 1e-6),
-      difference(run, ref, [](const ProtocolRun& r, std::size_t k) { return r.samples[k].lateral_force_n; }, 1e-6),
-      difference(run, ref, [](const ProtocolRun& r, std::size_t k) { return r.position_m[k]; }, 1e-9),
-      difference(run, ref, [](const ProtocolRun& r, std::size_t k) { return r.samples[k].normal_force_n; }, 1e-6)};
+      difference(run, ref, end, [](const ProtocolRun& r, std::size_t k) { return r.friction_n[k]; }, 1e-6),
+      difference(run, ref, end, [](const ProtocolRun& r, std::size_t k) { return r.samples[k].lateral_force_n; }, 1e-6),
+      difference(run, ref, end, [](const ProtocolRun& r, std::size_t k) { return r.position_m[k]; }, 1e-9),
+      difference(run, ref, end, [](const ProtocolRun& r, std::size_t k) { return r.samples[k].normal_force_n; }, 1e-6)};
 }
 
 void print(const char* what, const Channels& c, const ProtocolRun& run) {
@@ -176,31 +178,11 @@ TEST_P(FineStepReference, DirectEffectOnTheSlipRateIsWithinItsTolerances) {
 // approach, load and scratch). After it this contact hunts under the position loop (in the
 // hold the tip creeps at 0.1-3 um/s in bursts while the integral action winds up; in the
 // unload it sticks and slips as the load falls, its velocity crossing zero), and there the
-// run depends on rounding: the references at h lambda 0.01 and 0.02 part by up to 68 uN and
-// 48 nm over the break-away run, and halving the step or changing it by 1 % does as much. No
+// run depends on rounding: the references at h lambda 0.01 and 0.02 part by up to 44 uN and
+// 18 nm over the break-away run, and halving the step or changing it by 1 % does as much. No
 // integrator follows such a stretch tick by tick. The window ends at the first tick where
 // the reference and a second one at twice its step differ by more than a tenth of the
 // largest-tick tolerances (friction 0.5 uN, position 0.3 nm); the whole run is printed.
-template <class Get>
-Difference difference_through(const ProtocolRun& a, const ProtocolRun& b, std::size_t end, Get get, double unit) {
-  Difference d;
-  for (std::size_t k = 0; k < end; ++k) {
-    const double e = std::fabs(get(a, k) - get(b, k)) / unit;
-    d.rms += e * e;
-    d.max = std::max(d.max, e);
-  }
-  d.rms = std::sqrt(d.rms / static_cast<double>(end));
-  return d;
-}
-
-Channels compare_through(const ProtocolRun& run, const ProtocolRun& ref, std::size_t end) {
-  return Channels{
-      difference_through(run, ref, end, [](const ProtocolRun& r, std::size_t k) { return r.friction_n[k]; }, 1e-6),
-      difference_through(run, ref, end, [](const ProtocolRun& r, std::size_t k) { return r.samples[k].lateral_force_n; }, 1e-6),
-      difference_through(run, ref, end, [](const ProtocolRun& r, std::size_t k) { return r.position_m[k]; }, 1e-9),
-      difference_through(run, ref, end, [](const ProtocolRun& r, std::size_t k) { return r.samples[k].normal_force_n; }, 1e-6)};
-}
-
 v1::DaemonConfig reference_at(v1::DaemonConfig config, double max_h_lambda) {
   config = fine_reference(config);
   config.mutable_sim()->mutable_integrator()->set_max_h_lambda(max_h_lambda);
@@ -228,12 +210,12 @@ TEST_P(FineStepReference, DefaultInstrumentIsWithinItsTolerancesWhileTheReferenc
     ++end;
   }
   ASSERT_GT(end, c.slide_end_tick) << "the reference is not reproducible through the slide";
-  const Channels references = compare_through(coarser_ref, ref, end);
-  const Channels now = compare_through(run, ref, end);
+  const Channels references = compare(coarser_ref, ref, end);
+  const Channels now = compare(run, ref, end);
   std::printf("  %s, ticks 0-%zu of %zu (the references part after; the slide ends at %zu):\n", c.name, end,
               ref.samples.size(), c.slide_end_tick);
   print("default (held contact law)", now, run);
-  print("the law at every RK4 stage, h lambda 1", compare_through(previous, ref, end), previous);
+  print("the law at every RK4 stage, h lambda 1", compare(previous, ref, end), previous);
   print("reference at h lambda 0.02", references, coarser_ref);
   std::printf("  the whole run:\n");
   print("default (held contact law)", compare(run, ref), run);
