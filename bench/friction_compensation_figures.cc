@@ -13,7 +13,8 @@
 //     scorecard's experiment; simulated backend only: it reads the tip's
 //     true motion);
 //   - the same with the model's friction levels 30 % high and low and its
-//     sigma0 halved and doubled (--robustness);
+//     sigma0 halved and doubled (--robustness; a variant the validator
+//     refuses is reported as refused, with the refusal);
 //   - the mean friction of the standard scratch over seeds, with and without.
 //
 //   build/bench/friction_compensation_figures --config config/tribod.textproto --model REPORT.json
@@ -41,6 +42,7 @@
 
 #include "client/run_summary.h"
 #include "daemon/daemon_config.h"
+#include "daemon/protocol_validator.h"
 #include "daemon/run_documents.h"
 #include "proto/text_format_file.h"
 #include "tests/support/compensation_runs.h"
@@ -255,8 +257,17 @@ int main(int argc, char** argv) {
              "true_tilt_uN\n";
   }
   for (const Variant& v : variants) {
-    const InProcessRun run =
-        tribo::testing::run_in_process(config, tribo::testing::with_friction_model(breakaway, v.report), breakaway_seed);
+    const tribo::v1::Protocol protocol = tribo::testing::with_friction_model(breakaway, v.report);
+    // A variant the validator refuses (a model scaled beyond the supervisor's
+    // compensation limit) is a figure too: tribod would not run it.
+    const tribo::daemon::ProtocolCheck check = tribo::daemon::validate_protocol(protocol, config);
+    if (!check.ok()) {
+      const std::string refusal = check.errors.front().field + ": " + check.errors.front().message;
+      std::cout << fmt::format("| {} | - | - | - | - | - | - | - | - | refused: {} |\n", v.name, refusal);
+      out["breakaway"].push_back({{"model", v.name}, {"outcome", "refused: " + refusal}});
+      continue;
+    }
+    const InProcessRun run = tribo::testing::run_in_process(config, protocol, breakaway_seed);
     Json row;
     if (!trace_path.empty() && simulated) write_trace(trace, v.name, run);
     if (simulated) timing.emplace_back(v.name, timing_rows(v.name, run));
@@ -268,11 +279,12 @@ int main(int argc, char** argv) {
     std::cout << "\nBreak-away timing (the simulated tip's truth; times from the slide's start):\n\n" << kTimingHead;
     for (const auto& [name, rows] : timing) std::cout << rows;
   }
-  if (variants.size() > 2) {
+  if (variants.size() > 2 && overshoots.contains("with the model")) {
     std::cout << "\nShare of the overshoot's reduction that remains (4 / 18 / 36 µm/s):\n\n";
     const auto& before = overshoots["without"];
     const auto& nominal = overshoots["with the model"];
     for (std::size_t k = 2; k < variants.size(); ++k) {
+      if (!overshoots.contains(variants[k].name)) continue;  // refused
       const auto& o = overshoots[variants[k].name];
       std::string text;
       for (std::size_t i = 0; i < o.size(); ++i) {
