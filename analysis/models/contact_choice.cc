@@ -117,6 +117,15 @@ std::optional<EvaluatedFit> fit_rate_state_contact(const ModelData& data, const 
   return std::move(fits[best]);
 }
 
+// The Stribeck curve flat: the static level at the Coulomb level, as the
+// rate-and-state contact starts (fit_rate_state_contact), its law carrying
+// the static-kinetic difference itself.
+ModelParams with_flat_stribeck(ModelParams p) {
+  const bool mu = p.index("mu_c") >= 0;
+  p.set_value(mu ? "mu_s" : "Fs", p.value(mu ? "mu_c" : "Fc"));
+  return p;
+}
+
 // A law fitted on top of the contact fitted last. Started only from that
 // fit's values, it stays where that fit was left when the fit is past a
 // bound. On the default sim plant LuGre's fit, and the elasto-plastic one on
@@ -129,6 +138,19 @@ std::optional<EvaluatedFit> fit_rate_state_contact(const ModelData& data, const 
 // Stribeck curve back at the base model's default and a breakaway ratio at
 // its neutral start, and the better is kept (best_start). The two starts are
 // fitted at once.
+//
+// When neither lands within its bounds, the rate-and-state law is fitted from
+// a third start: the second with the Stribeck curve flat (the static level at
+// the Coulomb level), as the rate-and-state contact starts, the law carrying
+// the static-kinetic difference itself. From the second start the Stribeck
+// velocity can fall below every sampled speed (0.2 nm/s), where the static
+// level no longer moves the model and stays wherever the fit left it: on the
+// fitted contact's clean run (seed 2, 5 uN) integrated at h lambda <= 1, at
+// 0.15 of the Coulomb level, past its bound, and plain LuGre was chosen; from
+// the flat start the fit lands within its bounds at a lower residual. Only as
+// a fallback: on the frictional-lag run of the contact-choice tests (seed 4)
+// the flat start found a lower in-fit residual than a physical second start
+// and predicted the held-out passes worse (4.8 uN against 3.5).
 FitResult fit_nested_law(const ModelData& data, const FitResult& last, Effect law, const Signature& sig,
                          const std::vector<char>& in_fit, const ContactChoiceOptions& options) {
   std::vector<ModelParams> starts{last.params};
@@ -141,9 +163,17 @@ FitResult fit_nested_law(const ModelData& data, const FitResult& last, Effect la
   std::vector<FitResult> fits(starts.size());
   parallel_for(starts.size(), options.threads,
                [&](std::size_t j) { fits[j] = fit_extension(data, starts[j], law, sig, in_fit, options.candidate_fit); });
-  std::vector<const FitResult*> results;
-  for (const auto& f : fits) results.push_back(&f);
-  return std::move(fits[best_start(data, results)]);
+  const auto best_of = [&] {
+    std::vector<const FitResult*> results;
+    for (const auto& f : fits) results.push_back(&f);
+    return best_start(data, results);
+  };
+  std::size_t best = best_of();
+  if (law == Effect::kRateState && starts.size() > 1 && !contact_objection(data, fits[best]).empty()) {
+    fits.push_back(fit_extension(data, with_flat_stribeck(starts.back()), law, sig, in_fit, options.candidate_fit));
+    best = best_of();
+  }
+  return std::move(fits[best]);
 }
 
 // Per held-out block (MotionSegmentation::block_of: a pass, or a time chunk
