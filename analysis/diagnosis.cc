@@ -712,9 +712,9 @@ std::vector<RejectedEffect> confusion_refusals(const Diagnosis& out, const Diagn
     if (!a.confusion || a.confusion->distinguishable()) continue;
     const RivalConfusion& nearest = a.confusion->rivals.front();
     refused.push_back({a.effect,
-                       fmt("refused: not distinguishable from %s at this record's noise (z = %.2f below %.2f; it "
+                       fmt::sprintf("refused: not distinguishable from %s at this record's noise (z = %.2f below %.2f; it "
                            "takes up %.0f %% of its visible part); the record diagnosed again without it",
-                           std::string(effect_name(nearest.rival)).c_str(), nearest.z, options.min_confusion_z,
+                           std::string(effect_name(nearest.rival)), nearest.z, options.min_confusion_z,
                            100 * nearest.explained),
                        a.trial, a.trial.signature.strength, std::nullopt});
   }
@@ -873,7 +873,7 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
     // next round's candidates are not credited with what more iterations
     // alone give.
     current = evaluate_fit(data, std::move(winner_fit));
-    out.accepted.push_back({winner.effect, {}, winner});
+    out.accepted.push_back({winner.effect, {}, winner, std::nullopt});
     status.erase(winner.effect);
   }
 
