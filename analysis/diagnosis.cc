@@ -684,6 +684,43 @@ void add_minimum_detectable(const RoundInputs& in, const EvaluatedFit& current, 
   });
 }
 
+// Each accepted effect against its rivals (analysis/effects/confusion.h): the
+// effects of the vocabulary not in the final model, less those whose
+// signature said they do not apply to the record.
+void add_confusion(const RoundInputs& in, const EvaluatedFit& current, const std::map<Effect, RejectedEffect>& status,
+                   Diagnosis& out) {
+  const std::vector<Effect>& vocabulary = in.options.rivals.empty() ? in.options.candidates : in.options.rivals;
+  std::vector<Effect> rivals;
+  for (Effect e : vocabulary) {
+    const auto st = status.find(e);
+    if (st != status.end() && st->second.reason.starts_with("not applicable")) continue;
+    rivals.push_back(e);
+  }
+  const VisibleRows rows = visible_rows(in.data, current.fit, current.model, in.in_fit, in.heldout);
+  for (AcceptedEffect& a : out.accepted) {
+    a.confusion = confusion_with_rivals(in.data, current.fit, current.model, rows, a.effect, rivals, in.options.threads);
+    a.confusion->z_needed = in.options.min_confusion_z > 0 ? in.options.min_confusion_z : in.options.min_strength_z;
+  }
+}
+
+// The accepted effects whose nearest rival leaves less than
+// min_confusion_z of them, as refusals.
+std::vector<RejectedEffect> confusion_refusals(const Diagnosis& out, const DiagnosisOptions& options) {
+  std::vector<RejectedEffect> refused;
+  if (!(options.min_confusion_z > 0)) return refused;
+  for (const AcceptedEffect& a : out.accepted) {
+    if (!a.confusion || a.confusion->distinguishable()) continue;
+    const RivalConfusion& nearest = a.confusion->rivals.front();
+    refused.push_back({a.effect,
+                       fmt::sprintf("refused: not distinguishable from %s at this record's noise (z = %.2f below %.2f; it "
+                           "takes up %.0f %% of its visible part); the record diagnosed again without it",
+                           std::string(effect_name(nearest.rival)), nearest.z, options.min_confusion_z,
+                           100 * nearest.explained),
+                       a.trial, a.trial.signature.strength, std::nullopt});
+  }
+  return refused;
+}
+
 // Each minimum detectable strength checked by diagnosing the record again
 // with the effect injected at it. Called after add_minimum_detectable's basis
 // is gone: each check holds a refit of the final model and a copy of the
@@ -836,7 +873,7 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
     // next round's candidates are not credited with what more iterations
     // alone give.
     current = evaluate_fit(data, std::move(winner_fit));
-    out.accepted.push_back({winner.effect, {}, winner});
+    out.accepted.push_back({winner.effect, {}, winner, std::nullopt});
     status.erase(winner.effect);
   }
 
@@ -861,6 +898,18 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
   out.after = {error_stats(series.force_n, current.model, in_fit), error_stats(series.force_n, current.model, heldout),
                error_stats(series.force_n, current.model, everything)};
   out.heldout_by_condition = by_condition(series, out.motion, out.model_before, current.model);
+  if (out.adequacy.describes_record && !out.accepted.empty()) {
+    add_confusion(in, current, status, out);
+    std::vector<RejectedEffect> confused = confusion_refusals(out, options);
+    if (!confused.empty()) {
+      DiagnosisOptions again = options;
+      if (again.rivals.empty()) again.rivals = options.candidates;
+      for (const RejectedEffect& r : confused) std::erase(again.candidates, r.effect);
+      Diagnosis redo = diagnose_one(series, again, out.motion);
+      for (RejectedEffect& r : confused) redo.rejected.push_back(std::move(r));
+      return redo;
+    }
+  }
   for (auto& [e, st] : status) out.rejected.push_back(st);
   if (options.minimum_detectable && out.adequacy.describes_record) {
     add_minimum_detectable(in, current, out);

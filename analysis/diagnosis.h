@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "analysis/models/contact_choice.h"
+#include "analysis/effects/confusion.h"
 #include "analysis/effects/creep_in_holds.h"
 #include "analysis/effects/detectability.h"
 #include "analysis/effects/drift_knot_choice.h"
@@ -93,6 +94,13 @@ struct DiagnosisOptions {
   // quadrature. Decisions are taken before, on the errors without it. Only
   // its motion columns are read (keep_motion_only(), analysis/input/measured_series.h).
   const MeasuredSeries* alternative_motion = nullptr;
+  // The confusion check (analysis/effects/confusion.h): each accepted effect
+  // against every other effect of `rivals` (empty: the candidates) that
+  // applies to the record. With min_confusion_z > 0 an effect whose nearest
+  // rival leaves less than this z of it is refused, and the record is
+  // diagnosed again without it as a candidate; 0: reported only.
+  double min_confusion_z = 0;
+  std::vector<Effect> rivals;
 };
 
 // The evidence for the state each pass starts from, when it was chosen.
@@ -138,6 +146,7 @@ struct AcceptedEffect {
   Effect effect = Effect::kDrift;
   std::vector<ParamEstimate> parameters;  // from the final fit
   CandidateTrial trial;                   // the round it was accepted in
+  std::optional<EffectConfusion> confusion;  // against its rivals, on the final model
 };
 
 struct RejectedEffect {

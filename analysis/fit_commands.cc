@@ -87,6 +87,7 @@ DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r)
   options.choose_state_from_rest = !r.tribo_run;
   options.candidates = r.candidates;
   options.choose_base_contact = r.choose_base_contact;
+  options.min_confusion_z = r.min_confusion_z;
   if (alternative && series.loop_taps > 0) options.alternative_motion = &*alternative;
   const auto t0 = std::chrono::steady_clock::now();
   try {

@@ -84,6 +84,7 @@ struct DiagnoseArgs {
   bool fit_mass = false, no_load_scaling = false, json = false;
   double stribeck_exponent = 1, smooth = 0;
   std::string base_model = "lugre";
+  double min_confusion_z = 0;
   std::string motion_estimator = "rts";
   std::string effects;
   double begin = -HUGE_VAL, end = HUGE_VAL;
@@ -170,6 +171,7 @@ int diagnose_command(const DiagnoseArgs& a) {
   request.velocity_jumps = a.motion_estimator == "rts_jumps";
   request.tribo_run = std::filesystem::is_directory(input);
   request.choose_base_contact = a.base_model == "choose";
+  request.min_confusion_z = a.min_confusion_z;
   request.command_line = a.command_line;
   const DiagnoseOutcome outcome = diagnose_series(std::move(*series), request);
   if (!outcome.error.empty()) {
@@ -338,6 +340,10 @@ int main(int argc, char** argv) {
                    "lugre: the LuGre base (default); choose: LuGre, + elasto-plastic presliding, + rate-and-state, "
                    "kept on held-out data")
       ->check(CLI::IsMember({"lugre", "choose"}))->capture_default_str();
+  diag->add_option("--min-confusion-z", d.min_confusion_z,
+                   "refuse an accepted effect whose nearest rival leaves less than Z of it (the confusion check; 0: "
+                   "reported only, the default)")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
   diag->add_option("--begin", d.begin, "analyse only samples with t >= begin (s)");
   diag->add_option("--end", d.end, "analyse only samples with t <= end (s)");
   diag->add_flag("--json", d.json, "print one JSON object (fields: see README)");

@@ -32,14 +32,6 @@ double rms_at(const std::vector<double>& measured, const std::vector<double>& mo
   return rows.empty() ? 0.0 : std::sqrt(sum / static_cast<double>(rows.size()));
 }
 
-std::vector<int> free_columns(const ModelParams& p) {
-  std::vector<int> cols;
-  for (std::size_t k = 0; k < p.specs.size(); ++k) {
-    if (!p.specs[k].fixed) cols.push_back(static_cast<int>(k));
-  }
-  return cols;
-}
-
 // The parameter that carries an effect's strength, and in words how the
 // extension's other parameters are set (at_strength()).
 struct Axis {
@@ -99,6 +91,32 @@ double reference_strength(const ModelParams& extended, Effect e) {
 
 }  // namespace
 
+std::vector<int> free_columns(const ModelParams& p) {
+  std::vector<int> cols;
+  for (std::size_t k = 0; k < p.specs.size(); ++k) {
+    if (!p.specs[k].fixed) cols.push_back(static_cast<int>(k));
+  }
+  return cols;
+}
+
+VisibleRows visible_rows(const ModelData& data, const FitResult& current, const std::vector<double>& current_model,
+                         const std::vector<char>& in_fit, const std::vector<char>& heldout) {
+  VisibleRows rows;
+  std::size_t n_heldout = 0;
+  rows.fit = every_kth(in_fit, rows.n_fit);
+  rows.heldout = every_kth(heldout, n_heldout);
+  rows.sigma_fit = rms_at(data.series.force_n, current_model, rows.fit);
+  rows.sigma_heldout = rms_at(data.series.force_n, current_model, rows.heldout);
+  rows.n_effective = current.n_effective > 0 ? current.n_effective : static_cast<double>(rows.n_fit);
+  return rows;
+}
+
+double visible_strength_z(const Eigen::VectorXd& r_fit, const VisibleRows& rows) {
+  if (r_fit.size() == 0 || !(rows.sigma_fit > 0)) return std::numeric_limits<double>::quiet_NaN();
+  const double power = r_fit.squaredNorm() / static_cast<double>(r_fit.size());
+  return std::sqrt(rows.n_effective * power) / rows.sigma_fit;
+}
+
 double normal_quantile(double p) {
   double lo = -40, hi = 40;  // P(N < z) = erfc(-z / sqrt 2) / 2 grows with z: bisection to the last bit
   for (int i = 0; i < 200 && lo < hi; ++i) {
@@ -147,18 +165,13 @@ void raise_to_fitted_error(DetectableStrength& figure, Effect effect, const std:
 DetectabilityBasis::DetectabilityBasis(const ModelData& data, const FitResult& current,
                                        const std::vector<double>& current_model, const std::vector<char>& in_fit,
                                        const std::vector<char>& heldout)
-    : data_(data), current_(current), current_model_(current_model) {
-  std::size_t n_heldout = 0;
-  fit_rows_ = every_kth(in_fit, n_fit_);
-  heldout_rows_ = every_kth(heldout, n_heldout);
-  if (fit_rows_.empty() || heldout_rows_.empty()) return;
+    : data_(data), current_(current), current_model_(current_model),
+      rows_(visible_rows(data, current, current_model, in_fit, heldout)) {
+  if (rows_.fit.empty() || rows_.heldout.empty()) return;
   const std::vector<int> cols = free_columns(current.params);
-  jacobian_fit_ = model_jacobian(data, current.params, current.params.theta, cols, fit_rows_);
-  jacobian_heldout_ = model_jacobian(data, current.params, current.params.theta, cols, heldout_rows_);
+  jacobian_fit_ = model_jacobian(data, current.params, current.params.theta, cols, rows_.fit);
+  jacobian_heldout_ = model_jacobian(data, current.params, current.params.theta, cols, rows_.heldout);
   qr_fit_.compute(jacobian_fit_);
-  sigma_fit_ = rms_at(data.series.force_n, current_model, fit_rows_);
-  sigma_heldout_ = rms_at(data.series.force_n, current_model, heldout_rows_);
-  n_effective_ = current.n_effective > 0 ? current.n_effective : static_cast<double>(n_fit_);
 }
 
 DetectabilityBasis::Visible DetectabilityBasis::visible(const ModelParams& extended, Effect effect, double s) const {
@@ -168,9 +181,9 @@ DetectabilityBasis::Visible DetectabilityBasis::visible(const ModelParams& exten
     for (std::size_t r = 0; r < rows.size(); ++r) d[static_cast<Eigen::Index>(r)] = model[rows[r]] - current_model_[rows[r]];
     return d;
   };
-  const Eigen::VectorXd df = change(fit_rows_);
+  const Eigen::VectorXd df = change(rows_.fit);
   Eigen::VectorXd rf = df;
-  Eigen::VectorXd rh = change(heldout_rows_);
+  Eigen::VectorXd rh = change(rows_.heldout);
   if (!rf.allFinite() || !rh.allFinite()) return {};
   // What a refit of the model's own parameters takes up (fitted on the fit
   // rows, carried to the held-out rows as the refitted model would be).
@@ -185,9 +198,9 @@ DetectabilityBasis::Visible DetectabilityBasis::visible(const ModelParams& exten
   const double norm = df.norm();
   if (norm > 0) {
     const double m = static_cast<double>(rf.size());
-    // Over m subsampled rows of n_fit_: sum d r / (sigma |d|) is the t of m
-    // independent rows; the fit's n_eff of its n_fit_ sets the real count.
-    v.score_t = std::fabs(df.dot(rf)) / (sigma_fit_ * norm) * std::sqrt(std::min(n_effective_, static_cast<double>(n_fit_)) / m);
+    // Over m subsampled rows of n_fit: sum d r / (sigma |d|) is the t of m
+    // independent rows; the fit's n_eff of its n_fit sets the real count.
+    v.score_t = std::fabs(df.dot(rf)) / (rows_.sigma_fit * norm) * std::sqrt(std::min(rows_.n_effective, static_cast<double>(rows_.n_fit)) / m);
   }
   return v;
 }
@@ -195,7 +208,8 @@ DetectabilityBasis::Visible DetectabilityBasis::visible(const ModelParams& exten
 std::optional<DetectableStrength> DetectabilityBasis::minimum_detectable_strength(
     Effect effect, const DetectabilityCriteria& criteria) const {
   const auto axis = axis_of(effect);
-  if (!axis || fit_rows_.empty() || heldout_rows_.empty() || !(sigma_heldout_ > 0) || !(sigma_fit_ > 0)) return std::nullopt;
+  if (!axis || rows_.fit.empty() || rows_.heldout.empty() || !(rows_.sigma_heldout > 0) || !(rows_.sigma_fit > 0)) return std::nullopt;
+  const double sigma_fit = rows_.sigma_fit, sigma_heldout = rows_.sigma_heldout;
   const ModelParams extended = with_effect(current_.params, effect, data_);
   int k_effect = 0;
   for (const auto& spec : extended.specs) k_effect += spec.effect == effect && !spec.fixed;
@@ -204,10 +218,10 @@ std::optional<DetectableStrength> DetectabilityBasis::minimum_detectable_strengt
   const double margin = normal_quantile(criteria.detection_probability);
   const double strength_z = criteria.min_strength_z + margin, score_t = criteria.min_score_t + margin;
   const double g = criteria.min_heldout_gain;
-  const double need_heldout = sigma_heldout_ * sigma_heldout_ * (1.0 / ((1.0 - g) * (1.0 - g)) - 1.0);
-  const double need_aicc = sigma_fit_ * sigma_fit_ *
-                           std::expm1((2.0 * k_effect - criteria.max_delta_aicc) / static_cast<double>(n_fit_));
-  const double need_strength = sigma_fit_ * sigma_fit_ * strength_z * strength_z / n_effective_;
+  const double need_heldout = sigma_heldout * sigma_heldout * (1.0 / ((1.0 - g) * (1.0 - g)) - 1.0);
+  const double need_aicc = sigma_fit * sigma_fit *
+                           std::expm1((2.0 * k_effect - criteria.max_delta_aicc) / static_cast<double>(rows_.n_fit));
+  const double need_strength = sigma_fit * sigma_fit * strength_z * strength_z / rows_.n_effective;
   const double need_fit = std::max(need_aicc, need_strength);
   const double reference = reference_strength(extended, effect);
   DetectableStrength out;

@@ -123,6 +123,29 @@ bool strength_is_linear(Effect effect);
 // minimum detectable strength's axis; DetectableStrength::axis in words).
 ModelParams with_strength(const ModelParams& current, Effect effect, const ModelData& data, double s);
 
+// The rows and the noise a visible part is judged on, shared by the minimum
+// detectable strength and the confusion check (analysis/effects/confusion.h):
+// a subsample of the fit and held-out rows (at most 20 000 of each), the
+// final model's residual RMS on each, and the final fit's effective sample
+// count (lag-1 autocorrelation).
+struct VisibleRows {
+  std::vector<std::size_t> fit, heldout;
+  std::size_t n_fit = 0;  // fit rows before subsampling
+  double sigma_fit = 0, sigma_heldout = 0;
+  double n_effective = 0;
+};
+
+VisibleRows visible_rows(const ModelData& data, const FitResult& current, const std::vector<double>& current_model,
+                         const std::vector<char>& in_fit, const std::vector<char>& heldout);
+
+// The strength gate's statistic for a visible part r on rows.fit:
+// sqrt(n_eff mean r^2) / sigma_fit, the t a strength alone would have with
+// the fit's autocorrelation-inflated errors (min_strength_z's units).
+double visible_strength_z(const Eigen::VectorXd& r_fit, const VisibleRows& rows);
+
+// The free parameters' columns of p (for model_jacobian).
+std::vector<int> free_columns(const ModelParams& p);
+
 // What every effect's question shares: the final model's Jacobian on a
 // subsample of the fit and held-out rows, factorised once.
 class DetectabilityBasis {
@@ -146,12 +169,9 @@ class DetectabilityBasis {
   const ModelData& data_;
   const FitResult& current_;
   const std::vector<double>& current_model_;
-  std::vector<std::size_t> fit_rows_, heldout_rows_;
+  VisibleRows rows_;
   Eigen::MatrixXd jacobian_fit_, jacobian_heldout_;
   Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr_fit_;
-  double sigma_fit_ = 0, sigma_heldout_ = 0;
-  std::size_t n_fit_ = 0;
-  double n_effective_ = 0;  // the final fit's effective sample count
 };
 
 }  // namespace tribo::analysis

@@ -444,6 +444,21 @@ ModelParams with_effect(const ModelParams& params, Effect e, const ModelData& d,
   return p;
 }
 
+ModelParams without_effect(const ModelParams& params, Effect e, const ModelData& d) {
+  ModelParams p;
+  p.structure = params.structure;
+  std::erase(p.structure.effects, e);
+  for (std::size_t k = 0; k < params.specs.size(); ++k) {
+    if (params.specs[k].effect == e) continue;
+    p.specs.push_back(params.specs[k]);
+    p.theta.push_back(params.theta[k]);
+  }
+  if (e == Effect::kDrift && params.structure.has(e) && !slides_one_way(d.motion)) {
+    p.specs[static_cast<std::size_t>(p.index("offset"))].fixed = false;
+  }
+  return p;
+}
+
 // Dieterich's ageing law along the measured motion, d theta/dt = 1 - |v|
 // theta / D_c, exactly over each sample interval at its mean velocity: theta
 // is the time at rest in a hold and relaxes to D_c / |v| within a slip of a

@@ -159,6 +159,12 @@ ModelParams with_slip_trend(const ModelParams& params, const ModelData& data);
 ModelParams with_effect(const ModelParams& params, Effect effect, const ModelData& data,
                         const std::vector<double>& initial_values = {});
 
+// params without effect: its parameters removed, the rest at their values.
+// Without drift the offset is free again where the record slides both ways
+// (the spline carried the constant; sliding one way the offset is held at
+// zero, lugre_fit.cc).
+ModelParams without_effect(const ModelParams& params, Effect effect, const ModelData& data);
+
 // Model force per sample, T = double or an autodiff scalar (analysis/models/autodiff.h).
 // theta has one entry per spec of params. friction (optional) receives the
 // friction part alone: the force without offset, inertia, tilt, drift and ripple.

@@ -76,7 +76,39 @@ std::string strengths_text(const std::vector<double>& strengths) {
   return text;
 }
 
+Json finite_or_null(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
+
+Json confusion_json(const EffectConfusion& c) {
+  Json rivals = Json::array();
+  for (const RivalConfusion& r : c.rivals) {
+    rivals.push_back({{"name", effect_name(r.rival)}, {"z", finite_or_null(r.z)}, {"explained", finite_or_null(r.explained)}});
+  }
+  const RivalConfusion* nearest = c.rivals.empty() ? nullptr : &c.rivals.front();
+  return {{"nearest", nearest ? Json(effect_name(nearest->rival)) : Json(nullptr)},
+          {"z", nearest ? finite_or_null(nearest->z) : Json(nullptr)},
+          {"explained", nearest ? finite_or_null(nearest->explained) : Json(nullptr)},
+          {"z_alone", finite_or_null(c.z_alone)},
+          {"z_needed", c.z_needed},
+          {"distinguishable", c.distinguishable()},
+          {"rivals", std::move(rivals)}};
+}
+
 }  // namespace
+
+std::string confusion_text(const EffectConfusion& c) {
+  if (c.rivals.empty() || std::isnan(c.rivals.front().z)) {
+    return fmt::sprintf("no rival applies to this record (its visible part alone at z = %.1f)", c.z_alone);
+  }
+  const RivalConfusion& n = c.rivals.front();
+  const std::string name(effect_name(n.rival));
+  if (c.distinguishable()) {
+    return fmt::sprintf("distinguishable from its nearest rival %s at z = %.1f (%s takes up %.0f %% of its visible part; z = %.1f alone)",
+                        name.c_str(), n.z, name.c_str(), 100 * n.explained, c.z_alone);
+  }
+  return fmt::sprintf("not distinguishable from %s at this record's noise: z = %.1f below %.1f (%s takes up %.0f %% of its "
+                      "visible part; z = %.1f alone)",
+                      name.c_str(), n.z, c.z_needed, name.c_str(), 100 * n.explained, c.z_alone);
+}
 
 std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const ReportInfo& info) {
   Json j;
@@ -199,6 +231,7 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
   for (const auto& a : d.accepted) {
     Json effect = {{"name", effect_name(a.effect)}, {"parameters", parameters_json(a.parameters)}};
     add_trial(effect, a.trial);
+    if (const auto& c = a.confusion) effect["confusion"] = confusion_json(*c);
     accepted.push_back(std::move(effect));
   }
   Json& rejected = j["rejected_effects"] = Json::array();
@@ -352,6 +385,7 @@ std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
     line("accepted %s: %s", std::string(effect_name(a.effect)).c_str(), a.trial.verdict.c_str());
     line("  signature: %s", a.trial.signature.summary.c_str());
     for (const auto& p : a.parameters) line("  %-20s %12.5g +- %-10.3g %s", p.name.c_str(), p.value, p.std_error, p.unit.c_str());
+    if (a.confusion) line("  %s", confusion_text(*a.confusion).c_str());
   }
   for (const auto& r : d.rejected) {
     line("rejected %s: %s", std::string(effect_name(r.effect)).c_str(), r.reason.c_str());

@@ -22,6 +22,10 @@ std::string diagnosis_text(const MeasuredSeries& series, const Diagnosis& d);
 // The text report's line for an effect's minimum detectable strength.
 std::string minimum_detectable_text(const DetectableStrength& m);
 
+// An accepted effect against its nearest rival, in words ("distinguishable
+// from its nearest rival rate_state at z = 5.2 ...").
+std::string confusion_text(const EffectConfusion& c);
+
 // dir/traces.csv: t_s, position_m, velocity_m_per_s, force, model_before, model_after, heldout, direction,
 //                 distance_since_start_m
 // dir/signatures.csv: effect, stage (accepted | rejected), x_label, y_label, x, y, y_error
