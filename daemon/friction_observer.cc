@@ -153,7 +153,14 @@ ObserverOutput observer_step(const IdentifiedFriction& m, const ObserverSettings
     const double g = level / m.sigma0_n_per_m;
     const double alpha = m.elasto_plastic ? plasticity(m.breakaway_ratio, v, s.bristle_m, g) : 1.0;
     const double correction = settings.observer_gain_per_s * in.position_error_m;
-    const double before = s.bristle_m;
+    // The bound is a projection, not a motion of the bristle: when the level
+    // falls (e.g. a log-velocity term as the command stops) the state is
+    // projected onto the new bound before it is differenced, or the damping
+    // would kick the drive by sigma1 times the jump over one tick; and a
+    // bristle held at the bound (the correction pushing beyond it) does not
+    // move. The damping takes the bristle's motion within the bound, never
+    // more than its own rate (a projection shortens distances).
+    const double before = std::clamp(s.bristle_m, -z_max, z_max);
     s.bristle_m = std::clamp(relax(s.bristle_m, v - correction, alpha * speed / g, h), -z_max, z_max);
     dz_dt = (s.bristle_m - before) / h;
   }

@@ -25,7 +25,9 @@
 // between samples), so a stiff contact or a slow loop (10 Hz) needs no
 // sub-steps. z^ stays within the static deflection Fs'/sigma0 at the present
 // load: F^ is bounded by the model's static friction whatever the correction
-// does. Fixed work per tick, no allocation, no I/O.
+// does. That bound is a projection of the state, not a motion of the bristle:
+// dz^/dt in the damping term is the bristle's motion within the tick's bound.
+// Fixed work per tick, no allocation, no I/O.
 #pragma once
 
 #include "daemon/identified_friction.h"

@@ -275,6 +275,65 @@ TEST(FrictionObserver, TheCorrectionCannotPushBeyondTheStaticFriction) {
   EXPECT_NEAR(m.sigma0_n_per_m * s.bristle_m, -m.static_level * in.normal_force_n, 1e-12);
 }
 
+// The bound on the bristle is a projection, not a motion: when the level
+// falls in one tick (a log-velocity term as the command stops) the bristle is
+// held to the lower bound, and the damping takes only the bristle's own rate,
+// here none (at rest, no correction), not sigma1 times the jump over the tick.
+TEST(FrictionObserver, TheDampingDoesNotDifferenceTheBristlesBound) {
+  IdentifiedFriction m = plain_model();
+  m.sigma1_n_s_per_m = 5.0;  // of the order of the default contact's 5.54
+  m.velocity_strengthening = true;
+  m.log_velocity_coeff = 0.01;  // the level falls by 0.01 ln 401 as 4 µm/s stops
+  m.reference_speed_m_per_s = 1e-6;
+  ObserverState s = observer_at_rest(m);
+  ObserverInput in;
+  in.commanded_velocity_m_per_s = 4e-6;
+  in.normal_force_n = 5e-3;
+  in.period_s = 1e-4;
+  for (int k = 0; k < 5000; ++k) observer_step(m, ObserverSettings{}, in, s);  // 2 µm: steady
+  const double sliding_bristle = s.bristle_m;
+  const double z_max_at_rest = identified_friction_level(m, 0, 1, in.normal_force_n, 0, 0) / m.sigma0_n_per_m;
+  ASSERT_GT(sliding_bristle, 1.2 * z_max_at_rest) << "the stop must clamp the bristle";
+  in.commanded_velocity_m_per_s = 0;
+  const ObserverOutput o = observer_step(m, ObserverSettings{}, in, s);
+  EXPECT_EQ(s.bristle_m, z_max_at_rest);
+  // At rest without correction the bristle's own rate is 0: no damping at all.
+  // Differencing the clamp would add sigma1 (z - z_max) / h, 2.8 mN here.
+  EXPECT_NEAR(o.friction_n, m.sigma0_n_per_m * z_max_at_rest, 1e-12);
+  // A command that still moves: the damping is at most sigma1 times the
+  // bristle's rate (at most |v|, it relaxes towards its steady deflection).
+  for (int k = 0; k < 5000; ++k) {
+    in.commanded_velocity_m_per_s = 4e-6;
+    observer_step(m, ObserverSettings{}, in, s);
+  }
+  in.commanded_velocity_m_per_s = 0.05e-6;
+  const double z_max_slow = std::max(identified_friction_level(m, 0.05e-6, 1, in.normal_force_n, 0, 0),
+                                     identified_friction_level(m, 0, 1, in.normal_force_n, 0, 0)) /
+                            m.sigma0_n_per_m;
+  ASSERT_GT(s.bristle_m, 1.1 * z_max_slow);
+  const ObserverOutput slow = observer_step(m, ObserverSettings{}, in, s);
+  const double damping = slow.friction_n - m.sigma0_n_per_m * s.bristle_m - m.viscous_n_s_per_m * 0.05e-6;
+  EXPECT_LE(std::fabs(damping), m.sigma1_n_s_per_m * 0.05e-6 + 1e-15);
+}
+
+// Held at the bound by the correction, the bristle does not move: the
+// observer's friction stays the model's static friction, with no damping of
+// the rate the correction asks beyond the bound.
+TEST(FrictionObserver, ABristleHeldAtItsBoundAddsNoDamping) {
+  IdentifiedFriction m = plain_model();
+  m.sigma1_n_s_per_m = 5.0;
+  ObserverSettings settings;
+  settings.observer_gain_per_s = 1e4;
+  ObserverState s = observer_at_rest(m);
+  ObserverInput in;
+  in.position_error_m = -5e-6;  // far behind: the correction asks 0.05 m/s
+  in.normal_force_n = 5e-3;
+  in.period_s = 1e-4;
+  ObserverOutput o;
+  for (int k = 0; k < 1000; ++k) o = observer_step(m, settings, in, s);
+  EXPECT_NEAR(o.friction_n, m.static_level * in.normal_force_n, 1e-12);
+}
+
 TEST(FrictionObserver, AReadingThatIsNotFiniteLeavesTheStateAlone) {
   const IdentifiedFriction m = plain_model();
   ObserverState s = observer_at_rest(m);
