@@ -245,7 +245,7 @@ AdvanceReport advance_lateral(const LateralPlant& plant, const LateralInputs& in
     stopped = integrate_lateral_split(plant, in, dt_s, plan.substeps, s, scheme);
   } else if (held) {
     stopped = integrate_lateral_held(plant, in, dt_s, plan.substeps, s, &now, settings.contact_law_tolerance_n, memory,
-                                     &law_evaluations);
+                                     &law_evaluations, settings.hold_law_over_substeps);
   } else {
     stopped = integrate_lateral(plant, in, dt_s, plan.substeps, s, &now.rate, scheme);
   }

@@ -96,6 +96,9 @@ struct IntegratorSettings {
   // Held contact: the friction force holding S at a sub-step's start may
   // move, at most (0: S also evaluated at every sub-step's midpoint).
   double contact_law_tolerance_n = 0;
+  // Held contact: S may also be held over a whole sub-step from the last
+  // evaluation (held_stribeck_n, sim/held_contact.h).
+  bool hold_law_over_substeps = false;
 };
 
 struct AdvanceReport {
