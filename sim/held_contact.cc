@@ -215,6 +215,16 @@ double held_stribeck_n(const LateralPlant& plant, const LateralInputs& in, const
   return q > 0 ? plant.friction.lugre.sigma0_n_per_m / q : 0.0;
 }
 
+double hold_law_at_tick_start(const LateralPlant& plant, const LateralInputs& in, LateralState& s, double dt_s,
+                              double tolerance_n, HeldContactMemory& memory) {
+  const double held_n = held_stribeck_n(plant, in, s, dt_s, tolerance_n, memory);
+  if (!(held_n > 0)) return 0.0;
+  const double most = held_n / plant.friction.lugre.sigma0_n_per_m;
+  s.bristle_m = std::clamp(s.bristle_m, -most, most);
+  memory.start_held = true;
+  return held_n;
+}
+
 bool held_contact_applies(const LateralPlant& plant) {
   const FrictionModel& m = plant.friction;
   return !plant.axis.backlash.enabled && !m.presliding_hysteresis.enabled && !m.frictional_lag.enabled;

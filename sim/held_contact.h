@@ -21,7 +21,13 @@
 // elasto-plastic blend within the sub-step (|z| + 2 v_reach h <= r g:
 // alpha = 0 at every stage, S does not enter the fast states' equations),
 // and where holding it moves the friction by at most a tolerance
-// (integrate_lateral_held). The drive's attraction is linear in x over the
+// (integrate_lateral_held). With hold_over_substeps (the default
+// instrument's integrator option) S is not evaluated at all over a whole
+// sub-step, held from the last evaluation, where the same estimate allows
+// it over the time since that evaluation and this sub-step, on a sliding
+// contact with the direct effect on the slip rate, at most one sub-step in
+// two (held_stribeck_n): at the tick's start this saves the solve of S
+// with the slip rate. The drive's attraction is linear in x over the
 // sub-step where its curvature term is below 1e-9 N. The law's formulas
 // live in sim/friction_effects.cc; this file only decides where they are
 // evaluated. With the direct effect on the slip rate an evaluation of S
@@ -80,6 +86,13 @@ struct HeldContactMemory {
 // sub-step's second half.
 double held_stribeck_n(const LateralPlant& plant, const LateralInputs& in, const LateralState& s, double h_s,
                        double tolerance_n, const HeldContactMemory& memory);
+
+// At a tick's start (sub-steps of at most dt_s): held_stribeck_n, and where
+// S is held, the bristle limited by it (S sliding is then at least S at
+// rest: limit_to_static_friction's limit) and memory.start_held set for the
+// tick's first sub-step. 0: S is to be evaluated (limit_to_static_friction).
+double hold_law_at_tick_start(const LateralPlant& plant, const LateralInputs& in, LateralState& s, double dt_s,
+                              double tolerance_n, HeldContactMemory& memory);
 
 // Advances s by dt_s in `substeps` equal sub-steps; true if the plate touched
 // a stop. `first`, if given, is lateral_derivative at s (the first sub-step's

@@ -100,23 +100,9 @@ StepReport SimInstrument::step(const DriveInput& drive, double dt_s) {
   inputs_.tip_force_n = load * tan_tilt_;
   inputs_.sample_velocity_m_per_s = truth_.sample_velocity_m_per_s;
   inputs_.sample_offset_m = truth_.sample_offset_m;
-  // S at the tick's start: the first evaluation of the step reuses it. Held
-  // from the last evaluation where that moves the friction by at most the
-  // tolerance over a sub-step (at most the tick): the bristle limited by it.
-  double stribeck_now = 0;
-  if (params_.integrator.held_contact && params_.integrator.hold_law_over_substeps) {
-    stribeck_now = held_stribeck_n(plant_, inputs_, lateral, dt_s, params_.integrator.contact_law_tolerance_n,
-                                   held_contact_);
-  }
-  if (stribeck_now > 0) {
-    const double most = stribeck_now / params_.friction.lugre.sigma0_n_per_m;
-    lateral.bristle_m = std::clamp(lateral.bristle_m, -most, most);
-    held_contact_.start_held = true;
-  } else {
-    const double last_q = held_contact_.end_inverse_scale_per_m;
-    stribeck_now = limit_to_static_friction(plant_, inputs_, lateral,
-                                            last_q > 0 ? params_.friction.lugre.sigma0_n_per_m / last_q : 0.0);
-  }
+  // S at the tick's start: the first evaluation of the step reuses it.
+  const double stribeck_now =
+      stribeck_at_tick_start(plant_, inputs_, params_.integrator, dt_s, lateral, held_contact_);
 
   // A handover first integrates its dead interval under the bias alone.
   AdvanceReport report;

@@ -1,13 +1,13 @@
 // ln(1 + d) for |d| <= kLogNearOneReach without a call to log: the Taylor
 // series to d^9, d - d^2/2 + d^3/3 - ... + d^9/9, summed in Estrin's scheme
 // (pairs, then pairs of pairs: a short dependency chain). The first term
-// left out is at most (1/32)^10 / 10 = 9e-18, under a tenth of the last bit
-// of ln(1 + d) + L for any L >= 1e-1 ... and 20 times below the double
-// precision of d itself at the reach. The slip-rate solve
-// (sim/friction_effects.cc) takes ln(1 + w / V*) at a slip rate w near one
-// whose logarithm it has: ln(V* + w) - ln(V* + w_ref) = ln(1 + d),
-// d = (w - w_ref) / (V* + w_ref): this and an addition in place of glibc's
-// log1p (34 ns of latency on the 2-core VM, log 19 ns).
+// left out is at most (1/32)^10 / 10 = 9e-17 absolute (it falls as |d|^10):
+// below the last bit of any logarithm above 0.7 that it is added to, and a
+// millionth of what the solve's residual asks of L. The slip-rate solve (sim/friction_effects.cc) takes
+// ln(1 + w / V*) at slip rates w near one whose logarithm it has taken:
+// ln(V* + w) - ln(V* + w_ref) = ln(1 + d), d = (w - w_ref) / (V* + w_ref),
+// with this and an addition in place of a call (glibc's log took 19-35 ns of
+// latency on the 2-core VM, this 16-20 ns, measured under load).
 // tests/sim/friction_effects_test.cc holds it against std::log1p over the reach.
 #pragma once
 

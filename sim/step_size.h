@@ -110,6 +110,13 @@ struct AdvanceReport {
   bool retried = false;  // the first attempt was not sane; the tick was redone (split, 4x sub-steps)
 };
 
+// S at a tick's start (of dt_s), the bristle limited by it: held from the
+// last evaluation where the settings allow (hold_law_at_tick_start,
+// sim/held_contact.h), else limit_to_static_friction, its solve of S with
+// the slip rate starting from memory's 1/g at the last sub-step's end.
+double stribeck_at_tick_start(const LateralPlant& plant, const LateralInputs& in, const IntegratorSettings& settings,
+                              double dt_s, LateralState& s, HeldContactMemory& memory);
+
 // Integrates the plant over dt_s under held inputs: estimates the rates,
 // plans the sub-steps and the scheme, and runs them.
 // stribeck_n_at_s: as for lateral_derivative (S at s, already computed).
