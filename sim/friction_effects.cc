@@ -4,6 +4,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "sim/log_near_one.h"
+
 namespace tribo::sim {
 
 double effective_load_n(const LoadDependenceParams& p, double n) {
@@ -182,13 +184,25 @@ double solve_at_deflection(const FrictionModel& m, const FrictionLevels& levels,
   double log_term = 0.0;
   if (guess_n > 0 && slope > 0) log_term = std::max(0.0, (guess_n - s0) / slope);
   double slip = 0.0, fixed = 0.0;
+  // The last slip rate whose logarithm was taken: ln(1 + w / V*) there and
+  // 1 / (V* + w) (none: w < 0).
+  double reference_w = -1.0, reference_log = 0.0, reference_inverse = 0.0;
   for (int i = 0; i < kSlipRateIterations; ++i) {
     const double s = s_of(log_term);
     const double u = z * sigma0 / s;
     const double alpha = plasticity(r, v, u, 1.0);
     slip = alpha * speed_abs * u;  // signed as z
     const double w = std::fabs(slip);
-    fixed = std::log1p(w * inverse_v_star);
+    const double inverse_level = 1.0 / (v_star + w);
+    const double near = (w - reference_w) * reference_inverse;
+    if (reference_w >= 0.0 && std::fabs(near) <= kLogNearOneReach) {
+      fixed = reference_log + log_near_one(near);
+    } else {
+      fixed = std::log(1.0 + w * inverse_v_star);
+      reference_w = w;
+      reference_log = fixed;
+      reference_inverse = inverse_level;
+    }
     const double h = log_term - fixed;
     if (!(std::fabs(h) * slope > kSlipRateResidual * s)) break;
     if (h < 0) {
@@ -204,7 +218,6 @@ double solve_at_deflection(const FrictionModel& m, const FrictionLevels& levels,
     const BlendSlopes b = blend_slopes(r, alpha);
     const double dphi = alpha + uabs * b.first, ddphi = 2.0 * b.first + uabs * b.second;  // of alpha |u|
     const double dw = speed_abs * dphi * du, ddw = speed_abs * (ddphi * du * du + dphi * ddu);
-    const double inverse_level = 1.0 / (v_star + w);
     const double dh = 1.0 - dw * inverse_level;
     const double ddh = (dw * dw * inverse_level - ddw) * inverse_level;
     const double denominator = 2.0 * dh * dh - h * ddh;

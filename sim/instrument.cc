@@ -101,9 +101,8 @@ StepReport SimInstrument::step(const DriveInput& drive, double dt_s) {
   inputs_.sample_velocity_m_per_s = truth_.sample_velocity_m_per_s;
   inputs_.sample_offset_m = truth_.sample_offset_m;
   // S at the tick's start: the first evaluation of the step reuses it.
-  const double last_q = held_contact_.end_inverse_scale_per_m;
-  const double stribeck_now = limit_to_static_friction(
-      plant_, inputs_, lateral, last_q > 0 ? params_.friction.lugre.sigma0_n_per_m / last_q : 0.0);
+  const double stribeck_now =
+      stribeck_at_tick_start(plant_, inputs_, params_.integrator, dt_s, lateral, held_contact_);
 
   // A handover first integrates its dead interval under the bias alone.
   AdvanceReport report;

@@ -13,10 +13,26 @@
 
 #include "sim/friction_effects.h"
 #include "sim/lateral_plant.h"
+#include "sim/log_near_one.h"
 #include "tests/sim/sim_test_support.h"
 
 namespace tribo::sim {
 namespace {
+
+// The slip-rate solve's logarithm near a known one: within 1e-16 of
+// std::log1p over its reach (the series' first term left out is 9e-17 at the
+// ends), and exactly 0 at 0.
+TEST(LogNearOne, MatchesLog1pOverItsReach) {
+  EXPECT_EQ(log_near_one(0.0), 0.0);
+  double worst = 0;
+  for (int i = -4000; i <= 4000; ++i) {
+    const double d = kLogNearOneReach * i / 4000.0;
+    worst = std::max(worst, std::fabs(log_near_one(d) - std::log1p(d)));
+  }
+  EXPECT_LT(worst, 1e-16);
+  // Twice the reach the series is visibly short: the reach is what it is for.
+  EXPECT_GT(std::fabs(log_near_one(-2 * kLogNearOneReach) - std::log1p(-2 * kLogNearOneReach)), 1e-15);
+}
 
 // The plant under test is declared: plain LuGre (tests/sim/sim_test_support.h),
 // not the default instrument.
