@@ -7,7 +7,6 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
-#include <thread>
 #include <utility>
 
 #include "analysis/models/autodiff.h"
@@ -123,17 +122,6 @@ std::vector<char> without_holds(const ModelData& data, std::vector<char> mask) {
 
 }  // namespace
 
-namespace {
-
-// The options of a fit that runs alone (no other job beside it): its
-// Jacobians shared by the cores (FitOptions::jacobian_threads).
-FitOptions alone_on_the_cores(FitOptions fit, unsigned threads) {
-  fit.jacobian_threads = threads == 0 ? std::max(1u, std::thread::hardware_concurrency()) : threads;
-  return fit;
-}
-
-}  // namespace
-
 // How much worse the other motion estimate may let the model predict the
 // held-out passes for its shifts to count as the motion's uncertainty.
 constexpr double kMaxAlternativeMotionRatio = 1.5;
@@ -149,7 +137,7 @@ void add_motion_systematic(const ModelData& primary, const MeasuredSeries& alter
   const MeasuredSeries alternative = with_motion_of(primary.series, alternative_motion);
   ModelData data(alternative, motion);
   data.set_drift_intervals(primary.drift_intervals());
-  const FitResult refit = fit_model(data, fit.params, in_fit, alone_on_the_cores(options.lugre.fit, options.threads));
+  const FitResult refit = fit_model(data, fit.params, in_fit, options.lugre.fit);
   if (!std::isfinite(refit.rss) || refit.estimates.size() != fit.estimates.size()) return;
   // A motion model under which the model predicts the held-out passes much
   // worse is not a defensible one for this record, and its shifts are misfit,
@@ -630,7 +618,7 @@ std::optional<BaseValley> base_valley_of_winner(const RoundInputs& in, const Eva
   for (const ParamSpec& spec : start.specs) {
     if (winner.params.index(spec.name) >= 0) start.set_value(spec.name, winner.params.value(spec.name));
   }
-  FitResult refit = fit_model(data, start, in.in_fit, alone_on_the_cores(in.options.lugre.fit, in.options.threads));
+  FitResult refit = fit_model(data, start, in.in_fit, in.options.lugre.fit);
   if (!(refit.rss < current.fit.rss)) return std::nullopt;
   if (!contact_objection(data, refit).empty() && contact_objection(data, current.fit).empty()) return std::nullopt;
   BaseValley valley{evaluate_fit(data, std::move(refit))};

@@ -14,7 +14,6 @@
 #include <unsupported/Eigen/LevenbergMarquardt>
 
 #include "analysis/models/autodiff.h"
-#include "analysis/parallel_for.h"
 
 namespace tribo::analysis {
 
@@ -89,8 +88,7 @@ struct RowSelection {
 
 void jacobian_rows(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
                    const std::vector<int>& columns, const RowSelection& rows, double sign,
-                   Eigen::Ref<Eigen::MatrixXd> out, std::vector<double>* model, Eigen::VectorXd* residual,
-                   unsigned threads = 1);
+                   Eigen::Ref<Eigen::MatrixXd> out, std::vector<double>* model, Eigen::VectorXd* residual);
 
 // Eigen's LM functor over the free parameters; residual = measured - model.
 // Residual and Jacobian rows are streamed from the simulation into the
@@ -127,7 +125,7 @@ struct ModelFunctor : Eigen::DenseFunctor<double> {
 
   int operator()(const Eigen::VectorXd& x, Eigen::VectorXd& fvec) const {
     if (Eigen::MatrixXd* free_storage = trial_storage()) {
-      jacobian_rows(data, params, full_theta(x), free, rows, -1.0, *free_storage, nullptr, &fvec, threads);
+      jacobian_rows(data, params, full_theta(x), free, rows, -1.0, *free_storage, nullptr, &fvec);
       trial_jacobian = free_storage->data();
       trial_x = x;
       return 0;
@@ -151,7 +149,7 @@ struct ModelFunctor : Eigen::DenseFunctor<double> {
     trial_jacobian = nullptr;
     if (computed) return 0;
     fjac.resize(m, k);
-    jacobian_rows(data, params, full_theta(x), free, rows, -1.0, fjac, nullptr, nullptr, threads);
+    jacobian_rows(data, params, full_theta(x), free, rows, -1.0, fjac, nullptr, nullptr);
     return 0;
   }
 
@@ -170,7 +168,6 @@ struct ModelFunctor : Eigen::DenseFunctor<double> {
   const ModelParams& params;
   RowSelection rows;  // the fit samples
   std::vector<int> free;
-  unsigned threads = 1;  // FitOptions::jacobian_threads
   // The solver's Jacobian (lm.jacobian()).
   Eigen::MatrixXd* solver_jacobian = nullptr;
   // The Jacobian last computed at a trial point: its storage and the point.
@@ -295,10 +292,10 @@ void jacobian_with(const ModelData& data, const ModelParams& params, const std::
   simulate_streamed<T>(data, params, dual, SampleSink<T>(row), plan.through_rest_state ? &rest : nullptr);
 }
 
-// jacobian_rows for one plan of columns.
-void jacobian_of_plan(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
-                      const ColumnPlan& plan, const RowSelection& rows, double sign,
-                      Eigen::Ref<Eigen::MatrixXd> out, std::vector<double>* model, Eigen::VectorXd* residual) {
+void jacobian_rows(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
+                   const std::vector<int>& columns, const RowSelection& rows, double sign,
+                   Eigen::Ref<Eigen::MatrixXd> out, std::vector<double>* model, Eigen::VectorXd* residual) {
+  const ColumnPlan plan = plan_columns(data, params, theta, columns);
   // The derivative vector's length sets the cost of every operation: the
   // next even width (whole SSE2 registers). Each derivative is computed on
   // its own, element by element, so the padding changes no value.
@@ -321,29 +318,6 @@ void jacobian_of_plan(const ModelData& data, const ModelParams& params, const st
   }
   if (k <= 32) return jacobian_with<FixedDual<32>>(data, params, theta, plan, rows, sign, out, model, residual);
   throw std::invalid_argument("model_jacobian: more than 32 free parameters");
-}
-
-void jacobian_rows(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
-                   const std::vector<int>& columns, const RowSelection& rows, double sign,
-                   Eigen::Ref<Eigen::MatrixXd> out, std::vector<double>* model, Eigen::VectorXd* residual,
-                   unsigned threads) {
-  const ColumnPlan plan = plan_columns(data, params, theta, columns);
-  // Split by the dual columns: each derivative is computed on its own, and
-  // the values alike in both simulations (value_of() decides every branch),
-  // so the columns are those of one simulation, bit for bit. The second
-  // part takes the additive columns (and the rest-state lane), the model
-  // and the residual.
-  if (threads < 2 || plan.dual.size() < 4) return jacobian_of_plan(data, params, theta, plan, rows, sign, out, model, residual);
-  const std::size_t half = plan.dual.size() / 2;
-  ColumnPlan first, second = plan;
-  first.dual.assign(plan.dual.begin(), plan.dual.begin() + static_cast<std::ptrdiff_t>(half));
-  first.dual_out.assign(plan.dual_out.begin(), plan.dual_out.begin() + static_cast<std::ptrdiff_t>(half));
-  second.dual.erase(second.dual.begin(), second.dual.begin() + static_cast<std::ptrdiff_t>(half));
-  second.dual_out.erase(second.dual_out.begin(), second.dual_out.begin() + static_cast<std::ptrdiff_t>(half));
-  parallel_for(2, 2, [&](std::size_t part) {
-    if (part == 0) jacobian_of_plan(data, params, theta, first, rows, sign, out, nullptr, nullptr);
-    else jacobian_of_plan(data, params, theta, second, rows, sign, out, model, residual);
-  });
 }
 
 }  // namespace
@@ -417,7 +391,6 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
   }
 
   ModelFunctor functor(data, initial, in_fit, fit_samples, free);
-  functor.threads = options.jacobian_threads;
   Eigen::VectorXd x(static_cast<Eigen::Index>(free.size()));
   for (std::size_t j = 0; j < free.size(); ++j) {
     x[static_cast<Eigen::Index>(j)] = initial.theta[static_cast<std::size_t>(free[j])] + ModelFunctor::kShift;

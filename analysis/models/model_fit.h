@@ -26,11 +26,6 @@ namespace tribo::analysis {
 struct FitOptions {
   int max_iterations = 60;       // Jacobian evaluations
   double tolerance = 1e-6;       // relative change of cost and parameters
-  // Threads that share each Jacobian, by its columns (at most two): for a
-  // fit that runs while the other cores idle. Each thread simulates the model
-  // with its share of the dual numbers, so the Jacobian and the fit are the
-  // same bit for bit, at the price of the values simulated twice.
-  unsigned jacobian_threads = 1;
 };
 
 struct ParamEstimate {
