@@ -326,29 +326,26 @@ bool accepted_when_injected(const ModelData& data, const EvaluatedFit& current, 
                             candidate_objection(record, fit, effect, model, options.min_strength_z), options);
 }
 
-// The strengths at which a minimum detectable strength is checked by
-// rediagnosis (accepted_when_injected), in turn: the figure itself, then two
-// and four times it, up to the strength searched; none for an effect not
-// rediagnosed or a figure that is not a strength.
-std::vector<double> rediagnosis_strengths(Effect effect, const DetectableStrength& figure) {
-  std::vector<double> out;
-  if (!rediagnosed(effect) || !std::isfinite(figure.value) || !(figure.value > 0)) return out;
+// The minimum detectable strength checked by rediagnosis
+// (accepted_when_injected) at itself, then at two and four times it: the
+// first strength found is the figure; none found, no figure.
+void check_by_rediagnosis(const ModelData& data, const EvaluatedFit& current, const std::vector<char>& in_fit,
+                          const std::vector<char>& heldout, const DiagnosisOptions& options, Effect effect,
+                          DetectableStrength& figure) {
+  if (!rediagnosed(effect) || !std::isfinite(figure.value) || !(figure.value > 0)) return;
+  const double first = figure.value;
   for (double factor : {1.0, 2.0, 4.0}) {
-    const double s = factor * figure.value;
+    const double s = factor * first;
     if (factor > 1.0 && s > figure.searched_up_to) break;
-    out.push_back(s);
+    figure.rediagnosed_at.push_back(s);
+    if (accepted_when_injected(data, current, in_fit, heldout, options, effect, s)) {
+      figure.from_rediagnosis = factor > 1.0;
+      figure.value = s;
+      return;
+    }
   }
-  return out;
-}
-
-// The figure once checked at strengths: the first at which the effect was
-// accepted (first, an index into strengths; strengths.size(): at none, and
-// then no figure).
-void record_rediagnosis(const std::vector<double>& strengths, std::size_t first, DetectableStrength& figure) {
-  if (strengths.empty()) return;
-  figure.rediagnosed_at.assign(strengths.begin(), strengths.begin() + static_cast<std::ptrdiff_t>(std::min(first + 1, strengths.size())));
-  figure.from_rediagnosis = first > 0;
-  figure.value = first < strengths.size() ? strengths[first] : std::numeric_limits<double>::infinity();
+  figure.from_rediagnosis = true;
+  figure.value = std::numeric_limits<double>::infinity();
 }
 
 }  // namespace
@@ -693,27 +690,10 @@ void add_minimum_detectable(const RoundInputs& in, const EvaluatedFit& current, 
 // force, and the basis beside them raised the diagnosis' peak heap from 204
 // to 369 bytes a sample (tests/analysis/fit_memory_test.cc).
 void check_minimum_detectable_by_rediagnosis(const RoundInputs& in, const EvaluatedFit& current, Diagnosis& out) {
-  // Each effect's strengths are a chain tried in turn; the chains share the
-  // cores step by step (first_passing_steps), so that the effect with the
-  // most strengths to try does not run them one after the other on one core
-  // while the other idles.
-  std::vector<std::size_t> figures;
-  std::vector<std::vector<double>> strengths;
-  for (std::size_t j = 0; j < out.rejected.size(); ++j) {
-    const RejectedEffect& r = out.rejected[j];
-    if (!r.minimum_detectable) continue;
-    std::vector<double> s = rediagnosis_strengths(r.effect, *r.minimum_detectable);
-    if (s.empty()) continue;
-    figures.push_back(j);
-    strengths.push_back(std::move(s));
-  }
-  std::vector<std::size_t> steps;
-  for (const auto& s : strengths) steps.push_back(s.size());
-  const std::vector<std::size_t> first = first_passing_steps(steps, in.options.threads, [&](std::size_t c, std::size_t k) {
-    return accepted_when_injected(in.data, current, in.in_fit, in.heldout, in.options, out.rejected[figures[c]].effect,
-                                  strengths[c][k]);
+  parallel_for(out.rejected.size(), in.options.threads, [&](std::size_t j) {
+    RejectedEffect& r = out.rejected[j];
+    if (r.minimum_detectable) check_by_rediagnosis(in.data, current, in.in_fit, in.heldout, in.options, r.effect, *r.minimum_detectable);
   });
-  for (std::size_t c = 0; c < figures.size(); ++c) record_rediagnosis(strengths[c], first[c], *out.rejected[figures[c]].minimum_detectable);
 }
 
 // A final model whose Stribeck curve rises from the static level to the
