@@ -8,6 +8,8 @@
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
 
+#include "analysis/motion/gram_in_sample_order.h"
+
 namespace tribo::analysis {
 
 namespace {
@@ -467,20 +469,27 @@ MotionEstimate estimate_motion_with_reference(const std::vector<double>& t, cons
     for (int k = 0; k < force_taps; ++k) row[taps + k] = force_padded[static_cast<std::size_t>(force_taps - 1 - k) + i];
     row[taps + force_taps] = 1.0;
   };
-  // The normal equations by a rank-one update per sample, in sample order.
-  // Forming them from sums over the windows and shifting those by a sample
-  // is cheaper (a few percent of the diagnosis' CPU) but sums in another
-  // order; the reference taps are nearly collinear, and that rounding moved
-  // the final model of an 800 s record past its standard errors.
-  Eigen::MatrixXd xtx = Eigen::MatrixXd::Zero(cols, cols);
+  // The normal equations summed in sample order, each element as a rank-one
+  // update per sample would sum it. Forming them from sums over the windows
+  // and shifting those by a sample is cheaper (a few percent of the
+  // diagnosis' CPU) but sums in another order; the reference taps are nearly
+  // collinear, and that rounding moved the final model of an 800 s record
+  // past its standard errors.
+  Eigen::MatrixXd xtx;
+  {
+    std::vector<double> ones(n, 1.0);
+    std::vector<const double*> columns;
+    for (int c = 0; c < taps; ++c) columns.push_back(reference_padded.data() + (taps - 1 - c));
+    for (int k = 0; k < force_taps; ++k) columns.push_back(force_padded.data() + (force_taps - 1 - k));
+    columns.push_back(ones.data());
+    xtx = gram_in_sample_order(columns, n);
+  }
   Eigen::VectorXd xty = Eigen::VectorXd::Zero(cols);
   Eigen::VectorXd row(cols);
   for (std::size_t i = 0; i < n; ++i) {
     fill_row(i, row);
-    xtx.selfadjointView<Eigen::Lower>().rankUpdate(row);
     xty += row * (x[i] - r0);
   }
-  xtx = xtx.selfadjointView<Eigen::Lower>();
   const Eigen::VectorXd coef = xtx.ldlt().solve(xty);
   std::vector<double> e(n);  // the loop model's residual
   std::vector<double> xm(n);

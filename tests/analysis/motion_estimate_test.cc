@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "analysis/input/measured_series.h"
+#include "analysis/motion/gram_in_sample_order.h"
 
 namespace tribo::analysis {
 namespace {
@@ -296,6 +297,49 @@ TEST(MotionEstimate, TheLoopRegressionFindsAKnownResponseExactly) {
   ASSERT_EQ(m.loop_force_taps, 3);
   EXPECT_GT(m.loop_variance_explained, 1.0 - 1e-12);
   EXPECT_NEAR(m.loop_force_response_m_per_n, -3.5e-5, 3.5e-5 * 1e-9);
+}
+
+// The loop model's normal equations: the tiled sum is the rank-one updates'
+// sum bit for bit (the same products added in sample order), on windows of a
+// random walk (nearly collinear columns, where the order of the sum shows in
+// the last bits), 11 columns (not a whole number of tiles) and a constant.
+TEST(MotionEstimate, TheGramMatrixIsTheRankOneUpdatesBitForBit) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> step(0.0, 1e-7);
+  const std::size_t n = 5000;
+  const int taps = 10;
+  std::vector<double> walk(n + taps);
+  for (std::size_t i = 1; i < walk.size(); ++i) walk[i] = walk[i - 1] + step(rng) + 3e-9;
+  const std::vector<double> ones(n, 1.0);
+  std::vector<const double*> columns;
+  for (int c = 0; c < taps; ++c) columns.push_back(walk.data() + (taps - 1 - c));
+  columns.push_back(ones.data());
+  const auto cols = static_cast<Eigen::Index>(columns.size());
+  Eigen::MatrixXd expected = Eigen::MatrixXd::Zero(cols, cols);
+  Eigen::VectorXd row(cols);
+  for (std::size_t i = 0; i < n; ++i) {
+    for (Eigen::Index c = 0; c < cols; ++c) row[c] = columns[static_cast<std::size_t>(c)][i];
+    expected.selfadjointView<Eigen::Lower>().rankUpdate(row);
+  }
+  expected = expected.selfadjointView<Eigen::Lower>();
+  const Eigen::MatrixXd gram = gram_in_sample_order(columns, n);
+  ASSERT_EQ(gram.rows(), cols);
+  ASSERT_EQ(gram.cols(), cols);
+  for (Eigen::Index a = 0; a < cols; ++a) {
+    for (Eigen::Index b = 0; b < cols; ++b) EXPECT_EQ(gram(a, b), expected(a, b)) << a << ", " << b;
+  }
+  // The same sum in blocks of samples (as a GEMM forms it) differs in the last bits here.
+  Eigen::MatrixXd blocked = Eigen::MatrixXd::Zero(cols, cols);
+  for (std::size_t first = 0; first < n; first += 1000) {
+    Eigen::MatrixXd block = Eigen::MatrixXd::Zero(cols, cols);
+    for (std::size_t i = first; i < first + 1000; ++i) {
+      for (Eigen::Index c = 0; c < cols; ++c) row[c] = columns[static_cast<std::size_t>(c)][i];
+      block.selfadjointView<Eigen::Lower>().rankUpdate(row);
+    }
+    blocked += block;
+  }
+  blocked = blocked.selfadjointView<Eigen::Lower>();
+  EXPECT_NE(blocked, expected);
 }
 
 }  // namespace
