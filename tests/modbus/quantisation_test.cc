@@ -116,8 +116,8 @@ TEST(ModbusQuantisation, ShippedMapKeepsTheFrictionAndASixteenBitMapBiasesIt) {
   EXPECT_NEAR(through_map.mean_friction_n, reference.mean_friction_n, tolerance);
   // The coarse map fails that comparison by far: its 0.5 nm steps, inside the
   // position loop, dither the contact and move the friction by more than 1 %
-  // (measured: +2.3 % with the default contact, -5 % with plain LuGre, which
-  // loses friction under dither).
+  // (measured: -15 % with the default contact, -5 % with plain LuGre: both
+  // lose friction under dither).
   EXPECT_GT(std::fabs(through_coarse_map.mean_friction_n / reference.mean_friction_n - 1), 0.01);
 }
 
