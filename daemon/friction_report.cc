@@ -102,6 +102,18 @@ std::variant<FrictionReport, std::string> read(const Json& j) {
     if (unit != "N") return "input.force_unit is " + unit + ": the compensation needs forces in N";
   }
   const Json base = j.value("base_model", Json::object());
+  // tribo-fit still writes a final model when it judges the record not
+  // described (a bound passed); in the loop that model would push the tip
+  // with a friction the record never showed. Hand-written reports carry no
+  // judgement and are taken as they are.
+  if (base.contains("describes_record") && base.at("describes_record").is_boolean() &&
+      !base.at("describes_record").get<bool>()) {
+    std::string why = "base_model.describes_record is false: tribo-fit says its model does not describe the record";
+    for (const Json& reason : base.value("not_describing_reasons", Json::array())) {
+      if (reason.is_string()) why += "; " + reason.get<std::string>();
+    }
+    return why;
+  }
   m.load_scaled = base.value("load_scaled", false);
   m.stribeck_exponent = base.value("stribeck_exponent", 1.0);
   if (!(m.stribeck_exponent > 0) || !std::isfinite(m.stribeck_exponent)) {

@@ -109,6 +109,11 @@ TEST(FrictionReport, RefusesWhatTheCompensationCannotRepresentNamingIt) {
   j["final_model"]["parameters"][3]["value"] = nullptr;  // tribo-fit writes null for what it could not compute
   EXPECT_NE(error_of(j.dump()).find("sigma0"), std::string::npos);
   j = Json::parse(text);
+  j["base_model"]["describes_record"] = false;
+  j["base_model"]["not_describing_reasons"] = Json::array({"base model out of bounds: mu_s 2.22e+16"});
+  EXPECT_NE(error_of(j.dump()).find("base_model.describes_record is false"), std::string::npos) << error_of(j.dump());
+  EXPECT_NE(error_of(j.dump()).find("mu_s 2.22e+16"), std::string::npos);
+  j = Json::parse(text);
   j.erase("final_model");
   EXPECT_NE(error_of(j.dump()).find("no final_model"), std::string::npos);
   EXPECT_NE(error_of("{\"final_model\": ").find("not JSON"), std::string::npos);
