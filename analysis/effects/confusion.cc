@@ -27,6 +27,15 @@ std::vector<int> columns_of(const ModelParams& p, Effect e) {
   return cols;
 }
 
+// Removes from the columns of m what the decomposed columns span: with
+// Q R = J, m - Q_r Q_r^T m = Q [0; (Q^T m) below the rank].
+void project_off(const Eigen::ColPivHouseholderQR<Eigen::Ref<Eigen::MatrixXd>>& qr, Eigen::Ref<Eigen::MatrixXd> m) {
+  if (qr.rank() == 0) return;
+  m.applyOnTheLeft(qr.householderQ().adjoint());
+  m.topRows(qr.rank()).setZero();
+  m.applyOnTheLeft(qr.householderQ());
+}
+
 }  // namespace
 
 EffectConfusion confusion_with_rivals(const ModelData& data, const FitResult& final_fit,
@@ -38,13 +47,16 @@ EffectConfusion confusion_with_rivals(const ModelData& data, const FitResult& fi
   std::vector<double> model_without;
   Eigen::MatrixXd base = model_jacobian(data, without, without.theta, free_columns(without), rows.fit, &model_without);
   zero_nonfinite_columns(base);
-  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> base_qr(base);
+  // Decomposed in place: the Jacobians are m x k, and a copy of each would
+  // set the diagnosis's peak memory.
+  const Eigen::ColPivHouseholderQR<Eigen::Ref<Eigen::MatrixXd>> base_qr(base);
   Eigen::VectorXd visible(static_cast<Eigen::Index>(rows.fit.size()));
   for (std::size_t r = 0; r < rows.fit.size(); ++r) {
     visible[static_cast<Eigen::Index>(r)] = final_model[rows.fit[r]] - model_without[rows.fit[r]];
   }
+  std::vector<double>().swap(model_without);
   if (!visible.allFinite()) return out;
-  if (base.cols() > 0) visible -= base * base_qr.solve(visible);
+  if (base.cols() > 0) project_off(base_qr, visible);
   out.z_alone = visible_strength_z(visible, rows);
   const double power = visible.squaredNorm();
 
@@ -65,10 +77,10 @@ EffectConfusion confusion_with_rivals(const ModelData& data, const FitResult& fi
     zero_nonfinite_columns(own);
     // The rival's directions less what the base already spans: the
     // projection on [J_base, J_Y] of a vector orthogonal to J_base.
-    if (base.cols() > 0) own -= base * base_qr.solve(own);
-    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> own_qr(own);
+    if (base.cols() > 0) project_off(base_qr, own);
+    const Eigen::ColPivHouseholderQR<Eigen::Ref<Eigen::MatrixXd>> own_qr(own);
     Eigen::VectorXd left = visible;
-    if (own_qr.rank() > 0) left -= own * own_qr.solve(visible);
+    project_off(own_qr, left);
     c.z = visible_strength_z(left, rows);
     c.explained = power > 0 ? std::clamp(1.0 - left.squaredNorm() / power, 0.0, 1.0) : std::numeric_limits<double>::quiet_NaN();
   });

@@ -144,10 +144,10 @@ ModelParams with_flat_stribeck(ModelParams p) {
 // the Coulomb level), as the rate-and-state contact starts, the law carrying
 // the static-kinetic difference itself. From the second start the Stribeck
 // velocity can fall below every sampled speed (0.2 nm/s), where the static
-// level no longer moves the model and stays wherever the fit left it: on the
-// fitted contact's clean run (seed 2, 5 uN) integrated at h lambda <= 1, at
-// 0.15 of the Coulomb level, past its bound, and plain LuGre was chosen; from
-// the flat start the fit lands within its bounds at a lower residual. Only as
+// level no longer moves the model and stays wherever the fit left it (seen on
+// a clean run of the fitted contact: at 0.15 of the Coulomb level, past its
+// bound, and plain LuGre was chosen); from the flat start that fit landed
+// within its bounds at a lower residual. Only as
 // a fallback: on the frictional-lag run of the contact-choice tests (seed 4)
 // the flat start found a lower in-fit residual than a physical second start
 // and predicted the held-out passes worse (4.8 uN against 3.5).

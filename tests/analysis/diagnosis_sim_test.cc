@@ -375,11 +375,9 @@ TEST(DiagnosisSim, ACandidateWhoseGainIsTheContactsOwnIsNotAccepted) {
 // (contact_choice.cc, fit_nested_law), it is physical: the ratio inside its
 // bound (the sim's is 0.917), a and b positive, and it predicts the held-out
 // passes better than the contact fitted before it.
-void expect_a_physical_nested_contact(std::uint64_t seed, const std::function<void(v1::DaemonConfig&)>& edit = {}) {
+void expect_a_physical_nested_contact(std::uint64_t seed) {
   {
-    const DiagnoseOutcome outcome = diagnose_default_run_with_contact_choice(seed, [&](v1::DaemonConfig& c) {
-      if (edit) edit(c);
-    });
+    const DiagnoseOutcome outcome = diagnose_clean_default_run_with_contact_choice(seed);
     ASSERT_TRUE(outcome.error.empty()) << outcome.error;
     const Diagnosis& d = outcome.diagnosis;
     report("fitted contact, clean, contact chosen, seed " + std::to_string(seed), d);
@@ -408,18 +406,6 @@ void expect_a_physical_nested_contact(std::uint64_t seed, const std::function<vo
 TEST(DiagnosisSim, TheNestedRateStateContactIsPhysicalOnTheFittedContact) { expect_a_physical_nested_contact(1); }
 
 TEST(DiagnosisSim, TheNestedRateStateContactIsPhysicalOnTheFittedContactSeed2) { expect_a_physical_nested_contact(2); }
-
-// Seed 2's record integrated at h lambda <= 1 (the held contact's default is
-// 1.5): the same run, only the sim's step finer. On it the nested fit's two starts both land past a bound: the
-// last fit's breakaway ratio at 0.996, and from the restart a Stribeck
-// velocity of 0.2 nm/s, below every sampled speed, that leaves the static
-// level at 0.15 of the Coulomb level, where nothing in the record moves it;
-// plain LuGre was then chosen. The third start, the Stribeck curve flat
-// (contact_choice.cc, fit_nested_law), reaches the physical optimum from this
-// record too.
-TEST(DiagnosisSim, TheNestedRateStateContactIsPhysicalOnTheFittedContactSeed2AtAFinerStep) {
-  expect_a_physical_nested_contact(2, [](v1::DaemonConfig& c) { c.mutable_sim()->mutable_integrator()->set_max_h_lambda(1.0); });
-}
 
 // The minimum detectable strength is a prediction the diagnosis can be held
 // to: velocity strengthening at what the clean record needs (the strength
