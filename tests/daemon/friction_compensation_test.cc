@@ -357,18 +357,29 @@ TEST(FrictionCompensationRun, TheStartDocumentRecordsTheReportsHashAndParameters
   for (const Sample& s : run.samples) ASSERT_TRUE(s.status_flags & v1::FRICTION_COMPENSATED) << s.time_s;
 }
 
+// The break-away protocol without and with a friction model, seed 1, both
+// run to the end, and its three slides.
+struct WithoutAndWith {
+  tribo::testing::InProcessRun before, after;
+  std::vector<std::uint32_t> slides;
+};
+
+WithoutAndWith breakaway_without_and_with(const v1::DaemonConfig& config, const std::string& report) {
+  const v1::Protocol protocol = shipped_protocol("breakaway_velocities.textproto");
+  WithoutAndWith r{run_in_process(config, protocol, 1), run_in_process(config, with_friction_model(protocol, report), 1), {}};
+  EXPECT_EQ(r.before.outcome.end, RunEnd::kCompleted);
+  EXPECT_EQ(r.after.outcome.end, RunEnd::kCompleted);
+  r.slides = segments_named(r.before, "slide");
+  EXPECT_EQ(r.slides.size(), 3u);
+  return r;
+}
+
 // §5.3.1: the tip overshoots the commanded velocity after break-away. Fed
 // forward, the identified friction lowers it at every speed, and the
 // reversals follow the setpoint more closely.
 TEST(FrictionCompensationRun, LowersTheOvershootAfterBreakAwayAndTheErrorAtReversals) {
-  const v1::DaemonConfig config = tribo::testing::fitted_contact_config();
-  const v1::Protocol protocol = shipped_protocol("breakaway_velocities.textproto");
-  const auto before = run_in_process(config, protocol, 1);
-  const auto after = run_in_process(config, with_friction_model(protocol, identification_report()), 1);
-  ASSERT_EQ(before.outcome.end, RunEnd::kCompleted);
-  ASSERT_EQ(after.outcome.end, RunEnd::kCompleted);
-  const auto slides = segments_named(before, "slide");
-  ASSERT_EQ(slides.size(), 3u);
+  const auto [before, after, slides] = breakaway_without_and_with(tribo::testing::fitted_contact_config(), identification_report());
+  ASSERT_FALSE(HasFailure());
   for (std::uint32_t segment : slides) {
     const auto b = breakaway_figures(before, segment);
     const auto a = breakaway_figures(after, segment);
@@ -395,17 +406,11 @@ TEST(FrictionCompensationRun, LowersTheOvershootAfterBreakAwayAndTheErrorAtRever
 // with: overshoot 3.21 / 1.94 / 1.52 and 2.17 / 1.36 / 1.13 at 4 / 18 /
 // 36 µm/s, reversal RMS 0.829 and 0.366 µm (docs/friction_compensation.md).
 TEST(FrictionCompensationRun, OnTheDefaultInstrumentLowersTheOvershootAndTheErrorAtReversals) {
-  const v1::DaemonConfig config = tribo::testing::default_config();
   auto report =
       wire::read_file(std::string(TRIBO_SOURCE_DIR) + "/tests/data/friction_reports/default_identification.json");
   ASSERT_TRUE(report);
-  const v1::Protocol protocol = shipped_protocol("breakaway_velocities.textproto");
-  const auto before = run_in_process(config, protocol, 1);
-  const auto after = run_in_process(config, with_friction_model(protocol, *report), 1);
-  ASSERT_EQ(before.outcome.end, RunEnd::kCompleted);
-  ASSERT_EQ(after.outcome.end, RunEnd::kCompleted);
-  const auto slides = segments_named(before, "slide");
-  ASSERT_EQ(slides.size(), 3u);
+  const auto [before, after, slides] = breakaway_without_and_with(tribo::testing::default_config(), *report);
+  ASSERT_FALSE(HasFailure());
   for (std::uint32_t segment : slides) {
     const auto b = breakaway_figures(before, segment);
     const auto a = breakaway_figures(after, segment);
