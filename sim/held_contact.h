@@ -21,8 +21,8 @@
 // elasto-plastic blend within the sub-step (|z| + 2 v_reach h <= r g:
 // alpha = 0 at every stage, S does not enter the fast states' equations),
 // and where holding it moves the friction by at most a tolerance
-// (integrate_lateral_held). With hold_over_substeps (the default
-// instrument's integrator option) S is not evaluated at all over a whole
+// (integrate_lateral_held). With hold_over_substeps (an integrator
+// option, off in the shipped configs: inaccurate at low speed) S is not evaluated at all over a whole
 // sub-step, held from the last evaluation, where the same estimate allows
 // it over the time since that evaluation and this sub-step, on a sliding
 // contact with the direct effect on the slip rate, at most one sub-step in
