@@ -66,12 +66,11 @@ double slip_sensitivity(const LugreParams& p, double alpha, double u) {
 }
 
 // The friction force that holding 1/g at q moves on average over a sub-step
-// of h, held for held_s before it, 1/g changing at change_per_s: the slip
-// alpha |v| u (u = z q) moves by |v| (alpha + |u| dalpha/du) |z| dq, times sigma1.
+// of h, 1/g changing at change_per_s: the slip alpha |v| u (u = z q) moves by
+// |v| (alpha + |u| dalpha/du) |z| dq, times sigma1.
 double held_friction_change_n(const LugreParams& p, double alpha, double v, double z, double q, double change_per_s,
-                              double held_s, double h) {
-  return p.sigma1_n_s_per_m * slip_sensitivity(p, alpha, z * q) * std::fabs(v) * std::fabs(z) * change_per_s *
-         (held_s + 0.5 * h);
+                              double h) {
+  return p.sigma1_n_s_per_m * slip_sensitivity(p, alpha, z * q) * std::fabs(v) * std::fabs(z) * change_per_s * 0.5 * h;
 }
 
 // 1/g remembered, at the present levels: S scales with them at a given
@@ -79,26 +78,6 @@ double held_friction_change_n(const LugreParams& p, double alpha, double v, doub
 // with the load), so 1/g is taken at the same load-normalised value.
 double remembered_inverse_scale(const LateralInputs& in, const HeldContactMemory& memory) {
   return memory.inverse_scale_per_m * (memory.coulomb_n / in.levels.coulomb_n);
-}
-
-constexpr int kMaxHeldStarts = 1;
-
-// held_stribeck_n's decision at relative velocity v and bristle z: 1/g
-// held from memory, or 0.
-double held_inverse_scale(const LateralPlant& plant, const LateralInputs& in, double v, double z, double h,
-                          double tolerance_n, const HeldContactMemory& memory) {
-  const FrictionModel& m = plant.friction;
-  if (!(tolerance_n > 0) || !(memory.inverse_scale_per_m > 0) || !(memory.change_per_s >= 0) ||
-      !(memory.previous_change_per_s >= 0) || !memory.sliding ||
-      !in.levels.in_contact() || memory.held_starts >= kMaxHeldStarts) {
-    return 0.0;
-  }
-  if (!direct_effect_on_slip_rate(m.rate_state) || m.direction_asymmetry.enabled) return 0.0;
-  const double q = remembered_inverse_scale(in, memory);
-  const double alpha = plasticity(m.lugre.breakaway_ratio, v, z * q, 1.0);
-  if (!(alpha > 0)) return 0.0;
-  const double change_per_s = std::max(memory.change_per_s, memory.previous_change_per_s);
-  return held_friction_change_n(m.lugre, alpha, v, z, q, change_per_s, memory.held_s + 0.5 * h, h) <= tolerance_n ? q : 0.0;
 }
 
 class HeldContactStep {
@@ -207,24 +186,6 @@ LateralEvaluation held_contact_start(const LateralPlant& plant, const LateralInp
   return e;
 }
 
-double held_stribeck_n(const LateralPlant& plant, const LateralInputs& in, const LateralState& s, double h_s,
-                       double tolerance_n, const HeldContactMemory& memory) {
-  if (!held_contact_applies(plant)) return 0.0;
-  const double q = held_inverse_scale(plant, in, s.velocity_m_per_s - in.sample_velocity_m_per_s, s.bristle_m, h_s,
-                                      tolerance_n, memory);
-  return q > 0 ? plant.friction.lugre.sigma0_n_per_m / q : 0.0;
-}
-
-double hold_law_at_tick_start(const LateralPlant& plant, const LateralInputs& in, LateralState& s, double dt_s,
-                              double tolerance_n, HeldContactMemory& memory) {
-  const double held_n = held_stribeck_n(plant, in, s, dt_s, tolerance_n, memory);
-  if (!(held_n > 0)) return 0.0;
-  const double most = held_n / plant.friction.lugre.sigma0_n_per_m;
-  s.bristle_m = std::clamp(s.bristle_m, -most, most);
-  memory.start_held = true;
-  return held_n;
-}
-
 bool held_contact_applies(const LateralPlant& plant) {
   const FrictionModel& m = plant.friction;
   return !plant.axis.backlash.enabled && !m.presliding_hysteresis.enabled && !m.frictional_lag.enabled;
@@ -232,7 +193,7 @@ bool held_contact_applies(const LateralPlant& plant) {
 
 bool integrate_lateral_held(const LateralPlant& plant, const LateralInputs& in, double dt_s, int substeps,
                             LateralState& state, const LateralEvaluation* first, double tolerance_n,
-                            HeldContactMemory* memory, int* law_evaluations, bool hold_over_substeps) {
+                            HeldContactMemory* memory, int* law_evaluations) {
   HeldContactStep step(plant, in);
   const bool contact = step.in_contact();
   const double h = dt_s / substeps;
@@ -242,27 +203,21 @@ bool integrate_lateral_held(const LateralPlant& plant, const LateralInputs& in, 
   bool stopped = false;
   double q_guess = memory ? memory->end_inverse_scale_per_m : 0.0;  // 1/g at the last sub-step's end
   for (int i = 0; i < substeps; ++i) {
-    // The law at the sub-step's start: evaluated, or held from the last evaluation.
+    // The law at the sub-step's start.
     double q0 = 0, alpha0 = 1;
-    bool start_held = false;
     Fast k1;
     Slow r0;
     if (i == 0 && first) {
       q0 = first->inverse_scale_per_m;
       alpha0 = first->plasticity;
-      start_held = contact && memory && memory->start_held;
-      evaluations += contact && !start_held;  // the caller's evaluation of S at s
+      evaluations += contact;  // the caller's evaluation of S at s
       k1 = Fast{first->rate.position_m, first->rate.velocity_m_per_s, first->rate.bristle_m};
       r0 = Slow{first->rate.contact_age_s, first->rate.rate_state_s};
     } else {
       const ContactPoint c = step.point(s, slow);
       if (contact) {
-        if (memory && hold_over_substeps) q0 = held_inverse_scale(plant, in, c.velocity_m_per_s, s.z, h, tolerance_n, *memory);
-        start_held = q0 > 0;
-        if (!start_held) {
-          q0 = step.inverse_scale(c, s.z, q_guess);
-          ++evaluations;
-        }
+        q0 = step.inverse_scale(c, s.z, q_guess);
+        ++evaluations;
       }
       const HeldContactStep::Rate rate = step.rate_with_friction(s, q0);
       k1 = rate.fast;
@@ -270,31 +225,24 @@ bool integrate_lateral_held(const LateralPlant& plant, const LateralInputs& in, 
       r0 = step.slow_rate(c, k1.z);
     }
     if (memory) {
-      memory->start_held = false;
       if (!contact) {
         *memory = {};
-      } else if (!start_held) {  // the rate 1/g changed at since the last evaluation
-        memory->previous_change_per_s = memory->change_per_s;
+      } else {  // the rate 1/g changed at since the last evaluation
         memory->change_per_s = memory->inverse_scale_per_m > 0 && memory->held_s > 0
                                    ? std::fabs(q0 - remembered_inverse_scale(in, *memory)) / memory->held_s
                                    : -1.0;
         memory->inverse_scale_per_m = q0;
         memory->coulomb_n = in.levels.coulomb_n;
         memory->held_s = 0;
-        memory->held_starts = 0;
-        memory->sliding = alpha0 > 0 && memory->last_sliding;
-        memory->last_sliding = alpha0 > 0;
-      } else {
-        ++memory->held_starts;
       }
     }
     // S held over the sub-step where holding it cannot move the friction by
     // more than the tolerance (its rate of change between the last two
     // evaluations as the estimate of its change over this one).
-    bool hold = !contact || start_held || step.stays_elastic(s, k1, q0, h);
+    bool hold = !contact || step.stays_elastic(s, k1, q0, h);
     if (!hold && memory && memory->change_per_s >= 0 && tolerance_n > 0) {
       hold = held_friction_change_n(plant.friction.lugre, alpha0, s.v - in.sample_velocity_m_per_s, s.z, q0,
-                                    memory->change_per_s, 0.0, h) <= tolerance_n;
+                                    memory->change_per_s, h) <= tolerance_n;
     }
     step.hold_drive(s, k1, h);
     // The law at the Euler half step (S only where it is not held).

@@ -21,13 +21,9 @@
 // elasto-plastic blend within the sub-step (|z| + 2 v_reach h <= r g:
 // alpha = 0 at every stage, S does not enter the fast states' equations),
 // and where holding it moves the friction by at most a tolerance
-// (integrate_lateral_held). With hold_over_substeps (an integrator
-// option, off in the shipped configs: inaccurate at low speed) S is not evaluated at all over a whole
-// sub-step, held from the last evaluation, where the same estimate allows
-// it over the time since that evaluation and this sub-step, on a sliding
-// contact with the direct effect on the slip rate, at most one sub-step in
-// two (held_stribeck_n): at the tick's start this saves the solve of S
-// with the slip rate. The drive's attraction is linear in x over the
+// (integrate_lateral_held). S is evaluated at every sub-step's start: held
+// over a whole sub-step it misses the loop's noise, which moves the slip
+// rate, and with it S, from tick to tick. The drive's attraction is linear in x over the
 // sub-step where its curvature term is below 1e-9 N. The law's formulas
 // live in sim/friction_effects.cc; this file only decides where they are
 // evaluated. With the direct effect on the slip rate an evaluation of S
@@ -52,63 +48,33 @@ LateralEvaluation held_contact_start(const LateralPlant& plant, const LateralInp
 
 // What the scheme remembers from one sub-step to the next (across ticks):
 // 1/g at the last evaluation of S at a sub-step's start (0: none, as after
-// contact is made) and Fc there (1/g is compared and held at the same
-// load-normalised value: S scales with the levels at a given slip rate),
-// the time since (to the last sub-step's end), the rate 1/g changed at
-// between the last two such evaluations (< 0: not known), and 1/g
-// extrapolated to the last sub-step's
-// end (where the next evaluation of S starts its solve, with the direct
-// effect on the slip rate). start_held: the next sub-step's start takes the
-// remembered 1/g (held_stribeck_n said so at the tick's start).
+// contact is made) and Fc there (1/g is compared at the same load-normalised
+// value: S scales with the levels at a given slip rate), the time since (to
+// the last sub-step's end), the rate 1/g changed at between the last two
+// such evaluations (< 0: not known), and 1/g extrapolated to the last
+// sub-step's end (where the next evaluation of S starts its solve, with the
+// direct effect on the slip rate).
 struct HeldContactMemory {
   double inverse_scale_per_m = 0;
   double coulomb_n = 0;
   double held_s = 0;
-  int held_starts = 0;
-  bool last_sliding = false, sliding = false;
   double change_per_s = -1;
-  double previous_change_per_s = -1;
   double end_inverse_scale_per_m = 0;
-  bool start_held = false;
 };
-
-// S held from the last evaluation over the next sub-step (of at most h_s)
-// from s, or 0 where it is to be evaluated. Held only with the direct effect
-// on the slip rate (where an evaluation solves S with it: the costly case;
-// elsewhere S costs no more than this decision), scaled with the levels, on a
-// sliding contact (alpha > 0 at the remembered 1/g; a stuck contact's S
-// sets where it breaks away) without a direction asymmetry (S sliding is
-// then at least S at rest, and holds the bristle's limit too), and where
-// the friction force holding 1/g since that evaluation moves over the
-// sub-step, on average (its rate of change as the estimate of its change),
-// sigma1 (alpha + |u| dalpha/du) |v| |z| |dq/dt| (t_held + h/2), is at most
-// tolerance_n: the criterion by which integrate_lateral_held holds S over a
-// sub-step's second half.
-double held_stribeck_n(const LateralPlant& plant, const LateralInputs& in, const LateralState& s, double h_s,
-                       double tolerance_n, const HeldContactMemory& memory);
-
-// At a tick's start (sub-steps of at most dt_s): held_stribeck_n, and where
-// S is held, the bristle limited by it (S sliding is then at least S at
-// rest: limit_to_static_friction's limit) and memory.start_held set for the
-// tick's first sub-step. 0: S is to be evaluated (limit_to_static_friction).
-double hold_law_at_tick_start(const LateralPlant& plant, const LateralInputs& in, LateralState& s, double dt_s,
-                              double tolerance_n, HeldContactMemory& memory);
 
 // Advances s by dt_s in `substeps` equal sub-steps; true if the plate touched
 // a stop. `first`, if given, is lateral_derivative at s (the first sub-step's
-// law at its start; held from memory if memory->start_held). With a memory
+// law at its start). With a memory
 // and a tolerance > 0, S is also held at its start value (one evaluation)
 // where the friction force that holding it can move within the sub-step,
 // sigma1 (alpha + |u| dalpha/du) |v| |z| |dq/dt| h / 2 (u = z / g; the blend's
 // slope counts: the slip alpha |v| u moves with u through alpha too) with
 // dq/dt the rate 1/g changed at between the last two evaluations at
-// sub-steps' starts, is at most tolerance_n; and where held_stribeck_n
-// allows, S is held from the last evaluation over the whole sub-step (no
-// evaluation). law_evaluations, if given, is increased by the number of
+// sub-steps' starts, is at most tolerance_n. law_evaluations, if given, is
+// increased by the number of
 // evaluations of S made (for tests and benchmarks).
 bool integrate_lateral_held(const LateralPlant& plant, const LateralInputs& in, double dt_s, int substeps,
                             LateralState& s, const LateralEvaluation* first, double tolerance_n = 0,
-                            HeldContactMemory* memory = nullptr, int* law_evaluations = nullptr,
-                            bool hold_over_substeps = false);
+                            HeldContactMemory* memory = nullptr, int* law_evaluations = nullptr);
 
 }  // namespace tribo::sim

@@ -102,7 +102,7 @@ StepReport SimInstrument::step(const DriveInput& drive, double dt_s) {
   inputs_.sample_offset_m = truth_.sample_offset_m;
   // S at the tick's start: the first evaluation of the step reuses it.
   const double stribeck_now =
-      stribeck_at_tick_start(plant_, inputs_, params_.integrator, dt_s, lateral, held_contact_);
+      stribeck_at_tick_start(plant_, inputs_, lateral, held_contact_);
 
   // A handover first integrates its dead interval under the bias alone.
   AdvanceReport report;

@@ -104,7 +104,7 @@ InstrumentParams instrument_params_from_config(const v1::SimConfig& c) {
   p.integrator = {c.integrator().max_h_lambda(), static_cast<int>(c.integrator().max_substeps()),
                   c.integrator().method() == v1::INTEGRATION_MIDPOINT,
                   c.integrator().method() == v1::INTEGRATION_RK4_HELD_CONTACT,
-                  c.integrator().contact_law_tolerance_n(), c.integrator().hold_contact_law_over_substeps()};
+                  c.integrator().contact_law_tolerance_n()};
   return p;
 }
 

@@ -217,12 +217,8 @@ bool sane(const LateralPlant& plant, const LateralInputs& in, const LateralState
 
 }  // namespace
 
-double stribeck_at_tick_start(const LateralPlant& plant, const LateralInputs& in, const IntegratorSettings& settings,
-                              double dt_s, LateralState& s, HeldContactMemory& memory) {
-  if (settings.held_contact && settings.hold_law_over_substeps) {
-    const double held_n = hold_law_at_tick_start(plant, in, s, dt_s, settings.contact_law_tolerance_n, memory);
-    if (held_n > 0) return held_n;
-  }
+double stribeck_at_tick_start(const LateralPlant& plant, const LateralInputs& in, LateralState& s,
+                              const HeldContactMemory& memory) {
   const double last_q = memory.end_inverse_scale_per_m;
   return limit_to_static_friction(plant, in, s, last_q > 0 ? plant.friction.lugre.sigma0_n_per_m / last_q : 0.0);
 }
@@ -255,7 +251,7 @@ AdvanceReport advance_lateral(const LateralPlant& plant, const LateralInputs& in
     stopped = integrate_lateral_split(plant, in, dt_s, plan.substeps, s, scheme);
   } else if (held) {
     stopped = integrate_lateral_held(plant, in, dt_s, plan.substeps, s, &now, settings.contact_law_tolerance_n, memory,
-                                     &law_evaluations, settings.hold_law_over_substeps);
+                                     &law_evaluations);
   } else {
     stopped = integrate_lateral(plant, in, dt_s, plan.substeps, s, &now.rate, scheme);
   }

@@ -96,9 +96,6 @@ struct IntegratorSettings {
   // Held contact: the friction force holding S at a sub-step's start may
   // move, at most (0: S also evaluated at every sub-step's midpoint).
   double contact_law_tolerance_n = 0;
-  // Held contact: S may also be held over a whole sub-step from the last
-  // evaluation (held_stribeck_n, sim/held_contact.h).
-  bool hold_law_over_substeps = false;
 };
 
 struct AdvanceReport {
@@ -110,12 +107,11 @@ struct AdvanceReport {
   bool retried = false;  // the first attempt was not sane; the tick was redone (split, 4x sub-steps)
 };
 
-// S at a tick's start (of dt_s), the bristle limited by it: held from the
-// last evaluation where the settings allow (hold_law_at_tick_start,
-// sim/held_contact.h), else limit_to_static_friction, its solve of S with
-// the slip rate starting from memory's 1/g at the last sub-step's end.
-double stribeck_at_tick_start(const LateralPlant& plant, const LateralInputs& in, const IntegratorSettings& settings,
-                              double dt_s, LateralState& s, HeldContactMemory& memory);
+// S at a tick's start (of dt_s), the bristle limited by it:
+// limit_to_static_friction, its solve of S with the slip rate starting from
+// memory's 1/g at the last sub-step's end.
+double stribeck_at_tick_start(const LateralPlant& plant, const LateralInputs& in, LateralState& s,
+                              const HeldContactMemory& memory);
 
 // Integrates the plant over dt_s under held inputs: estimates the rates,
 // plans the sub-steps and the scheme, and runs them.

@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
 
 #include "tests/sim/sim_test_support.h"
 
@@ -47,6 +50,22 @@ TEST(DaemonConfig, ErrorsNameTheFieldTheValueAndTheLimit) {
   e = validate_daemon_config(c);
   ASSERT_TRUE(e);
   EXPECT_NE(e->find("sim.faults.faults[0].channel"), std::string::npos) << *e;
+}
+
+// A field the schema no longer has (sim.integrator's
+// hold_contact_law_over_substeps, number 5 reserved, its name not) is
+// refused by name, not silently ignored.
+TEST(DaemonConfig, AConfigSettingARemovedFieldIsRefusedByName) {
+  const std::string path = ::testing::TempDir() + "removed_field.textproto";
+  {
+    std::ofstream out(path);
+    out << "sim { integrator { method: INTEGRATION_RK4_HELD_CONTACT hold_contact_law_over_substeps: true } }\n";
+  }
+  v1::DaemonConfig c;
+  const auto e = load_daemon_config(path, c);
+  ASSERT_TRUE(e);
+  EXPECT_NE(e->find("hold_contact_law_over_substeps"), std::string::npos) << *e;
+  std::remove(path.c_str());
 }
 
 TEST(DaemonConfig, TheObserversVelocityDelayAndLagAreBoundedAndNeedTheCommandedVelocity) {

@@ -142,24 +142,6 @@ TEST(HeldContact, EvaluatesTheLawAtMostTwiceASubStep) {
     integrate_lateral_held(plant, in, 1e-4, 1, sliding, nullptr, 1e-8, &memory, &evaluations);
   }
   EXPECT_EQ(evaluations, 11) << "with a tolerance: twice on the first tick (no estimate yet), then once";
-
-  // Held over whole sub-steps too (the default instrument's option): once
-  // the law's rate of change is known from two evaluations on the sliding
-  // contact, every other sub-step's start takes the last evaluation's S, and
-  // the friction stays within the tolerance of the run that evaluates it.
-  LateralState evaluated = sliding, held = sliding;
-  HeldContactMemory memory_evaluated, memory_held;
-  int evaluations_evaluated = 0, evaluations_held = 0;
-  for (int tick = 0; tick < 10; ++tick) {
-    integrate_lateral_held(plant, in, 1e-4, 1, evaluated, nullptr, 1e-8, &memory_evaluated, &evaluations_evaluated);
-    integrate_lateral_held(plant, in, 1e-4, 1, held, nullptr, 1e-8, &memory_held, &evaluations_held, true);
-  }
-  EXPECT_EQ(evaluations_evaluated, 11);
-  EXPECT_LT(evaluations_held, evaluations_evaluated);
-  // Ticks 1-2 evaluate (the first twice: no estimate yet); of the other 8
-  // starts at most every other one is held.
-  EXPECT_GE(evaluations_held, 3 + 8 / 2) << evaluations_held;
-  EXPECT_LT(std::fabs(held.bristle_m - evaluated.bristle_m) * p.friction.lugre.sigma0_n_per_m, 1e-8);
 }
 
 }  // namespace
