@@ -23,8 +23,8 @@
 // and where holding it moves the friction by at most a tolerance
 // (integrate_lateral_held). S is evaluated at every sub-step's start: held
 // over a whole sub-step it misses the loop's noise, which moves the slip
-// rate, and with it S, from tick to tick. The drive's attraction is linear in x over the
-// sub-step where its curvature term is below 1e-9 N. The law's formulas
+// rate, and with it S, from tick to tick. The drive's attraction is linear
+// in x over the sub-step where its curvature term is below 1e-9 N. The law's formulas
 // live in sim/friction_effects.cc; this file only decides where they are
 // evaluated. With the direct effect on the slip rate an evaluation of S
 // solves S with the slip rate at that point's bristle deflection
