@@ -194,7 +194,7 @@ NoiseFloors noise_at_rest(const v1::DaemonConfig& config, double load_n, double 
   return NoiseFloors{block_rms(x, block), block_rms(f, block), block_rms(n, block), block_rms(z, block)};
 }
 
-double stick_slip_ratio(const v1::DaemonConfig& config, double loop_rate_hz, double velocity, std::uint64_t seed) {
+v1::DaemonConfig stick_slip_config(const v1::DaemonConfig& config, double loop_rate_hz) {
   v1::DaemonConfig c = config;
   c.mutable_controller()->set_loop_rate_hz(loop_rate_hz);
   if (loop_rate_hz < 100) {
@@ -204,19 +204,28 @@ double stick_slip_ratio(const v1::DaemonConfig& config, double loop_rate_hz, dou
     g->set_kd(0);
     g->set_derivative_filter_hz(0);
   }
+  return c;
+}
+
+double stick_slip_advance_ratio(const std::vector<double>& x, double velocity, double dt) {
+  const auto ticks = static_cast<long>(x.size()), per_100ms = std::max<long>(1, std::lround(0.1 / dt));
+  double advance = 0;
+  for (long k = std::max(ticks / 2, per_100ms); k < ticks; ++k) advance = std::max(advance, x[k] - x[k - per_100ms]);
+  return advance / (velocity * static_cast<double>(per_100ms) * dt);
+}
+
+double stick_slip_ratio(const v1::DaemonConfig& config, double loop_rate_hz, double velocity, std::uint64_t seed) {
   constexpr double kLoadN = 1e-3, kScratchS = 20.0;
-  LockStep loop(c, seed);
+  LockStep loop(stick_slip_config(config, loop_rate_hz), seed);
   const double go_s = kLoadAtS + kLoadRampS + 2.0, dt = loop.dt_s();
   prepare(loop, kLoadN, go_s);
-  const auto ticks = std::lround(kScratchS / dt), per_100ms = std::max<long>(1, std::lround(0.1 / dt));
+  const auto ticks = std::lround(kScratchS / dt);
   std::vector<double> x;
   for (long k = 0; k < ticks; ++k) {
     loop.step(kLoadN, kStartM + velocity * static_cast<double>(k + 1) * dt);
     x.push_back(loop.truth().lateral.position_m);
   }
-  double advance = 0;
-  for (long k = ticks / 2; k < ticks; ++k) advance = std::max(advance, x[k] - x[k - per_100ms]);
-  return advance / (velocity * static_cast<double>(per_100ms) * dt);
+  return stick_slip_advance_ratio(x, velocity, dt);
 }
 
 double steady_friction_n(const v1::DaemonConfig& config, double load_n, double velocity, std::uint64_t seed) {

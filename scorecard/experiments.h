@@ -70,6 +70,12 @@ NoiseFloors noise_at_rest(const v1::DaemonConfig& config, double load_n, double 
 // below the record's 10 nm floor.
 double stick_slip_ratio(const v1::DaemonConfig& config, double loop_rate_hz, double velocity_m_per_s,
                         std::uint64_t seed);
+// Its parts, for the same experiment run with a friction compensation
+// (tests/support/compensation_runs.h): the config with the loop at
+// loop_rate_hz (integral action only below 100 Hz), and the ratio from the
+// tip's true positions over the scratch, one a tick of dt_s.
+v1::DaemonConfig stick_slip_config(const v1::DaemonConfig& config, double loop_rate_hz);
+double stick_slip_advance_ratio(const std::vector<double>& position_m, double velocity_m_per_s, double dt_s);
 
 // Steady friction (tilt-corrected, +x) at one velocity after a 2 s rest.
 double steady_friction_n(const v1::DaemonConfig& config, double load_n, double velocity_m_per_s,

@@ -14,6 +14,7 @@
 #include "hal/sim_transducer.h"
 #include "proto/run_files.h"
 #include "proto/text_format_file.h"
+#include "scorecard/experiments.h"
 #include "sim/instrument_params.h"
 
 namespace tribo::testing {
@@ -252,15 +253,7 @@ RunExtremes run_extremes(const InProcessRun& run) {
 
 double stick_slip_ratio(const v1::DaemonConfig& config, const daemon::IdentifiedFriction* model, double loop_rate_hz,
                         double velocity, std::uint64_t seed) {
-  v1::DaemonConfig c = config;
-  c.mutable_controller()->set_loop_rate_hz(loop_rate_hz);
-  if (loop_rate_hz < 100) {
-    auto* g = c.mutable_controller()->mutable_lateral_displacement();
-    g->set_kp(0);
-    g->set_ki(500);
-    g->set_kd(0);
-    g->set_derivative_filter_hz(0);
-  }
+  const v1::DaemonConfig c = scorecard::stick_slip_config(config, loop_rate_hz);
   hal::SimTransducer transducer(sim::instrument_params_from_config(c.sim()), seed, loop_rate_hz, false);
   daemon::Controller controller(daemon::controller_params_from_config(c));
   const double dt = transducer.period_s();
@@ -283,15 +276,13 @@ double stick_slip_ratio(const v1::DaemonConfig& config, const daemon::Identified
     step(std::clamp((t - 1.5) / 0.5, 0.0, 1.0) * kLoadN, kStartM * std::min(1.0, t / 0.3),
          t < 0.3 ? kStartM / 0.3 : 0.0);
   }
-  const long ticks = std::lround(kScratchS / dt), per_100ms = std::max(1L, std::lround(0.1 / dt));
+  const long ticks = std::lround(kScratchS / dt);
   std::vector<double> x;
   for (long k = 0; k < ticks; ++k) {
     step(kLoadN, kStartM + velocity * static_cast<double>(k + 1) * dt, velocity);
     x.push_back(transducer.instrument().truth().lateral.position_m);
   }
-  double advance = 0;
-  for (long k = ticks / 2; k < ticks; ++k) advance = std::max(advance, x[k] - x[k - per_100ms]);
-  return advance / (velocity * static_cast<double>(per_100ms) * dt);
+  return scorecard::stick_slip_advance_ratio(x, velocity, dt);
 }
 
 std::string scaled_report(const std::string& report_json, double level_factor, double stiffness_factor) {
