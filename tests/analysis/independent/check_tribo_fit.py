@@ -1,61 +1,45 @@
 #!/usr/bin/python3
 """ctest: tribo-fit on the independent generator, the contract command
-without a velocity column.
+without a velocity column. Each case is a file of the generator
+(transducer_sim.py; effect, seed, strength) and what the report must say:
 
-On the clean seed-3 file: the record's noise floor is estimated (10 nm
-+- 15 %), the segmentation finds the protocol's 24 passes (+- 4), each pass
-starts from the force measured at rest (chosen on held-out passes: the
-10 nm position noise hides the nanometres a stopping contact relaxes over),
-the base LuGre fit's held-out NRMSE is below 0.1 and no effect is accepted.
-On the wear_in seed-3 file (friction growing with the total slip, outside
-the vocabulary): nothing is accepted and the residual is reported as
-unexplained. Measured before the pass-start choice (main e78e226): held-out
-NRMSE 0.22 and presliding_hysteresis accepted on both files; with the
-choice but holds from the estimated speed: 0.070.
-
-The clean seed-2 file accepts nothing either: before the strength gate
-(an effect's strength 3 standard errors clear of no effect) it accepted
-dwell_stiction with dwell_dFs 0.0056 +- 0.0026 (held-out -2.6 %). The gate
-does not cost a real effect: dwell_stiction on the seed-1 file is accepted
-(dwell_dFs 23 standard errors from zero), and on the seed-10 file, where
-dwell's strength is judged by its peak after the longest hold.
-
-The clean seed-3 file's sigma0 interval holds the truth with the motion
-model's systematic part in it; with --motion-estimator rts_loop_force the
-servo's yield is found and presliding on the seed-2 file kept.
-
-A drift in time is not taken for a tilt (the load ramps at rest refuse the
-tilt; seed 5); on the seed-2 file the final model keeps a Stribeck spike past
-its bounds and the report says the model does not describe the record, naming
-nothing; drift is named first on the seed-8 file with the knot count chosen by
-the record; the tilt of the tilt seed-2 file is kept. The lag of the seed-2 file is named first (each held-out
-pass votes in the block agreement with the candidate's change there).
-Velocity strengthening at three times the default, fitted and not accepted on
-seed 7, has a minimum detectable strength above the injected one, set by injection
-and recovery (the linearised figure was below it), and it
-is named first on seed 8; on seed 9 the final model keeps a static spike
-(mu_s 3.2e16), does not describe the record and names nothing; on seed 4, fitted
-with the opposite sign, no figure calls the missed strength identifiable; on seed 10,
-whose fit leaves the static level at 1e-4, it is named first (its strength
-bound is taken against the friction level). Where the final model is past
-its bounds (drift seed 2) it does not describe the record: nothing is named,
-and no minimum detectable figure is given. At six times the default, on
-seed 3, whose base fit takes the rise into a rising Stribeck curve, the final
-model keeps a static spike (mu_s 3.2e8) and names nothing;
-on seed 8, missed with a final curve that still rises, no figure calls the
-missed strength identifiable.
-
-With speed steps within the passes (the protocol of the generator's
-rate_state files) a clean record accepts nothing; rate-and-state friction at
-the generator's default is named first (seed 2).
-
-With holds of minutes (the generator's --holds protocol) a creep of the
-sample is named a creep under the stuck contact (seed 1), and a clean record
-names nothing.
-
-Each pass's start (modelled through the holds or from the force at rest) is
-chosen on the final models' held-out pass error: the presliding seed-2 file
-with the force taps starts from rest, with the lower final error.
+- clean, seed 3: the position noise floor is estimated at 10 nm +- 15 %, the
+  segmentation finds the protocol's 24 passes (+- 4), each pass starts from
+  the force measured at rest (chosen on held-out passes: the 10 nm position
+  noise hides the nanometres a stopping contact relaxes over), the base
+  LuGre fit's held-out NRMSE is below 0.03, nothing is accepted, and sigma0's
+  95 % interval, with the motion model's systematic part in it, holds the
+  truth;
+- wear_in, seed 3 (friction growing with the total slip, outside the
+  vocabulary): nothing accepted, the residual reported as unexplained;
+- clean, seeds 1 and 2: nothing accepted (seed 1's frictional lag is refused
+  as possibly the motion estimate's);
+- position_periodic, seed 7 (3.4 periods on a pass): named first with its
+  period within 5 %;
+- dwell_stiction, seeds 1, 3 and 10: named first (seed 10 by the peak after
+  the longest hold, seed 3 on a base whose mu_s stays below 2);
+- presliding_hysteresis, seed 2, with --motion-estimator rts_loop_force: the
+  servo's yield found (-5e-5 m/N +- 10 %), the pass start from the force at
+  rest chosen on the lower final held-out error, presliding named first;
+- drift, seed 5: tilt_offset refused by the load changes at rest (a drift in
+  time with loads that rise with time fits like a tilt in sliding); drift,
+  seed 2: the final model is past its bounds, so the report says it does not
+  describe the record, names nothing and gives no minimum detectable figure;
+  tilt_offset seed 2 and drift seed 8 (the spline's knot count chosen by the
+  record) named first;
+- frictional_lag, seed 2: named first (each held-out pass votes with the
+  candidate's change there);
+- velocity_strengthening at three times the default: seed 7 not accepted with
+  a minimum detectable strength above the injected one, set by injection and
+  recovery; seeds 8 and 10 named first; seed 9 a final model past its bounds
+  (said not to describe the record); seed 4, fitted with the opposite sign,
+  gives no figure that calls the missed strength identifiable; at six times
+  the default seed 3 is past its bounds and seed 8 gives no such figure;
+- clean with speed steps within the passes, seed 3: nothing accepted;
+  rate_state at the generator's default, seed 2: named first;
+- holds of minutes: a sample creep (seed 1, 0.3 nm/s) named drift in the form
+  "creep under a stuck contact" at 0.15-0.45 nm/s; the clean record with the
+  same holds names nothing.
 
 usage: check_tribo_fit.py TRIBO_FIT WORK_DIR
 """
@@ -140,9 +124,9 @@ def main():
     if accepted:
         failures.append(f"the clean file accepted {accepted}")
     print(f"clean: noise {noise:.3g} m, {passes} passes, base held-out NRMSE {nrmse:.3f}, accepted {accepted}")
-    # The contact stiffness's 95 % interval holds the truth once the motion
-    # model's part is in it (sigma0 2704 +- 49 N/m against a truth of 2955
-    # before; the loop model with the servo's yield finds 2955).
+    # The contact stiffness's 95 % interval holds the truth with the motion
+    # model's systematic part in it (its statistical part alone is too narrow
+    # for the motion estimate's bias).
     truth = json.load(open(os.path.join(work, "none_seed3.json")))["contact"]["sigma0_n_per_m"]
     sigma0 = next(p for p in report["final_model"]["parameters"] if p["name"] == "sigma0")
     if "motion_systematic" not in sigma0 or not abs(sigma0["value"] - truth) <= 1.96 * sigma0["std_error"]:
@@ -160,9 +144,9 @@ def main():
     if accepted:
         failures.append(f"the clean seed-2 file accepted {accepted}")
     print(f"clean, seed 2: accepted {accepted}")
-    # The clean seed-1 file passes a 13 ms frictional lag on its statistical
-    # error, 1.7 standard errors once the motion model's part is in: refused
-    # as possibly the motion estimate's, and nothing accepted.
+    # The clean seed-1 file fits a 13 ms frictional lag that passes on its
+    # statistical error alone and stands at 1.7 standard errors with the
+    # motion model's part: refused as possibly the motion estimate's.
     report = diagnose(tribo_fit, work, "none", 1)
     accepted = [a["name"] for a in report["accepted_effects"]]
     lag = next(r for r in report["rejected_effects"] if r["name"] == "frictional_lag")
@@ -170,7 +154,7 @@ def main():
         failures.append(f"the clean seed-1 file accepted {accepted}; frictional_lag: {lag['reason'][:120]}")
     print(f"clean, seed 1: accepted {accepted}; frictional_lag {lag['reason'][:80]}")
     # A 1.46 um period on 5 um passes (3.4 periods): the signature's peak
-    # search stopped at 1.1 um, and the file accepted nothing.
+    # search must reach periods longer than a fifth of a pass.
     report = diagnose(tribo_fit, work, "position_periodic", 7)
     period = json.load(open(os.path.join(work, "position_periodic_seed7.json")))["period_m"]
     first = report["accepted_effects"][:1]
@@ -179,13 +163,14 @@ def main():
         failures.append(f"position_periodic seed 7 (period {period:.3g} m): accepted {[a['name'] for a in report['accepted_effects']]}, length {length}")
     print(f"position_periodic, seed 7: period {period:.3g} m, found {length}")
     check_first(tribo_fit, work, "dwell_stiction", 1, failures)
-    # Seed 10: refused once the holds were held, on dwell_dFs (the term's
-    # asymptote, 0.155 +- 0.066 with the motion model's part: 2.3 errors),
-    # which trades off against dwell_time; the peak after the longest hold,
-    # which the record determines, clears the gate.
+    # Seed 10: the term's asymptote dwell_dFs (0.155 +- 0.066 with the
+    # motion model's part: 2.3 errors) trades off against dwell_time; the
+    # peak after the longest hold, which the record determines, clears the
+    # strength gate.
     check_first(tribo_fit, work, "dwell_stiction", 10, failures)
-    # Seed 3: the lowest-residual base start was a Stribeck spike (mu_s 3.5e12
-    # at 15 nm/s) that took the dwell peaks up; the base keeps a physical one.
+    # Seed 3: the lowest-residual base start is a Stribeck spike (mu_s 3.5e12
+    # at 15 nm/s) that takes the dwell peaks up; the base must keep a
+    # physical static level.
     report = diagnose(tribo_fit, work, "dwell_stiction", 3)
     accepted = [a["name"] for a in report["accepted_effects"]]
     mu_s = next(p["value"] for p in report["base_model"]["parameters"] if p["name"] == "mu_s")
@@ -194,11 +179,9 @@ def main():
     print(f"dwell_stiction, seed 3: accepted {accepted}, base mu_s {mu_s:.3g}")
 
     # The loop model driven by the force too: the generator's servo yields by
-    # -1/20 000 m/N. On the presliding seed-2 file the base fit with modelled
-    # holds took mu_s ~ 1e16 and scored better on held-out passes (before the
-    # hold band held the holds); the pass start is now chosen on the final
-    # models, and the start from the force at rest keeps presliding with the
-    # lower held-out pass error (1.31 against 1.79 uN).
+    # -1/20 000 m/N. On the presliding seed-2 file the pass start is chosen on
+    # the final models: from the force at rest, with the lower held-out pass
+    # error, and presliding named.
     report = diagnose(tribo_fit, work, "presliding_hysteresis", 2, ("--motion-estimator", "rts_loop_force"))
     response = report["input"].get("loop_force_response_m_per_n", 0)
     if not -5.5e-5 <= response <= -4.5e-5:
@@ -214,10 +197,10 @@ def main():
 
     # A reading that drifts in time, with loads that rise with time, fits
     # like a tilt in sliding; the load ramps at rest tell them apart (a tilt
-    # reads there too). Seed 5: tilt_offset was accepted first (tan 0.0186);
-    # refused now by the load changes at rest. Seed 2: the rounds accept
-    # drift, on a final model past its bounds, which names nothing. The tilt
-    # file of seed 2 keeps its tilt.
+    # reads there too). Seed 5: tilt_offset (tan 0.0186 in sliding) refused
+    # by the load changes at rest. Seed 2: the rounds accept drift, on a final
+    # model past its bounds, which names nothing. The tilt file of seed 2
+    # keeps its tilt.
     report = diagnose(tribo_fit, work, "drift", 5)
     accepted = [a["name"] for a in report["accepted_effects"]]
     tilt = next((r for r in report["rejected_effects"] if r["name"] == "tilt_offset"), {})
@@ -240,21 +223,20 @@ def main():
     print(f"drift, seed 2: describes_record {describes}, accepted {accepted}; drift: {drift.get('reason', '')[:100]}")
     check_first(tribo_fit, work, "tilt_offset", 2, failures)
     # The drift spline's knot count from the record (leave-one-pass-out
-    # cross-validation): with the fixed 12 intervals the drift file of seed 8
-    # took direction_asymmetry first; with the 8 chosen, drift is named.
+    # cross-validation; 8 intervals here): with 12 fixed ones the drift file
+    # of seed 8 takes direction_asymmetry first.
     check_first(tribo_fit, work, "drift", 8, failures)
 
     # A lag acts at the few onsets; counted by samples, the held-out passes it
-    # does not touch outvoted it (74 % against the 75 % bar on seed 2). Each
-    # pass now votes with the candidate's change there.
+    # does not touch would outvote it (74 % against the 75 % bar on seed 2):
+    # each pass votes with the candidate's change there.
     check_first(tribo_fit, work, "frictional_lag", 2, failures)
 
     # Velocity strengthening at three times the default (c = 0.09 per e-fold):
-    # on seed 7 it is fitted and not accepted, and the linearised figure
-    # (0.0049 per e-fold in mu) lay below the injected c mu_c (0.0095). The
-    # candidate's own fitted error now bounds the figure from below, and the
-    # report does not call the injected strength identifiable; since the
-    # holds are held, injection and recovery sets it (0.0188).
+    # on seed 7 it is fitted and not accepted. The linearised figure (0.0049
+    # per e-fold in mu) lies below the injected c mu_c (0.0095); injection and
+    # recovery sets the reported figure (0.0188), so the report does not call
+    # the injected strength identifiable.
     report = diagnose(tribo_fit, work, "velocity_strengthening", 7, strength=0.09)
     truth = json.load(open(os.path.join(work, "velocity_strengthening_seed7.json")))
     injected = 0.09 * truth["contact"]["mu_c"]
@@ -266,26 +248,22 @@ def main():
                         f" while not accepted ({(vs or {}).get('reason', 'accepted')[:120]})")
     print(f"velocity_strengthening x3, seed 7: figure {figure}, injected {injected:.4g}")
 
-    # Seeds 8 and 9 were missed until the holds were held (the hold band from
-    # the record's noise floor) and the pass start chosen on the final
-    # models: named first now (their figures 0.34 and 0.12 of the injected:
-    # the Stribeck partition of docs/identification.md). Seed 8's figure was
-    # then raised by injection and recovery, seed 9's withheld past the
-    # bounds; those paths are checked on seed 7 above and drift seed 2.
+    # Seed 8: named first (it needs the hold band from the record's noise
+    # floor and the pass start chosen on the final models).
     check_first(tribo_fit, work, "velocity_strengthening", 8, failures, strength=0.09)
     # Seed 9: the rounds take it, on a final model whose static level is a
     # spike (mu_s 3.2e16): the report says the model does not describe the
     # record and names nothing.
     check_not_describing(tribo_fit, work, "velocity_strengthening", 9, failures, strength=0.09)
     # Seed 4: fitted with the opposite sign (-0.0018) at -16.6 % held-out, and
-    # refused; its figure, 0.0024 by injection and recovery, called the missed
-    # 0.0106 identifiable. A trial that takes the velocity dependence the
-    # other way now withholds the figure.
+    # refused; a trial that takes the velocity dependence the other way
+    # withholds the minimum detectable figure (injection and recovery gives
+    # 0.0024, which would call the missed 0.0106 identifiable).
     check_no_overclaim(tribo_fit, work, 4, 0.09, failures)
 
-    # On seed 10 the fit leaves mu_s at 1e-4 beside mu_c 0.137; the bound on
-    # the strength, taken against the static level alone, refused a 34 %
-    # held-out gain. It is taken against the friction level now.
+    # On seed 10 the fit leaves mu_s at 1e-4 beside mu_c 0.137: the bound on
+    # the strength is taken against the friction level (against the static
+    # level alone it would refuse a 34 % held-out gain).
     check_first(tribo_fit, work, "velocity_strengthening", 10, failures, strength=0.09)
 
     # At six times the default (c = 0.18) the base fit takes the rise into a
@@ -296,9 +274,9 @@ def main():
     # record, and nothing is named.
     check_not_describing(tribo_fit, work, "velocity_strengthening", 3, failures, strength=0.18)
     # Seed 8 at six times is missed: its final model's curve still rises
-    # (mu_s 0.113 below mu_c 0.162), and its figure, 0.0012 by injection and
-    # recovery, called the missed 0.0168 identifiable. A final model whose
-    # curve rises now withholds the velocity-strengthening figure.
+    # (mu_s 0.113 below mu_c 0.162), and such a model withholds the
+    # velocity-strengthening figure (0.0012 by injection and recovery, which
+    # would call the missed 0.0168 identifiable).
     check_no_overclaim(tribo_fit, work, 8, 0.18, failures)
 
     # Speed steps within the passes (the protocol of the generator's
@@ -311,11 +289,9 @@ def main():
     print(f"none with speed steps, seed 3: accepted {accepted}")
 
     # Rate-and-state friction at the generator's default (a = 0.05 of the
-    # levels, b = 1.2 a, Dc = 1 um): refused on all ten seeds while the
-    # model's bristle ran through the holds on the smoother's velocity (the
-    # hold band had the width of the smoothed position's noise, near 0);
-    # named first now. On seed 2 the report had also called a = 0.0008
-    # identifiable against an injected 0.0045.
+    # levels, b = 1.2 a, Dc = 1 um): named first. It needs the holds held
+    # (a hold band from the record's noise floor): a bristle run through the
+    # holds on the smoother's velocity refuses it.
     check_first(tribo_fit, work, "rate_state", 2, failures)
 
     # Holds of minutes (the generator's --holds protocol): a creep of the
