@@ -41,7 +41,9 @@ without a velocity column. Each case is a file of the generator
   "creep under a stuck contact" at 0.15-0.45 nm/s; the clean record with the
   same holds names nothing.
 
-usage: check_tribo_fit.py TRIBO_FIT WORK_DIR
+usage: check_tribo_fit.py TRIBO_FIT WORK_DIR [PART ...]
+       (the parts: clean, effects, strengthening, protocols; default all; ctest runs
+       each as its own test, side by side)
 """
 import json
 import os
@@ -102,9 +104,9 @@ def check_no_overclaim(tribo_fit, work, seed, c, failures):
     print(f"velocity_strengthening c {c}, seed {seed}: accepted {accepted}, figure {m.get('value')}, withheld: {(m.get('withheld') or '')[:60]}")
 
 
-def main():
-    tribo_fit, work = sys.argv[1:3]
-    failures = []
+def part_clean(tribo_fit, work, failures):
+    """The clean files, wear-in, position-periodic friction and a dwell file whose
+    base must stay physical."""
     report = diagnose(tribo_fit, work, "none")
     noise = report["input"].get("position_noise_m", 0)
     if not 8.5e-9 <= noise <= 11.5e-9:
@@ -162,13 +164,7 @@ def main():
     if not first or first[0]["name"] != "position_periodic" or not length or abs(length / period - 1) > 0.05:
         failures.append(f"position_periodic seed 7 (period {period:.3g} m): accepted {[a['name'] for a in report['accepted_effects']]}, length {length}")
     print(f"position_periodic, seed 7: period {period:.3g} m, found {length}")
-    check_first(tribo_fit, work, "dwell_stiction", 1, failures)
-    # Seed 10: the term's asymptote dwell_dFs (0.155 +- 0.066 with the
-    # motion model's part: 2.3 errors) trades off against dwell_time; the
-    # peak after the longest hold, which the record determines, clears the
-    # strength gate.
-    check_first(tribo_fit, work, "dwell_stiction", 10, failures)
-    # Seed 3: the lowest-residual base start is a Stribeck spike (mu_s 3.5e12
+    # dwell_stiction, seed 3: the lowest-residual base start is a Stribeck spike (mu_s 3.5e12
     # at 15 nm/s) that takes the dwell peaks up; the base must keep a
     # physical static level.
     report = diagnose(tribo_fit, work, "dwell_stiction", 3)
@@ -178,6 +174,9 @@ def main():
         failures.append(f"dwell_stiction seed 3: accepted {accepted}, base mu_s {mu_s:.3g}")
     print(f"dwell_stiction, seed 3: accepted {accepted}, base mu_s {mu_s:.3g}")
 
+
+def part_effects(tribo_fit, work, failures):
+    """Presliding with the loop force, drift against tilt, the drift knots and the lag."""
     # The loop model driven by the force too: the generator's servo yields by
     # -1/20 000 m/N. On the presliding seed-2 file the pass start is chosen on
     # the final models: from the force at rest, with the lower held-out pass
@@ -232,6 +231,9 @@ def main():
     # each pass votes with the candidate's change there.
     check_first(tribo_fit, work, "frictional_lag", 2, failures)
 
+
+def part_strengthening(tribo_fit, work, failures):
+    """Velocity strengthening at three and six times the default."""
     # Velocity strengthening at three times the default (c = 0.09 per e-fold):
     # on seed 7 it is fitted and not accepted. The linearised figure (0.0049
     # per e-fold in mu) lies below the injected c mu_c (0.0095); injection and
@@ -279,6 +281,17 @@ def main():
     # would call the missed 0.0168 identifiable).
     check_no_overclaim(tribo_fit, work, 8, 0.18, failures)
 
+
+def part_protocols(tribo_fit, work, failures):
+    """Dwell stiction after rests, speed steps within passes, rate-and-state, and
+    holds of minutes (creep)."""
+    check_first(tribo_fit, work, "dwell_stiction", 1, failures)
+    # Seed 10: the term's asymptote dwell_dFs (0.155 +- 0.066 with the
+    # motion model's part: 2.3 errors) trades off against dwell_time; the
+    # peak after the longest hold, which the record determines, clears the
+    # strength gate.
+    check_first(tribo_fit, work, "dwell_stiction", 10, failures)
+
     # Speed steps within the passes (the protocol of the generator's
     # rate_state files): a clean record accepts nothing.
     csv = transducer_sim.write(work, "none", 3, steps=True)
@@ -313,6 +326,22 @@ def main():
     if accepted:
         failures.append(f"none with holds of minutes, seed 1: accepted {accepted}")
     print(f"none with holds of minutes, seed 1: accepted {accepted}")
+
+
+PARTS = {"clean": part_clean, "effects": part_effects, "strengthening": part_strengthening,
+         "protocols": part_protocols}
+
+
+def main():
+    tribo_fit, work = sys.argv[1:3]
+    names = sys.argv[3:] or list(PARTS)
+    unknown = [n for n in names if n not in PARTS]
+    if unknown:
+        sys.exit(f"unknown part(s) {unknown}: the parts are {list(PARTS)}")
+    failures = []
+    for name in names:
+        # Each part in its own directory: ctest runs the parts side by side.
+        PARTS[name](tribo_fit, os.path.join(work, name), failures)
     if failures:
         sys.exit("; ".join(failures))
 
