@@ -287,12 +287,6 @@ std::shared_ptr<const DriveArrays> drive_arrays(const MeasuredSeries& s, const M
       a.slip_m[i] = a.slip_m[i - 1] + std::fabs(step_velocity[i]) * (s.time_s[i] - s.time_s[i - 1]);
     }
   }
-  const double t0 = s.time_s.front(), span = std::max(s.time_s.back() - t0, 1e-30);
-  a.normalised_time.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const double u = (s.time_s[i] - t0) / span;
-    a.normalised_time[i] = 2 * u - 1;
-  }
   return std::make_shared<const DriveArrays>(std::move(a));
 }
 
@@ -306,9 +300,10 @@ ModelData::ModelData(const MeasuredSeries& s, const MotionSegmentation& m)
       drive_velocity(arrays_->drive_velocity),
       at_rest(arrays_->at_rest),
       step_velocity(arrays_->step_velocity),
-      slip_m(arrays_->slip_m),
-      normalised_time(arrays_->normalised_time) {
+      slip_m(arrays_->slip_m) {
   const std::size_t n = s.size();
+  time_start_s_ = s.time_s.front();
+  time_span_s_ = std::max(s.time_s.back() - time_start_s_, 1e-30);
   std::vector<double> force, speed, accel, normal;
   for (std::size_t i = 0; i < n; ++i) {
     if (m.pass_of[i] < 0) continue;

@@ -91,7 +91,6 @@ struct DriveArrays {
   std::vector<double> step_velocity;    // mean velocity over (t[i-1], t[i]); [0] unused
   std::vector<double> slip_m;           // distance slid since the record began (|step_velocity| dt summed);
                                         // only for records that slide one way only, else empty
-  std::vector<double> normalised_time;  // time mapped to [-1, 1] over the record
 };
 
 struct ModelData {
@@ -124,6 +123,12 @@ struct ModelData {
   // computed when needed: a stored table would cost drift_functions doubles
   // per sample. Returns the first of the four that are not zero.
   int drift_basis_at(std::size_t i, double* out) const;
+  // Sample i's time mapped to [-1, 1] over the record, computed when needed
+  // (eight bytes a sample as a stored array).
+  double normalised_time(std::size_t i) const {
+    const double u = (series.time_s[i] - time_start_s_) / time_span_s_;
+    return 2 * u - 1;
+  }
   // The force the model is fitted to, a pass starts from and the residual
   // signatures and score test read: the record's, or a copy with an effect
   // injected into it (injection and recovery, and rediagnosis, of a minimum
@@ -133,13 +138,13 @@ struct ModelData {
 
  private:
   std::shared_ptr<const DriveArrays> arrays_;  // before the references to its arrays
+  double time_start_s_ = 0, time_span_s_ = 1;  // normalised_time's
 
  public:
   const std::vector<double>& drive_velocity;
   const std::vector<char>& at_rest;
   const std::vector<double>& step_velocity;
   const std::vector<double>& slip_m;
-  const std::vector<double>& normalised_time;
 };
 
 // The base LuGre model (no effects) with rough initial values.
