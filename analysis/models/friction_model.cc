@@ -684,6 +684,15 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
   bool in_gap = false;
   T x_open = T(x[0] + 0.0 * gap);
 
+  // A pass that follows a hold starts from the force measured at rest
+  // (state_at_rest): only the contact age and rate-and-state variable
+  // (advanced at every sample), the level at the hold's last sample and the
+  // lagged velocity there (computed from the record) reach past that start,
+  // not the bristle state or the force before it. So the samples the sink
+  // ignores up to the end of a hold that it also ignores are left out but
+  // that last one: samples [i, skip_until).
+  const bool skippable = st.state_from_rest && !backlash && sink.ignores_some();
+  std::size_t next_taken = 0, hold_end = 0, skip_until = 0;
   for (std::size_t i = 0; i < n; ++i) {
     T friction = T(0.0 * sigma0);
     const T level_prev = level, vlag_prev = vlag;
@@ -695,6 +704,18 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
       const T next = slip_law ? slip_law_step(d, rs_dc, rs_state, i) : contact_age_step(d, rs_dc, rs_state, i);
       rs_state = next;
     }
+    if (skippable && i >= skip_until) {
+      if (next_taken < i) {
+        next_taken = i;
+        while (next_taken < n && sink.ignores(next_taken)) ++next_taken;
+      }
+      if (hold_end < i) {
+        hold_end = i;
+        while (hold_end < n && !(d.at_rest[hold_end] && (hold_end + 1 == n || !d.at_rest[hold_end + 1]))) ++hold_end;
+      }
+      if (hold_end + 1 < n && hold_end > i && hold_end < next_taken) skip_until = hold_end;
+    }
+    if (i < skip_until) continue;
     if (i > 0) {
       if (lag) vlag = lagged_velocity(i);
       level = stribeck(i, lag ? absolute(vlag) : T(std::fabs(v[i])), sign_of(v[i]));

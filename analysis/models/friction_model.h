@@ -185,12 +185,14 @@ void simulate_generic(const ModelData& data, const ModelParams& params, const st
 // law was evaluated at the sample (false: no contact level, or a backlash
 // gap; the friction part is then zero), one with a fifth, double argument
 // also the bristle's rate dz/dt there (zero where not evaluated).
+// `taken`, when given, marks the samples the callable reads: it ignores the
+// others, and the simulation may leave some of those out (simulate_streamed).
 template <class T>
 class SampleSink {
  public:
   template <class F>
-  explicit SampleSink(F& f)
-      : target_(&f), call_([](void* t, std::size_t i, const T& force, const T& friction, bool evaluated, double rate) {
+  explicit SampleSink(F& f, const std::vector<char>* taken = nullptr)
+      : target_(&f), taken_(taken), call_([](void* t, std::size_t i, const T& force, const T& friction, bool evaluated, double rate) {
           if constexpr (std::is_invocable_v<F&, std::size_t, const T&, const T&, bool, double>) {
             (*static_cast<F*>(t))(i, force, friction, evaluated, rate);
           } else if constexpr (std::is_invocable_v<F&, std::size_t, const T&, const T&, bool>) {
@@ -202,9 +204,13 @@ class SampleSink {
   void operator()(std::size_t i, const T& force, const T& friction, bool evaluated, double rate) const {
     call_(target_, i, force, friction, evaluated, rate);
   }
+  // Whether the callable ignores sample i; whether it may ignore any.
+  bool ignores(std::size_t i) const { return taken_ && !(*taken_)[i]; }
+  bool ignores_some() const { return taken_ != nullptr; }
 
  private:
   void* target_;
+  const std::vector<char>* taken_;
   void (*call_)(void*, std::size_t, const T&, const T&, bool, double);
 };
 
@@ -224,7 +230,13 @@ struct RestStateLane {
 
 // simulate_generic, streamed: sink(i, force, friction) for i = 0 .. n-1.
 // The values are those simulate_generic stores, bit for bit (rest changes
-// derivatives only).
+// derivatives only), at every sample the sink takes. With
+// ModelStructure::state_from_rest (and no backlash), the samples the sink
+// ignores (SampleSink's `taken`) that lie before the end of a hold it
+// ignores too are not simulated, but the hold's last: the pass after it
+// starts from the force measured at rest, and reads only the contact age and
+// rate-and-state variable (advanced at every sample) and the hold's last
+// level.
 template <class T>
 void simulate_streamed(const ModelData& data, const ModelParams& params, const std::vector<T>& theta, SampleSink<T> sink,
                        const RestStateLane* rest = nullptr);
