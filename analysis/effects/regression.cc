@@ -65,6 +65,12 @@ void Design::add_row(std::initializer_list<double> x, double target) {
   y.push_back(target);
 }
 
+void Design::reserve(std::size_t width, std::size_t rows) {
+  if (columns.empty()) columns.resize(width);
+  for (auto& c : columns) c.reserve(rows);
+  y.reserve(rows);
+}
+
 Regression Design::fit() const {
   const auto n = static_cast<Eigen::Index>(y.size());
   auto fill = [&](Eigen::MatrixXd& X) {

@@ -38,6 +38,8 @@ struct Design {
   std::vector<std::vector<double>> columns;
   std::vector<double> y;
   void add_row(std::initializer_list<double> x, double target);
+  // Room for `rows` rows of `width` regressors (no regrowth while rows are added).
+  void reserve(std::size_t width, std::size_t rows);
   Regression fit() const;
   std::size_t rows() const { return y.size(); }
 };

@@ -105,7 +105,7 @@ Signature dwell_stiction(const SignatureContext& c) {
     excess.push_back(onset / n_onset - steady / n_steady);
     early.push_back(first / n_first);
     weight.push_back(w / n_first);
-    when.push_back(c.in.data.normalised_time[(p.first + p.last) / 2]);
+    when.push_back(c.in.data.normalised_time((p.first + p.last) / 2));
     level_sum += c.level_factor((p.first + p.last) / 2);
   }
   if (dwell.size() < 4) return not_applicable(e, "fewer than 4 motion onsets after a hold in the fit data");
@@ -147,7 +147,7 @@ Signature drift(const SignatureContext& c) {
     b.dir = dir;
     for (std::size_t i = first; i <= last; ++i) {
       if (!c.in.in_fit[i]) continue;
-      b.t += c.in.data.normalised_time[i];
+      b.t += c.in.data.normalised_time(i);
       b.r += c.r[i];
       if (c.s.has_normal()) b.normal += c.s.normal_force_n[i];
       ++b.count;
@@ -238,24 +238,27 @@ Signature frictional_lag(const SignatureContext& c) {
   // crosses one (log-interpolated); the significance is that delay's t.
   struct Trial {
     double tau, coef, t;
-    std::vector<double> q;
   };
   // The rows, their residuals and S(|v(t)|) are the same for every trial delay.
+  std::size_t row_count = 0;
+  for (std::size_t i = 0; i < c.s.size(); ++i) {
+    if (c.sliding(i) || c.zone[i] == SignatureContext::Zone::kPresliding) ++row_count;
+  }
   std::vector<std::size_t> rows;
   std::vector<double> residual, level_now;
+  rows.reserve(row_count);
+  residual.reserve(row_count);
+  level_now.reserve(row_count);
   for (std::size_t i = 0; i < c.s.size(); ++i) {
     if (!(c.sliding(i) || c.zone[i] == SignatureContext::Zone::kPresliding)) continue;
     rows.push_back(i);
     residual.push_back(c.r[i]);
     level_now.push_back(stribeck(std::fabs(v[i])));
   }
-  std::vector<Trial> trials;
-  for (double steps : {1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0}) {
-    const double tau = steps * dt;
-    if (tau > 0.5) break;
-    Design design;
-    Trial trial{tau, 0, 0, {}};
-    trial.q.reserve(rows.size());
+  // Each row's regressor for the delay tau, in row order, to each(row, q).
+  // Formed again for the delay chosen rather than held for every trial
+  // delay (eight bytes a row and delay).
+  auto for_each_regressor = [&](double tau, auto each) {
     std::size_t k = 0;
     for (std::size_t row = 0; row < rows.size(); ++row) {
       const std::size_t i = rows[row];
@@ -263,18 +266,24 @@ Signature frictional_lag(const SignatureContext& c) {
       while (k + 1 < c.s.size() && t[k + 1] <= target) ++k;
       const double vl = target <= t.front() ? v.front()
                                             : v[k] + (target - t[k]) / (t[k + 1] - t[k]) * (v[std::min(k + 1, c.s.size() - 1)] - v[k]);
-      const double q = c.m.direction[i] * (stribeck(std::fabs(vl)) - level_now[row]) * c.level_factor(i);
-      design.add_row({1.0, static_cast<double>(c.m.direction[i]), q}, c.r[i]);
-      trial.q.push_back(q);
+      each(row, c.m.direction[i] * (stribeck(std::fabs(vl)) - level_now[row]) * c.level_factor(i));
     }
+  };
+  std::vector<Trial> trials;
+  for (double steps : {1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0}) {
+    const double tau = steps * dt;
+    if (tau > 0.5) break;
+    Design design;
+    design.reserve(3, rows.size());
+    for_each_regressor(tau, [&](std::size_t row, double q) {
+      const std::size_t i = rows[row];
+      design.add_row({1.0, static_cast<double>(c.m.direction[i]), q}, c.r[i]);
+    });
     const Regression reg = design.fit();
     if (!reg.ok) continue;
-    trial.coef = reg.coef[2];
-    trial.t = reg.t(2);
-    trials.push_back(std::move(trial));
+    trials.push_back({tau, reg.coef[2], reg.t(2)});
   }
-  double best_t = 0, best_tau = 0, best_coef = 0;
-  std::vector<double> best_q, best_r;
+  double best_t = 0, best_tau = 0, best_coef = 0, best_trial_tau = 0;
   for (std::size_t j = 0; j < trials.size(); ++j) {
     const Trial& a = trials[j];
     if (a.coef <= 0) continue;
@@ -291,9 +300,15 @@ Signature frictional_lag(const SignatureContext& c) {
       best_t = a.t;
       best_tau = tau;
       best_coef = a.coef;
-      best_q = a.q;
-      best_r = residual;
+      best_trial_tau = a.tau;
     }
+  }
+  // The plot: the best trial's regressor against the residual.
+  std::vector<double> best_q, best_r;
+  if (best_t > 0) {
+    best_q.resize(rows.size());
+    for_each_regressor(best_trial_tau, [&](std::size_t row, double q) { best_q[row] = q; });
+    best_r = std::move(residual);
   }
   Signature sig;
   sig.effect = e;

@@ -22,6 +22,8 @@
 //     zero over a distance after reversals; hysteresis changes its shape only.
 #pragma once
 
+#include <cstdint>
+
 #include <algorithm>
 #include <string>
 #include <vector>
@@ -72,7 +74,7 @@ struct SignatureContext {
     return in.params.structure.load_scaled && s.has_normal() ? std::max(s.normal_force_n[i], 0.0) : 1.0;
   }
 
-  enum class Zone { kNone, kHold, kPresliding, kSliding, kSteady };
+  enum class Zone : std::uint8_t { kNone, kHold, kPresliding, kSliding, kSteady };  // one byte a sample
   const SignatureInput& in;
   const MeasuredSeries& s;
   const MotionSegmentation& m;

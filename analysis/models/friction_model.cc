@@ -287,12 +287,6 @@ std::shared_ptr<const DriveArrays> drive_arrays(const MeasuredSeries& s, const M
       a.slip_m[i] = a.slip_m[i - 1] + std::fabs(step_velocity[i]) * (s.time_s[i] - s.time_s[i - 1]);
     }
   }
-  const double t0 = s.time_s.front(), span = std::max(s.time_s.back() - t0, 1e-30);
-  a.normalised_time.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const double u = (s.time_s[i] - t0) / span;
-    a.normalised_time[i] = 2 * u - 1;
-  }
   return std::make_shared<const DriveArrays>(std::move(a));
 }
 
@@ -306,9 +300,10 @@ ModelData::ModelData(const MeasuredSeries& s, const MotionSegmentation& m)
       drive_velocity(arrays_->drive_velocity),
       at_rest(arrays_->at_rest),
       step_velocity(arrays_->step_velocity),
-      slip_m(arrays_->slip_m),
-      normalised_time(arrays_->normalised_time) {
+      slip_m(arrays_->slip_m) {
   const std::size_t n = s.size();
+  time_start_s_ = s.time_s.front();
+  time_span_s_ = std::max(s.time_s.back() - time_start_s_, 1e-30);
   std::vector<double> force, speed, accel, normal;
   for (std::size_t i = 0; i < n; ++i) {
     if (m.pass_of[i] < 0) continue;
@@ -689,6 +684,15 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
   bool in_gap = false;
   T x_open = T(x[0] + 0.0 * gap);
 
+  // A pass that follows a hold starts from the force measured at rest
+  // (state_at_rest): only the contact age and rate-and-state variable
+  // (advanced at every sample), the level at the hold's last sample and the
+  // lagged velocity there (computed from the record) reach past that start,
+  // not the bristle state or the force before it. So the samples the sink
+  // ignores up to the end of a hold that it also ignores are left out but
+  // that last one: samples [i, skip_until).
+  const bool skippable = st.state_from_rest && !backlash && sink.ignores_some();
+  std::size_t next_taken = 0, hold_end = 0, skip_until = 0;
   for (std::size_t i = 0; i < n; ++i) {
     T friction = T(0.0 * sigma0);
     const T level_prev = level, vlag_prev = vlag;
@@ -700,6 +704,18 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
       const T next = slip_law ? slip_law_step(d, rs_dc, rs_state, i) : contact_age_step(d, rs_dc, rs_state, i);
       rs_state = next;
     }
+    if (skippable && i >= skip_until) {
+      if (next_taken < i) {
+        next_taken = i;
+        while (next_taken < n && sink.ignores(next_taken)) ++next_taken;
+      }
+      if (hold_end < i) {
+        hold_end = i;
+        while (hold_end < n && !(d.at_rest[hold_end] && (hold_end + 1 == n || !d.at_rest[hold_end + 1]))) ++hold_end;
+      }
+      if (hold_end + 1 < n && hold_end > i && hold_end < next_taken) skip_until = hold_end;
+    }
+    if (i < skip_until) continue;
     if (i > 0) {
       if (lag) vlag = lagged_velocity(i);
       level = stribeck(i, lag ? absolute(vlag) : T(std::fabs(v[i])), sign_of(v[i]));

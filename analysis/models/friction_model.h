@@ -91,7 +91,6 @@ struct DriveArrays {
   std::vector<double> step_velocity;    // mean velocity over (t[i-1], t[i]); [0] unused
   std::vector<double> slip_m;           // distance slid since the record began (|step_velocity| dt summed);
                                         // only for records that slide one way only, else empty
-  std::vector<double> normalised_time;  // time mapped to [-1, 1] over the record
 };
 
 struct ModelData {
@@ -124,6 +123,12 @@ struct ModelData {
   // computed when needed: a stored table would cost drift_functions doubles
   // per sample. Returns the first of the four that are not zero.
   int drift_basis_at(std::size_t i, double* out) const;
+  // Sample i's time mapped to [-1, 1] over the record, computed when needed
+  // (eight bytes a sample as a stored array).
+  double normalised_time(std::size_t i) const {
+    const double u = (series.time_s[i] - time_start_s_) / time_span_s_;
+    return 2 * u - 1;
+  }
   // The force the model is fitted to, a pass starts from and the residual
   // signatures and score test read: the record's, or a copy with an effect
   // injected into it (injection and recovery, and rediagnosis, of a minimum
@@ -133,13 +138,13 @@ struct ModelData {
 
  private:
   std::shared_ptr<const DriveArrays> arrays_;  // before the references to its arrays
+  double time_start_s_ = 0, time_span_s_ = 1;  // normalised_time's
 
  public:
   const std::vector<double>& drive_velocity;
   const std::vector<char>& at_rest;
   const std::vector<double>& step_velocity;
   const std::vector<double>& slip_m;
-  const std::vector<double>& normalised_time;
 };
 
 // The base LuGre model (no effects) with rough initial values.
@@ -180,12 +185,14 @@ void simulate_generic(const ModelData& data, const ModelParams& params, const st
 // law was evaluated at the sample (false: no contact level, or a backlash
 // gap; the friction part is then zero), one with a fifth, double argument
 // also the bristle's rate dz/dt there (zero where not evaluated).
+// `taken`, when given, marks the samples the callable reads: it ignores the
+// others, and the simulation may leave some of those out (simulate_streamed).
 template <class T>
 class SampleSink {
  public:
   template <class F>
-  explicit SampleSink(F& f)
-      : target_(&f), call_([](void* t, std::size_t i, const T& force, const T& friction, bool evaluated, double rate) {
+  explicit SampleSink(F& f, const std::vector<char>* taken = nullptr)
+      : target_(&f), taken_(taken), call_([](void* t, std::size_t i, const T& force, const T& friction, bool evaluated, double rate) {
           if constexpr (std::is_invocable_v<F&, std::size_t, const T&, const T&, bool, double>) {
             (*static_cast<F*>(t))(i, force, friction, evaluated, rate);
           } else if constexpr (std::is_invocable_v<F&, std::size_t, const T&, const T&, bool>) {
@@ -197,9 +204,13 @@ class SampleSink {
   void operator()(std::size_t i, const T& force, const T& friction, bool evaluated, double rate) const {
     call_(target_, i, force, friction, evaluated, rate);
   }
+  // Whether the callable ignores sample i; whether it may ignore any.
+  bool ignores(std::size_t i) const { return taken_ && !(*taken_)[i]; }
+  bool ignores_some() const { return taken_ != nullptr; }
 
  private:
   void* target_;
+  const std::vector<char>* taken_;
   void (*call_)(void*, std::size_t, const T&, const T&, bool, double);
 };
 
@@ -219,7 +230,13 @@ struct RestStateLane {
 
 // simulate_generic, streamed: sink(i, force, friction) for i = 0 .. n-1.
 // The values are those simulate_generic stores, bit for bit (rest changes
-// derivatives only).
+// derivatives only), at every sample the sink takes. With
+// ModelStructure::state_from_rest (and no backlash), the samples the sink
+// ignores (SampleSink's `taken`) that lie before the end of a hold it
+// ignores too are not simulated, but the hold's last: the pass after it
+// starts from the force measured at rest, and reads only the contact age and
+// rate-and-state variable (advanced at every sample) and the hold's last
+// level.
 template <class T>
 void simulate_streamed(const ModelData& data, const ModelParams& params, const std::vector<T>& theta, SampleSink<T> sink,
                        const RestStateLane* rest = nullptr);

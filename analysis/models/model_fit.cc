@@ -137,7 +137,7 @@ struct ModelFunctor : Eigen::DenseFunctor<double> {
       const double e = measured[i] - force;
       fvec[static_cast<Eigen::Index>(r++)] = std::isfinite(e) ? e : 1e30;
     };
-    simulate_streamed<double>(data, params, full_theta(x), SampleSink<double>(residual));
+    simulate_streamed<double>(data, params, full_theta(x), SampleSink<double>(residual, rows.mask));
     return 0;
   }
 
@@ -289,7 +289,7 @@ void jacobian_with(const ModelData& data, const ModelParams& params, const std::
     }
     ++r;
   };
-  simulate_streamed<T>(data, params, dual, SampleSink<T>(row), plan.through_rest_state ? &rest : nullptr);
+  simulate_streamed<T>(data, params, dual, SampleSink<T>(row, model ? nullptr : rows.mask), plan.through_rest_state ? &rest : nullptr);
 }
 
 void jacobian_rows(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
@@ -367,7 +367,7 @@ double residual_sum_of_squares(const ModelData& data, const ModelParams& params,
     const double e = measured[i] - force;
     rss += std::isfinite(e) ? e * e : 1e60;
   };
-  simulate_streamed<double>(data, params, params.theta, SampleSink<double>(add));
+  simulate_streamed<double>(data, params, params.theta, SampleSink<double>(add, &in_fit));
   return rss;
 }
 

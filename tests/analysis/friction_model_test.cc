@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -159,6 +160,48 @@ TEST(FrictionModel, TheAutodiffSimulationsForceIsThePlainOneBitForBit) {
       for (std::size_t i = 0; i < plain.size(); ++i) differing += std::memcmp(&plain[i], &dual_force[i], sizeof(double)) != 0;
       EXPECT_EQ(differing, 0u) << width << " derivative columns, " << p.theta.size() << " parameters";
     }
+  }
+}
+
+// A fit reads its residual and Jacobian rows at its own samples only, and
+// with the pass start from rest the simulation leaves out what it ignores
+// up to the end of a hold (held-out passes, the holds): at every sample it
+// takes, the force and each derivative must be the full simulation's, bit
+// for bit, with every effect that carries state across samples (contact
+// age, rate-and-state variable, lag, plasticity).
+TEST(FrictionModel, ASinkThatIgnoresSamplesGetsTheFullSimulationsValuesAtThoseItTakes) {
+  Fixture f;
+  std::vector<char> taken(f.series.size());
+  for (std::size_t i = 0; i < taken.size(); ++i) taken[i] = !f.motion.heldout[i] && !f.data.at_rest[i];
+  for (bool slip : {false, true}) {
+    ModelParams p = f.base();
+    p.structure.state_from_rest = true;
+    p.structure.rate_state_slip_law = slip;
+    for (const auto& [e, values] : std::vector<std::pair<Effect, std::vector<double>>>{
+             {Effect::kDwellStiction, {0.03, 2.0}}, {Effect::kFrictionalLag, {0.0213}},
+             {Effect::kPreslidingHysteresis, {0.4}}, {Effect::kTiltOffset, {0.01}}, {Effect::kRateState, {}}}) {
+      p = with_effect(p, e, f.data, values);
+    }
+    const std::vector<Dual> theta = seeded_duals(p.theta);
+    std::vector<Dual> full;
+    simulate_generic<Dual>(f.data, p, theta, full);
+    std::size_t delivered = 0, differing = 0, taken_seen = 0;
+    auto check = [&](std::size_t i, const Dual& force, const Dual&) {
+      ++delivered;
+      if (!taken[i]) return;
+      ++taken_seen;
+      const Dual& want = full[i];
+      bool same = std::memcmp(&want.value(), &force.value(), sizeof(double)) == 0 &&
+                  want.derivatives().size() == force.derivatives().size();
+      for (Eigen::Index k = 0; same && k < want.derivatives().size(); ++k) {
+        same = std::memcmp(&want.derivatives()[k], &force.derivatives()[k], sizeof(double)) == 0;
+      }
+      differing += !same;
+    };
+    simulate_streamed<Dual>(f.data, p, theta, SampleSink<Dual>(check, &taken));
+    EXPECT_EQ(differing, 0u) << (slip ? "slip law" : "ageing law");
+    EXPECT_EQ(taken_seen, static_cast<std::size_t>(std::count(taken.begin(), taken.end(), 1)));
+    EXPECT_LT(delivered, f.series.size() * 3 / 4);  // held-out passes and holds were left out
   }
 }
 
