@@ -107,7 +107,7 @@ struct AdvanceReport {
   bool retried = false;  // the first attempt was not sane; the tick was redone (split, 4x sub-steps)
 };
 
-// S at a tick's start (of dt_s), the bristle limited by it:
+// S at a tick's start, the bristle limited by it:
 // limit_to_static_friction, its solve of S with the slip rate starting from
 // memory's 1/g at the last sub-step's end.
 double stribeck_at_tick_start(const LateralPlant& plant, const LateralInputs& in, LateralState& s,
