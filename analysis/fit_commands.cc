@@ -2,12 +2,14 @@
 
 #include <chrono>
 #include <exception>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 
 #include "analysis/report/diagnosis_report.h"
 #include "analysis/parallel_for.h"
 #include "analysis/metrics/scratch_metrics.h"
+#include "analysis/motion/motion_estimate.h"
 
 namespace tribo::analysis {
 
@@ -66,10 +68,14 @@ DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r)
   if (!smoothed) {
     derive_motion(series, r.smooth_s);
   } else {
-    // The two estimates are independent: one per core.
+    // The two estimates are independent (one per core) but for their loop
+    // models' normal equations, formed once on every core.
+    std::optional<Eigen::MatrixXd> gram;
+    if (alternative) gram = loop_normal_matrix(series.time_s, series.reference_m, series.force_n, 0);
+    const Eigen::MatrixXd* shared = gram ? &*gram : nullptr;
     parallel_for(alternative ? 2 : 1, 0, [&](std::size_t k) {
-      if (k == 0) derive_motion_smoothed(series, r.loop_force, r.velocity_jumps);
-      else derive_motion_smoothed(*alternative, !r.loop_force, r.velocity_jumps);
+      if (k == 0) derive_motion_smoothed(series, r.loop_force, r.velocity_jumps, shared);
+      else derive_motion_smoothed(*alternative, !r.loop_force, r.velocity_jumps, shared);
     });
   }
   if (alternative && alternative->loop_taps == 0) alternative.reset();

@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
 namespace tribo::analysis {
 
 struct MeasuredSeries {
@@ -56,7 +58,10 @@ void derive_motion(MeasuredSeries& series, double smoothing_s);
 // too, in place of the record's own (nothing after the estimate reads that):
 // the model's bristle is driven by position increments, and raw increments
 // carry the full position noise (10 nm at 500 Hz is 5 um/s).
-void derive_motion_smoothed(MeasuredSeries& series, bool loop_force = false, bool velocity_jumps = false);
+// loop_normal_matrix: the loop model's matrix as loop_normal_matrix()
+// (analysis/motion/motion_estimate.h) formed it for this series, or null.
+void derive_motion_smoothed(MeasuredSeries& series, bool loop_force = false, bool velocity_jumps = false,
+                            const Eigen::MatrixXd* loop_normal_matrix = nullptr);
 
 // Keeps only what the motion estimate gave (position, velocity, acceleration
 // and the estimator's figures): another estimate of a series' motion, kept

@@ -1,6 +1,9 @@
 #include "analysis/motion/gram_in_sample_order.h"
 
 #include <algorithm>
+#include <thread>
+
+#include "analysis/parallel_for.h"
 
 namespace tribo::analysis {
 
@@ -36,7 +39,7 @@ void accumulate_tile(const double* const* rows, const double* const* cols, std::
 
 }  // namespace
 
-Eigen::MatrixXd gram_in_sample_order(const std::vector<const double*>& columns, std::size_t samples) {
+Eigen::MatrixXd gram_in_sample_order(const std::vector<const double*>& columns, std::size_t samples, unsigned threads) {
   const std::size_t count = columns.size();
   if (count == 0) return Eigen::MatrixXd(0, 0);
   // Whole tiles: the padding columns repeat the last one; their sums are
@@ -46,15 +49,24 @@ Eigen::MatrixXd gram_in_sample_order(const std::vector<const double*>& columns, 
   column.resize(padded, columns.back());
   const auto size = static_cast<Eigen::Index>(padded);
   Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(size, size);
-  for (std::size_t first = 0; first < samples; first += kChunk) {
-    const std::size_t last = std::min(samples, first + kChunk);
-    for (std::size_t b = 0; b < padded; b += kTile) {
-      for (std::size_t a = b; a < padded; a += kTile) {
-        accumulate_tile(column.data() + a, column.data() + b, first, last,
-                        &sum(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b)), padded);
+  // The columns of tiles dealt out to the jobs in turn (the triangle's long
+  // and short columns alike); each job reads a chunk once for all its tiles,
+  // and each tile is summed by one job over the chunks in order, so the
+  // schedule changes no bit.
+  const std::size_t tiles = padded / kTile;
+  const std::size_t jobs = std::min<std::size_t>(
+      tiles, threads == 0 ? std::max(1u, std::thread::hardware_concurrency()) : threads);
+  parallel_for(jobs, static_cast<unsigned>(jobs), [&](std::size_t job) {
+    for (std::size_t first = 0; first < samples; first += kChunk) {
+      const std::size_t last = std::min(samples, first + kChunk);
+      for (std::size_t b = job * kTile; b < padded; b += jobs * kTile) {
+        for (std::size_t a = b; a < padded; a += kTile) {
+          accumulate_tile(column.data() + a, column.data() + b, first, last,
+                          &sum(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b)), padded);
+        }
       }
     }
-  }
+  });
   const auto n = static_cast<Eigen::Index>(count);
   Eigen::MatrixXd gram(n, n);
   gram = sum.topLeftCorner(n, n).selfadjointView<Eigen::Lower>();

@@ -20,7 +20,9 @@
 namespace tribo::analysis {
 
 // columns[c][i]: column c at sample i, for i in [0, samples). Returns the full
-// symmetric matrix (columns.size() square).
-Eigen::MatrixXd gram_in_sample_order(const std::vector<const double*>& columns, std::size_t samples);
+// symmetric matrix (columns.size() square), the same bits on any number of
+// threads (0: one per core).
+Eigen::MatrixXd gram_in_sample_order(const std::vector<const double*>& columns, std::size_t samples,
+                                     unsigned threads = 1);
 
 }  // namespace tribo::analysis

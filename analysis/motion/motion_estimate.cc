@@ -85,24 +85,59 @@ struct FilterUpdate {
   Vec3 gain;
 };
 
+// The covariance half of a filter step is a function of the step's dt,
+// whether the velocity may jump there and the covariance before it; only the
+// mean half reads the data. On uniform samples the covariance mostly settles
+// to a fixed point, exactly in floating point (at 1 kHz: after 0.4 thousand
+// samples for a jerk intensity of 5e8 noise units, 270 thousand for 2e-9;
+// some larger intensities alternate between two covariances instead), after
+// which each step would repeat the last one's covariance arithmetic: the memo
+// returns its results, the same bits, and the step costs a few flops. The
+// maximum-likelihood search runs the filter some forty times over the record.
+struct CovarianceStep {
+  bool valid = false;
+  double dt = 0;
+  bool jump = false;
+  Mat3 cov_before, F, cov_after;
+  double variance = 0;
+  Vec3 gain;
+};
+
 // Takes sample i into the state (that after sample i - 1).
 FilterUpdate filter_step(const std::vector<double>& t, const std::vector<double>& y, double q, const VelocityJumps& jumps,
-                         std::size_t i, FilterState& state) {
-  Vec3 mp = state.mean;
-  Mat3 Pp = state.cov;
-  if (i > 0) {
-    Mat3 F, Q;
-    transition(t[i] - t[i - 1], q, F, Q);
-    mp = F * state.mean;
-    Pp = predicted_covariance(F, state.cov, Q, jumps, i);
-  }
+                         std::size_t i, FilterState& state, CovarianceStep& memo) {
   FilterUpdate u;
-  u.variance = Pp(0, 0) + 1.0;
+  if (i == 0) {
+    const Mat3 Pp = state.cov;
+    u.variance = Pp(0, 0) + 1.0;
+    u.innovation = y[i] - state.mean(0);
+    u.gain = Pp.col(0) / u.variance;
+    state.mean = state.mean + u.gain * u.innovation;
+    state.cov = Pp - u.gain * Pp.row(0);
+    state.cov = 0.5 * (state.cov + state.cov.transpose());
+    return u;
+  }
+  const double dt = t[i] - t[i - 1];
+  const bool jump = !jumps.at.empty() && jumps.at[i];
+  if (!memo.valid || memo.dt != dt || memo.jump != jump || memo.cov_before != state.cov) {
+    memo.valid = true;
+    memo.dt = dt;
+    memo.jump = jump;
+    memo.cov_before = state.cov;
+    Mat3 Q;
+    transition(dt, q, memo.F, Q);
+    const Mat3 Pp = predicted_covariance(memo.F, state.cov, Q, jumps, i);
+    memo.variance = Pp(0, 0) + 1.0;
+    memo.gain = Pp.col(0) / memo.variance;
+    memo.cov_after = Pp - memo.gain * Pp.row(0);
+    memo.cov_after = 0.5 * (memo.cov_after + memo.cov_after.transpose());
+  }
+  const Vec3 mp = memo.F * state.mean;
+  u.variance = memo.variance;
   u.innovation = y[i] - mp(0);
-  u.gain = Pp.col(0) / u.variance;
+  u.gain = memo.gain;
   state.mean = mp + u.gain * u.innovation;
-  state.cov = Pp - u.gain * Pp.row(0);
-  state.cov = 0.5 * (state.cov + state.cov.transpose());
+  state.cov = memo.cov_after;
   return u;
 }
 
@@ -116,9 +151,12 @@ FilterPass kalman(const std::vector<double>& t, const std::vector<double>& y, do
     out.gain.resize(n);
   }
   FilterState state = prior_state(t, y);
+  CovarianceStep memo;
+  double log_variance = 0, log_of = std::numeric_limits<double>::quiet_NaN();
   for (std::size_t i = 0; i < n; ++i) {
-    const FilterUpdate u = filter_step(t, y, q, jumps, i, state);
-    if (i > 0) out.log_likelihood += -0.5 * (std::log(u.variance) + u.innovation * u.innovation / u.variance);
+    const FilterUpdate u = filter_step(t, y, q, jumps, i, state, memo);
+    if (u.variance != log_of) log_of = u.variance, log_variance = std::log(u.variance);
+    if (i > 0) out.log_likelihood += -0.5 * (log_variance + u.innovation * u.innovation / u.variance);
     if (innovations) {
       out.innovation[i] = u.innovation;
       out.innovation_var[i] = u.variance;
@@ -127,6 +165,43 @@ FilterPass kalman(const std::vector<double>& t, const std::vector<double>& y, do
   }
   return out;
 }
+
+// The covariance half of a smoother step, memoised as the filter's
+// (CovarianceStep): a function of dt, the jump flag and the filtered
+// covariance, and then of the smoothed covariance that follows, which
+// settles to its own fixed point away from the record's end.
+struct SmootherStep {
+  bool valid = false, smoothed_valid = false;
+  double dt = 0;
+  bool jump = false;
+  Mat3 filtered_cov, F, predicted_cov, gain, smoothed_in, smoothed_out;
+
+  void update(double step_dt, double q, const VelocityJumps& jumps, std::size_t next, const Mat3& cov) {
+    const bool jump_next = !jumps.at.empty() && jumps.at[next];
+    if (valid && dt == step_dt && jump == jump_next && filtered_cov == cov) return;
+    valid = true;
+    smoothed_valid = false;
+    dt = step_dt;
+    jump = jump_next;
+    filtered_cov = cov;
+    Mat3 Q;
+    transition(step_dt, q, F, Q);
+    predicted_cov = predicted_covariance(F, cov, Q, jumps, next);
+    gain = cov * F.transpose() * predicted_cov.inverse();
+  }
+
+  // Ps (the next sample's smoothed covariance) becomes this sample's.
+  void smoothed_covariance(const Mat3& cov, Mat3& Ps) {
+    if (smoothed_valid && smoothed_in == Ps) {
+      Ps = smoothed_out;
+      return;
+    }
+    smoothed_in = Ps;
+    Ps = cov + gain * (Ps - predicted_cov) * gain.transpose();
+    smoothed_out = Ps;
+    smoothed_valid = true;
+  }
+};
 
 // The Rauch-Tung-Striebel smoother (the forward filter, then the backward
 // pass) into position, velocity and acceleration (times `scale`), and each
@@ -143,9 +218,10 @@ void smooth_motion(const std::vector<double>& t, const std::vector<double>& y, d
   const std::size_t n = y.size(), chunks = (n + kChunk - 1) / kChunk;
   std::vector<FilterState> chunk_start(chunks);
   FilterState state = prior_state(t, y);
+  CovarianceStep memo;
   for (std::size_t i = 0; i < n; ++i) {
     if (i % kChunk == 0) chunk_start[i / kChunk] = state;
-    filter_step(t, y, q, jumps, i, state);
+    filter_step(t, y, q, jumps, i, state, memo);
   }
   position.resize(n);
   velocity.resize(n);
@@ -154,12 +230,12 @@ void smooth_motion(const std::vector<double>& t, const std::vector<double>& y, d
   std::vector<FilterState> filtered(std::min(n, kChunk));
   Vec3 next_smooth = Vec3::Zero();
   Mat3 Ps = Mat3::Zero();
-  Mat3 F, Q;
+  SmootherStep back;
   for (std::size_t c = chunks; c-- > 0;) {
     const std::size_t first = c * kChunk, last = std::min(n, first + kChunk);
     state = chunk_start[c];
     for (std::size_t i = first; i < last; ++i) {
-      filter_step(t, y, q, jumps, i, state);
+      filter_step(t, y, q, jumps, i, state, memo);
       filtered[i - first] = state;
     }
     for (std::size_t i = last; i-- > first;) {
@@ -169,12 +245,10 @@ void smooth_motion(const std::vector<double>& t, const std::vector<double>& y, d
         smooth = f.mean;
         Ps = f.cov;
       } else {
-        transition(t[i + 1] - t[i], q, F, Q);
-        const Vec3 predicted_mean = F * f.mean;
-        const Mat3 predicted_cov = predicted_covariance(F, f.cov, Q, jumps, i + 1);
-        const Mat3 gain = f.cov * F.transpose() * predicted_cov.inverse();
-        smooth = f.mean + gain * (next_smooth - predicted_mean);
-        Ps = f.cov + gain * (Ps - predicted_cov) * gain.transpose();
+        back.update(t[i + 1] - t[i], q, jumps, i + 1, f.cov);
+        const Vec3 predicted_mean = back.F * f.mean;
+        smooth = f.mean + back.gain * (next_smooth - predicted_mean);
+        back.smoothed_covariance(f.cov, Ps);
       }
       velocity_sd[i] = std::sqrt(std::max(Ps(1, 1), 0.0));
       position[i] = smooth(0) * scale;
@@ -407,66 +481,111 @@ MotionEstimate estimate_motion(const std::vector<double>& t, const std::vector<d
   return out;
 }
 
-MotionEstimate estimate_motion_with_reference(const std::vector<double>& t, const std::vector<double>& x,
-                                              const std::vector<double>& r, const std::vector<double>& force,
-                                              bool velocity_jumps, const std::vector<double>& force_for_jumps) {
-  const std::size_t n = x.size();
-  if (r.size() != n || n < 400) return estimate_motion(t, x, velocity_jumps, force_for_jumps);
+namespace {
+
+// The step of a record sampled uniformly enough for an impulse response on
+// the sample grid (every step within 1 % of the median), or 0.
+double uniform_step(const std::vector<double>& t) {
   std::vector<double> dts;
-  for (std::size_t i = 1; i < n; ++i) dts.push_back(t[i] - t[i - 1]);
+  for (std::size_t i = 1; i < t.size(); ++i) dts.push_back(t[i] - t[i - 1]);
   const double dt = std::max(median(dts), 1e-12);
-  // An impulse response on the sample grid needs uniform sampling.
   for (double h : dts) {
-    if (std::fabs(h - dt) > 0.01 * dt) return estimate_motion(t, x, velocity_jumps, force_for_jumps);
+    if (std::fabs(h - dt) > 0.01 * dt) return 0;
   }
-  std::vector<double>().swap(dts);
-  // x[i] ~ sum_k h_k r[i - k] + c, k from -lead to lag: any linear loop whose
-  // response settles within the window (0.2 s, at most 200 taps), a few
-  // taps of lead for a clock skew between the channels.
-  const int lead = 4;
-  const int lag = std::clamp(static_cast<int>(std::lround(0.2 / dt)), 8, 200);
-  const int taps = lead + lag + 1;
-  // Given the force (--motion-estimator rts_loop_force), the friction force
-  // is the loop's other input: a finite servo stiffness lets the tip yield to
-  // it (by F / k_servo). Left out, that yield goes to the smoother, which
-  // rounds off its jumps at reversals, and the presliding displacement comes
-  // out larger than it was (contact stiffness 2-9 % low on the independent
-  // generator). Within a few samples only: a 0.2 s force window also fits
-  // slow friction changes into the motion (measured on the generator's clean
-  // files: the Stribeck velocity then 2-21 % low, 3 of 10 files accepting an
-  // effect).
-  const int force_taps = force.size() == n ? kForceTaps : 0;
+  return dt;
+}
+
+// The loop model's regression: x[i] ~ sum_k h_k r[i - k] + c, k from -lead
+// to lag: any linear loop whose response settles within the window (0.2 s,
+// at most 200 taps), a few taps of lead for a clock skew between the
+// channels; with the force, also its taps (kForceTaps).
+//
+// Given the force (--motion-estimator rts_loop_force), the friction force
+// is the loop's other input: a finite servo stiffness lets the tip yield to
+// it (by F / k_servo). Left out, that yield goes to the smoother, which
+// rounds off its jumps at reversals, and the presliding displacement comes
+// out larger than it was (contact stiffness 2-9 % low on the independent
+// generator). Within a few samples only: a 0.2 s force window also fits
+// slow friction changes into the motion (measured on the generator's clean
+// files: the Stribeck velocity then 2-21 % low, 3 of 10 files accepting an
+// effect).
+//
+// Each column is a window of n samples sliding along a padded channel (the
+// record's ends repeated): reference tap c (c = k + lead) reads r[i - k] -
+// r0 at reference_padded[taps - 1 - c + i]; force tap k reads force[i - k]
+// at force_padded[force_taps - 1 - k + i], in units of one magnitude with
+// the reference (metres and newtons); the last column is the constant.
+struct LoopColumns {
+  int lead = 4, lag = 0, taps = 0, force_taps = 0;
+  double force_unit = 1.0, r0 = 0;
+  std::vector<double> reference_padded, force_padded, ones;
+
+  Eigen::Index count() const { return taps + force_taps + 1; }
+  std::vector<const double*> columns() const {
+    std::vector<const double*> c;
+    for (int k = 0; k < taps; ++k) c.push_back(reference_padded.data() + (taps - 1 - k));
+    for (int k = 0; k < force_taps; ++k) c.push_back(force_padded.data() + (force_taps - 1 - k));
+    c.push_back(ones.data());
+    return c;
+  }
+  double reference_tap(int c, std::size_t i) const { return reference_padded[static_cast<std::size_t>(taps - 1 - c) + i]; }
+  double force_tap(int k, std::size_t i) const { return force_padded[static_cast<std::size_t>(force_taps - 1 - k) + i]; }
+};
+
+LoopColumns loop_columns(const std::vector<double>& r, const std::vector<double>& force, double dt) {
+  const std::size_t n = r.size();
+  LoopColumns l;
+  l.lag = std::clamp(static_cast<int>(std::lround(0.2 / dt)), 8, 200);
+  l.taps = l.lead + l.lag + 1;
+  l.force_taps = force.size() == n ? kForceTaps : 0;
   double force_scale = 0, reference_scale = 0;
-  for (std::size_t i = 0; i < n && force_taps > 0; ++i) {
+  for (std::size_t i = 0; i < n && l.force_taps > 0; ++i) {
     force_scale = std::max(force_scale, std::fabs(force[i]));
     reference_scale = std::max(reference_scale, std::fabs(r[i] - r[0]));
   }
   // Columns of one magnitude for the normal equations (metres and newtons).
-  const double force_unit = force_scale > 0 && reference_scale > 0 ? reference_scale / force_scale : 1.0;
-  const double r0 = r[0];
-  // Each column of the regression is a window of n samples sliding along a
-  // padded channel (the record's ends repeated): reference tap k (k from
-  // -lead to lag, column k + lead) reads r[i - k] - r0 at
-  // reference_padded[lag - k + i]; force tap k reads force[i - k] at
-  // force_padded[force_taps - 1 - k + i], in units of one magnitude with
-  // the reference (metres and newtons).
-  std::vector<double> reference_padded(n + static_cast<std::size_t>(taps) - 1);
-  for (std::size_t j = 0; j < reference_padded.size(); ++j) {
-    const long i = static_cast<long>(j) - lag;
-    reference_padded[j] = (i < 0 ? r[0] : (i >= static_cast<long>(n) ? r[n - 1] : r[static_cast<std::size_t>(i)])) - r0;
+  l.force_unit = force_scale > 0 && reference_scale > 0 ? reference_scale / force_scale : 1.0;
+  l.r0 = r[0];
+  l.reference_padded.resize(n + static_cast<std::size_t>(l.taps) - 1);
+  for (std::size_t j = 0; j < l.reference_padded.size(); ++j) {
+    const long i = static_cast<long>(j) - l.lag;
+    l.reference_padded[j] = (i < 0 ? r[0] : (i >= static_cast<long>(n) ? r[n - 1] : r[static_cast<std::size_t>(i)])) - l.r0;
   }
-  std::vector<double> force_padded(force_taps > 0 ? n + static_cast<std::size_t>(force_taps) - 1 : 0);
-  for (std::size_t j = 0; j < force_padded.size(); ++j) {
-    const long i = static_cast<long>(j) - (force_taps - 1);
-    force_padded[j] = force_unit * (i < 0 ? force[0] : force[static_cast<std::size_t>(i)]);
+  l.force_padded.resize(l.force_taps > 0 ? n + static_cast<std::size_t>(l.force_taps) - 1 : 0);
+  for (std::size_t j = 0; j < l.force_padded.size(); ++j) {
+    const long i = static_cast<long>(j) - (l.force_taps - 1);
+    l.force_padded[j] = l.force_unit * (i < 0 ? force[0] : force[static_cast<std::size_t>(i)]);
   }
-  // Column c of the regression at sample i: reference tap c reads
-  // reference_padded[taps - 1 - c + i], force tap k reads
-  // force_padded[force_taps - 1 - k + i]; the last column is the constant.
-  const Eigen::Index cols = taps + force_taps + 1;
+  l.ones.assign(n, 1.0);
+  return l;
+}
+
+}  // namespace
+
+std::optional<Eigen::MatrixXd> loop_normal_matrix(const std::vector<double>& t, const std::vector<double>& r,
+                                                  const std::vector<double>& force, unsigned threads) {
+  const std::size_t n = r.size();
+  if (t.size() != n || n < 400 || force.size() != n) return std::nullopt;
+  const double dt = uniform_step(t);
+  if (!(dt > 0)) return std::nullopt;
+  const LoopColumns l = loop_columns(r, force, dt);
+  return gram_in_sample_order(l.columns(), n, threads);
+}
+
+MotionEstimate estimate_motion_with_reference(const std::vector<double>& t, const std::vector<double>& x,
+                                              const std::vector<double>& r, const std::vector<double>& force,
+                                              bool velocity_jumps, const std::vector<double>& force_for_jumps,
+                                              const Eigen::MatrixXd* normal_matrix) {
+  const std::size_t n = x.size();
+  if (r.size() != n || n < 400) return estimate_motion(t, x, velocity_jumps, force_for_jumps);
+  const double dt = uniform_step(t);
+  if (!(dt > 0)) return estimate_motion(t, x, velocity_jumps, force_for_jumps);
+  LoopColumns l = loop_columns(r, force, dt);
+  const int taps = l.taps, force_taps = l.force_taps;
+  const Eigen::Index cols = l.count();
   const auto fill_row = [&](std::size_t i, Eigen::VectorXd& row) {
-    for (int c = 0; c < taps; ++c) row[c] = reference_padded[static_cast<std::size_t>(taps - 1 - c) + i];
-    for (int k = 0; k < force_taps; ++k) row[taps + k] = force_padded[static_cast<std::size_t>(force_taps - 1 - k) + i];
+    for (int c = 0; c < taps; ++c) row[c] = l.reference_tap(c, i);
+    for (int k = 0; k < force_taps; ++k) row[taps + k] = l.force_tap(k, i);
     row[taps + force_taps] = 1.0;
   };
   // The normal equations summed in sample order, each element as a rank-one
@@ -474,21 +593,29 @@ MotionEstimate estimate_motion_with_reference(const std::vector<double>& t, cons
   // and shifting those by a sample is cheaper (a few percent of the
   // diagnosis' CPU) but sums in another order; the reference taps are nearly
   // collinear, and that rounding moved the final model of an 800 s record
-  // past its standard errors.
+  // past its standard errors. A matrix formed once with the force taps
+  // (loop_normal_matrix) holds the model without them as its
+  // reference-and-constant part: each element is the same sum.
   Eigen::MatrixXd xtx;
-  {
-    std::vector<double> ones(n, 1.0);
-    std::vector<const double*> columns;
-    for (int c = 0; c < taps; ++c) columns.push_back(reference_padded.data() + (taps - 1 - c));
-    for (int k = 0; k < force_taps; ++k) columns.push_back(force_padded.data() + (force_taps - 1 - k));
-    columns.push_back(ones.data());
-    xtx = gram_in_sample_order(columns, n);
+  const Eigen::Index shared_cols = static_cast<Eigen::Index>(taps) + kForceTaps + 1;
+  if (normal_matrix && normal_matrix->rows() == shared_cols && (force_taps == 0 || force_taps == kForceTaps)) {
+    if (force_taps > 0) {
+      xtx = *normal_matrix;
+    } else {
+      std::vector<Eigen::Index> keep(static_cast<std::size_t>(taps));
+      for (int c = 0; c < taps; ++c) keep[static_cast<std::size_t>(c)] = c;
+      keep.push_back(shared_cols - 1);
+      xtx = (*normal_matrix)(keep, keep);
+    }
+  } else {
+    xtx = gram_in_sample_order(l.columns(), n, 1);
   }
+  std::vector<double>().swap(l.ones);
   Eigen::VectorXd xty = Eigen::VectorXd::Zero(cols);
   Eigen::VectorXd row(cols);
   for (std::size_t i = 0; i < n; ++i) {
     fill_row(i, row);
-    xty += row * (x[i] - r0);
+    xty += row * (x[i] - l.r0);
   }
   const Eigen::VectorXd coef = xtx.ldlt().solve(xty);
   std::vector<double> e(n);  // the loop model's residual
@@ -498,14 +625,14 @@ MotionEstimate estimate_motion_with_reference(const std::vector<double>& t, cons
   mean_x /= static_cast<double>(n);
   for (std::size_t i = 0; i < n; ++i) {
     double value = coef[taps + force_taps];
-    for (int c = 0; c < taps; ++c) value += coef[c] * reference_padded[static_cast<std::size_t>(taps - 1 - c) + i];
-    for (int k = 0; k < force_taps; ++k) value += coef[taps + k] * force_padded[static_cast<std::size_t>(force_taps - 1 - k) + i];
-    xm[i] = value + r0;
+    for (int c = 0; c < taps; ++c) value += coef[c] * l.reference_tap(c, i);
+    for (int k = 0; k < force_taps; ++k) value += coef[taps + k] * l.force_tap(k, i);
+    xm[i] = value + l.r0;
     tss += (x[i] - mean_x) * (x[i] - mean_x);
     sse += (x[i] - xm[i]) * (x[i] - xm[i]);
   }
-  std::vector<double>().swap(reference_padded);
-  std::vector<double>().swap(force_padded);
+  std::vector<double>().swap(l.reference_padded);
+  std::vector<double>().swap(l.force_padded);
   if (!(tss > 0) || !std::isfinite(sse) || sse > 0.1 * tss) return estimate_motion(t, x, velocity_jumps, force_for_jumps);
   for (std::size_t i = 0; i < n; ++i) e[i] = x[i] - xm[i];
   MotionEstimate out = estimate_motion(t, e, velocity_jumps, force_for_jumps);
@@ -525,7 +652,7 @@ MotionEstimate estimate_motion_with_reference(const std::vector<double>& t, cons
                   (velocity_jumps ? "_with_velocity_jumps" : "");
   out.loop_taps = taps;
   out.loop_force_taps = force_taps;
-  for (int k = 0; k < force_taps; ++k) out.loop_force_response_m_per_n += coef[taps + k] * force_unit;
+  for (int k = 0; k < force_taps; ++k) out.loop_force_response_m_per_n += coef[taps + k] * l.force_unit;
   out.loop_variance_explained = 1.0 - sse / tss;
   return out;
 }

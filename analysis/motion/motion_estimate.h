@@ -11,8 +11,11 @@
 // Sampling may be non-uniform (the model is discretised per interval).
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
+
+#include <Eigen/Core>
 
 namespace tribo::analysis {
 
@@ -61,9 +64,21 @@ MotionEstimate estimate_motion(const std::vector<double>& time_s, const std::vec
 // errors from friction, model mismatch), whose jerk is small. Falls back to
 // estimate_motion() when the loop model explains less than 90 % of the
 // position's variance, or the sampling is not uniform.
+// normal_matrix: the loop model's normal-equation matrix with the force
+// taps, as loop_normal_matrix() forms it, or null (formed here).
 MotionEstimate estimate_motion_with_reference(const std::vector<double>& time_s, const std::vector<double>& position_m,
                                               const std::vector<double>& reference_m,
                                               const std::vector<double>& force_n = {}, bool velocity_jumps = false,
-                                              const std::vector<double>& force_for_jumps = {});
+                                              const std::vector<double>& force_for_jumps = {},
+                                              const Eigen::MatrixXd* normal_matrix = nullptr);
+
+// The normal-equation matrix of the loop model above with the force taps,
+// on `threads` cores (0: one per core): formed once, it serves both of the
+// diagnosis' loop models (with and without the force: the latter's matrix is
+// its reference-and-constant part, the same sums); nullopt where
+// estimate_motion_with_reference() fits no loop model (a short record,
+// non-uniform sampling, no force).
+std::optional<Eigen::MatrixXd> loop_normal_matrix(const std::vector<double>& time_s, const std::vector<double>& reference_m,
+                                                  const std::vector<double>& force_n, unsigned threads);
 
 }  // namespace tribo::analysis

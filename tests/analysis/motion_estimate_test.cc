@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <random>
 #include <vector>
 
@@ -340,6 +341,29 @@ TEST(MotionEstimate, TheGramMatrixIsTheRankOneUpdatesBitForBit) {
   }
   blocked = blocked.selfadjointView<Eigen::Lower>();
   EXPECT_NE(blocked, expected);
+  // Shared out to threads, each tile still summed by one of them in sample order.
+  for (unsigned threads : {0u, 2u, 3u}) EXPECT_EQ(gram_in_sample_order(columns, n, threads), expected) << threads << " threads";
+}
+
+// Both loop models from one normal-equation matrix (the diagnosis forms it
+// once for the two): the same estimate, bit for bit, as each forming its own.
+TEST(MotionEstimate, TheSharedLoopMatrixGivesEachLoopModelsOwnEstimate) {
+  const YieldingRecord r = yielding_record(3);
+  const std::optional<Eigen::MatrixXd> shared = loop_normal_matrix(r.t, r.reference, r.force, 2);
+  ASSERT_TRUE(shared.has_value());
+  EXPECT_EQ(shared->rows(), 105 + 3 + 1);  // 500 Hz: 4 lead and 100 lag taps, the force taps, the constant
+  for (const bool with_force : {false, true}) {
+    const std::vector<double> force = with_force ? r.force : std::vector<double>{};
+    const MotionEstimate own = estimate_motion_with_reference(r.t, r.x, r.reference, force);
+    const MotionEstimate from_shared = estimate_motion_with_reference(r.t, r.x, r.reference, force, false, {}, &*shared);
+    EXPECT_EQ(from_shared.loop_taps, own.loop_taps);
+    EXPECT_EQ(from_shared.loop_force_taps, with_force ? 3 : 0);
+    EXPECT_EQ(from_shared.velocity_m_per_s, own.velocity_m_per_s) << (with_force ? "with" : "without") << " the force";
+    EXPECT_EQ(from_shared.position_m, own.position_m) << (with_force ? "with" : "without") << " the force";
+  }
+  // No loop model on a record too short for one: no matrix.
+  const std::vector<double> few(100, 0.0);
+  EXPECT_FALSE(loop_normal_matrix(few, few, few, 1).has_value());
 }
 
 }  // namespace
