@@ -59,7 +59,8 @@ void derive_motion(MeasuredSeries& s, double smoothing_s) {
   }
 }
 
-void derive_motion_smoothed(MeasuredSeries& s, bool loop_force, bool velocity_jumps, const Eigen::MatrixXd* loop_normal_matrix) {
+void derive_motion_smoothed(MeasuredSeries& s, bool loop_force, bool velocity_jumps, const Eigen::MatrixXd* loop_normal_matrix,
+                            bool by_setpoint_stretches) {
   if (!s.velocity_m_per_s.empty() && !s.acceleration_m_per_s2.empty()) {
     derive_motion(s, 0);
     return;
@@ -67,10 +68,10 @@ void derive_motion_smoothed(MeasuredSeries& s, bool loop_force, bool velocity_ju
   // The force enters the loop model only with loop_force (no copy of it otherwise).
   static const std::vector<double> no_force;
   const std::vector<double>& loop_input = loop_force ? s.force_n : no_force;
-  MotionEstimate m = s.reference_m.empty()
-                         ? estimate_motion(s.time_s, s.position_m, velocity_jumps, s.force_n)
-                         : estimate_motion_with_reference(s.time_s, s.position_m, s.reference_m, loop_input, velocity_jumps, s.force_n,
-                                                          loop_normal_matrix);
+  MotionEstimate m = s.reference_m.empty()    ? estimate_motion(s.time_s, s.position_m, velocity_jumps, s.force_n)
+                      : by_setpoint_stretches ? estimate_motion_by_stretches(s.time_s, s.position_m, s.reference_m)
+                                              : estimate_motion_with_reference(s.time_s, s.position_m, s.reference_m, loop_input,
+                                                                               velocity_jumps, s.force_n, loop_normal_matrix);
   s.loop_taps = m.loop_taps;
   s.loop_variance_explained = m.loop_variance_explained;
   s.loop_force_taps = m.loop_force_taps;

@@ -60,8 +60,11 @@ void derive_motion(MeasuredSeries& series, double smoothing_s);
 // carry the full position noise (10 nm at 500 Hz is 5 um/s).
 // loop_normal_matrix: the loop model's matrix as loop_normal_matrix()
 // (analysis/motion/motion_estimate.h) formed it for this series, or null.
+// by_setpoint_stretches: with a reference, the smoother with an intensity
+// per stretch of the setpoint (estimate_motion_by_stretches) instead of the
+// loop model.
 void derive_motion_smoothed(MeasuredSeries& series, bool loop_force = false, bool velocity_jumps = false,
-                            const Eigen::MatrixXd* loop_normal_matrix = nullptr);
+                            const Eigen::MatrixXd* loop_normal_matrix = nullptr, bool by_setpoint_stretches = false);
 
 // Keeps only what the motion estimate gave (position, velocity, acceleration
 // and the estimator's figures): another estimate of a series' motion, kept

@@ -18,6 +18,14 @@ namespace {
 // before it (a channel skew of a sample, a step of the servo's response).
 constexpr int kForceTaps = 3;
 
+// The setpoint's stretches (setpoint_stretches): a slope change of more than
+// 2 % of the slope plus 0.1 % of the record's steepest ends a stretch (a
+// ramp's changing slope makes stretches of a sample); one of fewer than 50
+// samples takes the whole record's jerk intensity (too few for its own).
+constexpr double kStretchSlopeChange = 0.02;
+constexpr double kStretchSlopeFloor = 1e-3;
+constexpr std::size_t kStretchMinForItsOwnJerk = 50;
+
 using Mat3 = Eigen::Matrix3d;
 using Vec3 = Eigen::Vector3d;
 
@@ -96,7 +104,7 @@ struct FilterUpdate {
 // maximum-likelihood search runs the filter some forty times over the record.
 struct CovarianceStep {
   bool valid = false;
-  double dt = 0;
+  double dt = 0, q = 0;
   bool jump = false;
   Mat3 cov_before, F, cov_after;
   double variance = 0;
@@ -119,9 +127,10 @@ FilterUpdate filter_step(const std::vector<double>& t, const std::vector<double>
   }
   const double dt = t[i] - t[i - 1];
   const bool jump = !jumps.at.empty() && jumps.at[i];
-  if (!memo.valid || memo.dt != dt || memo.jump != jump || memo.cov_before != state.cov) {
+  if (!memo.valid || memo.dt != dt || memo.q != q || memo.jump != jump || memo.cov_before != state.cov) {
     memo.valid = true;
     memo.dt = dt;
+    memo.q = q;
     memo.jump = jump;
     memo.cov_before = state.cov;
     Mat3 Q;
@@ -141,7 +150,15 @@ FilterUpdate filter_step(const std::vector<double>& t, const std::vector<double>
   return u;
 }
 
-FilterPass kalman(const std::vector<double>& t, const std::vector<double>& y, double q, const VelocityJumps& jumps,
+// The jerk intensity of the transition into each sample: one for the
+// record, or one per stretch of the setpoint (estimate_motion_by_stretches).
+struct JerkIntensity {
+  double constant = 0;
+  const std::vector<double>* per_sample = nullptr;
+  double at(std::size_t i) const { return per_sample ? (*per_sample)[i] : constant; }
+};
+
+FilterPass kalman(const std::vector<double>& t, const std::vector<double>& y, const JerkIntensity& q, const VelocityJumps& jumps,
                   bool innovations = false) {
   const std::size_t n = y.size();
   FilterPass out;
@@ -154,7 +171,7 @@ FilterPass kalman(const std::vector<double>& t, const std::vector<double>& y, do
   CovarianceStep memo;
   double log_variance = 0, log_of = std::numeric_limits<double>::quiet_NaN();
   for (std::size_t i = 0; i < n; ++i) {
-    const FilterUpdate u = filter_step(t, y, q, jumps, i, state, memo);
+    const FilterUpdate u = filter_step(t, y, q.at(i), jumps, i, state, memo);
     if (u.variance != log_of) log_of = u.variance, log_variance = std::log(u.variance);
     if (i > 0) out.log_likelihood += -0.5 * (log_variance + u.innovation * u.innovation / u.variance);
     if (innovations) {
@@ -172,20 +189,21 @@ FilterPass kalman(const std::vector<double>& t, const std::vector<double>& y, do
 // settles to its own fixed point away from the record's end.
 struct SmootherStep {
   bool valid = false, smoothed_valid = false;
-  double dt = 0;
+  double dt = 0, q = 0;
   bool jump = false;
   Mat3 filtered_cov, F, predicted_cov, gain, smoothed_in, smoothed_out;
 
-  void update(double step_dt, double q, const VelocityJumps& jumps, std::size_t next, const Mat3& cov) {
+  void update(double step_dt, double step_q, const VelocityJumps& jumps, std::size_t next, const Mat3& cov) {
     const bool jump_next = !jumps.at.empty() && jumps.at[next];
-    if (valid && dt == step_dt && jump == jump_next && filtered_cov == cov) return;
+    if (valid && dt == step_dt && q == step_q && jump == jump_next && filtered_cov == cov) return;
     valid = true;
     smoothed_valid = false;
     dt = step_dt;
+    q = step_q;
     jump = jump_next;
     filtered_cov = cov;
     Mat3 Q;
-    transition(step_dt, q, F, Q);
+    transition(step_dt, step_q, F, Q);
     predicted_cov = predicted_covariance(F, cov, Q, jumps, next);
     gain = cov * F.transpose() * predicted_cov.inverse();
   }
@@ -211,7 +229,7 @@ struct SmootherStep {
 // states again from there (the same operations, so the same values). Holding
 // them for the whole record took 96 bytes a sample, twice over when the two
 // motion estimates run at once.
-void smooth_motion(const std::vector<double>& t, const std::vector<double>& y, double q, const VelocityJumps& jumps,
+void smooth_motion(const std::vector<double>& t, const std::vector<double>& y, const JerkIntensity& q, const VelocityJumps& jumps,
                    double scale, std::vector<double>& position, std::vector<double>& velocity,
                    std::vector<double>& acceleration, std::vector<double>& velocity_sd) {
   constexpr std::size_t kChunk = 4096;
@@ -221,7 +239,7 @@ void smooth_motion(const std::vector<double>& t, const std::vector<double>& y, d
   CovarianceStep memo;
   for (std::size_t i = 0; i < n; ++i) {
     if (i % kChunk == 0) chunk_start[i / kChunk] = state;
-    filter_step(t, y, q, jumps, i, state, memo);
+    filter_step(t, y, q.at(i), jumps, i, state, memo);
   }
   position.resize(n);
   velocity.resize(n);
@@ -235,7 +253,7 @@ void smooth_motion(const std::vector<double>& t, const std::vector<double>& y, d
     const std::size_t first = c * kChunk, last = std::min(n, first + kChunk);
     state = chunk_start[c];
     for (std::size_t i = first; i < last; ++i) {
-      filter_step(t, y, q, jumps, i, state, memo);
+      filter_step(t, y, q.at(i), jumps, i, state, memo);
       filtered[i - first] = state;
     }
     for (std::size_t i = last; i-- > first;) {
@@ -245,7 +263,7 @@ void smooth_motion(const std::vector<double>& t, const std::vector<double>& y, d
         smooth = f.mean;
         Ps = f.cov;
       } else {
-        back.update(t[i + 1] - t[i], q, jumps, i + 1, f.cov);
+        back.update(t[i + 1] - t[i], q.at(i + 1), jumps, i + 1, f.cov);
         const Vec3 predicted_mean = back.F * f.mean;
         smooth = f.mean + back.gain * (next_smooth - predicted_mean);
         back.smoothed_covariance(f.cov, Ps);
@@ -259,13 +277,12 @@ void smooth_motion(const std::vector<double>& t, const std::vector<double>& y, d
   }
 }
 
-// The jerk intensity (noise units) of largest likelihood: a log grid from a
+// The log jerk intensity of largest likelihood ll(log q): a log grid from a
 // jerk that moves the position by 1e-3 noise widths over the record to one
 // that moves it by 1e3 widths per sample, then golden section.
-double max_likelihood_jerk(const std::vector<double>& t, const std::vector<double>& y, const VelocityJumps& jumps, double dt) {
-  const double span = t.back() - t.front();
+template <class LogLikelihood>
+double max_likelihood_log_jerk(double span, double dt, LogLikelihood ll) {
   const double lo = std::log(1e-6 / std::pow(span, 5)), hi = std::log(1e6 / std::pow(dt, 5));
-  auto ll = [&](double log_q) { return kalman(t, y, std::exp(log_q), jumps).log_likelihood; };
   const int grid = 16;
   double best_lq = lo, best = -std::numeric_limits<double>::infinity();
   for (int k = 0; k <= grid; ++k) {
@@ -284,7 +301,14 @@ double max_likelihood_jerk(const std::vector<double>& t, const std::vector<doubl
       a = c, c = d, fc = fd, d = a + g * (b - a), fd = ll(d);
     }
   }
-  return std::exp(0.5 * (a + b));
+  return 0.5 * (a + b);
+}
+
+// The jerk intensity (noise units) of largest likelihood for the record.
+double max_likelihood_jerk(const std::vector<double>& t, const std::vector<double>& y, const VelocityJumps& jumps, double dt) {
+  return std::exp(max_likelihood_log_jerk(t.back() - t.front(), dt, [&](double log_q) {
+    return kalman(t, y, JerkIntensity{std::exp(log_q)}, jumps).log_likelihood;
+  }));
 }
 
 // The chi-square (one degree) level exceeded with probability p.
@@ -406,19 +430,29 @@ double resolution_of(const std::vector<double>& y) {
   return std::isfinite(best) ? best : 0.0;
 }
 
+namespace {
+
+// The position's noise floor: the third differences' (never below the
+// resolution / sqrt(12)); a noiseless record a billionth of its scale.
+double noise_floor(const std::vector<double>& x, double resolution) {
+  double noise = std::max(third_difference_noise(x), resolution / std::sqrt(12.0));
+  if (!(noise > 0)) {
+    double scale = 0;
+    for (double v : x) scale = std::max(scale, std::abs(v));
+    noise = std::max(1e-9 * scale, 1e-15);
+  }
+  return noise;
+}
+
+}  // namespace
+
 MotionEstimate estimate_motion(const std::vector<double>& t, const std::vector<double>& x, bool velocity_jumps,
                                const std::vector<double>& force) {
   MotionEstimate out;
   out.estimator = velocity_jumps ? "rts_constant_acceleration_with_velocity_jumps" : "rts_constant_acceleration";
   const std::size_t n = x.size();
   out.position_resolution_m = resolution_of(x);
-  double noise = third_difference_noise(x);
-  noise = std::max(noise, out.position_resolution_m / std::sqrt(12.0));
-  if (!(noise > 0)) {
-    double scale = 0;
-    for (double v : x) scale = std::max(scale, std::abs(v));
-    noise = std::max(1e-9 * scale, 1e-15);
-  }
+  const double noise = noise_floor(x, out.position_resolution_m);
   out.position_noise_m = noise;
   std::vector<double> y(n);
   for (std::size_t i = 0; i < n; ++i) y[i] = x[i] / noise;
@@ -454,7 +488,7 @@ MotionEstimate estimate_motion(const std::vector<double>& t, const std::vector<d
     });
   };
   for (int pass = 0; pass < (velocity_jumps ? 2 : 0); ++pass) {
-    const auto found = jumps_by_likelihood_ratio(t, kalman(t, y, q, jumps, true), jumps);
+    const auto found = jumps_by_likelihood_ratio(t, kalman(t, y, JerkIntensity{q}, jumps, true), jumps);
     // One-sided, a 1 % chance over the jumps tested.
     const double z = std::sqrt(chi_square_1_quantile(0.02 / static_cast<double>(std::max<std::size_t>(found.size(), 1))));
     bool added = false;
@@ -476,7 +510,86 @@ MotionEstimate estimate_motion(const std::vector<double>& t, const std::vector<d
     if (jumps.at[i]) out.velocity_jumps.push_back(i);
   }
   std::vector<double> velocity_sd;
-  smooth_motion(t, y, q, jumps, noise, out.position_m, out.velocity_m_per_s, out.acceleration_m_per_s2, velocity_sd);
+  smooth_motion(t, y, JerkIntensity{q}, jumps, noise, out.position_m, out.velocity_m_per_s, out.acceleration_m_per_s2,
+                velocity_sd);
+  out.velocity_std_m_per_s = median(velocity_sd) * noise;
+  return out;
+}
+
+std::vector<std::size_t> setpoint_stretches(const std::vector<double>& t, const std::vector<double>& r) {
+  const std::size_t n = std::min(t.size(), r.size());
+  std::vector<std::size_t> starts;
+  if (n == 0) return starts;
+  starts.push_back(0);
+  if (n < 3) return starts;
+  std::vector<double> slope(n - 1);
+  double steepest = 0;
+  for (std::size_t i = 0; i + 1 < n; ++i) {
+    slope[i] = (r[i + 1] - r[i]) / std::max(t[i + 1] - t[i], 1e-300);
+    steepest = std::max(steepest, std::fabs(slope[i]));
+  }
+  for (std::size_t i = 1; i + 1 < n; ++i) {
+    const double change = std::fabs(slope[i] - slope[i - 1]);
+    const double level = kStretchSlopeChange * std::max(std::fabs(slope[i]), std::fabs(slope[i - 1])) + kStretchSlopeFloor * steepest;
+    if (change > level) starts.push_back(i);
+  }
+  return starts;
+}
+
+MotionEstimate estimate_motion_by_stretches(const std::vector<double>& t, const std::vector<double>& x,
+                                            const std::vector<double>& r) {
+  const std::size_t n = x.size();
+  if (r.size() != n || n < 4) return estimate_motion(t, x);
+  MotionEstimate out;
+  out.estimator = "rts_constant_acceleration_by_setpoint_stretches";
+  out.position_resolution_m = resolution_of(x);
+  const double noise = noise_floor(x, out.position_resolution_m);
+  out.position_noise_m = noise;
+  std::vector<double> y(n);
+  for (std::size_t i = 0; i < n; ++i) y[i] = x[i] / noise;
+  std::vector<double> dts;
+  for (std::size_t i = 1; i < n; ++i) dts.push_back(t[i] - t[i - 1]);
+  const double dt = std::max(median(dts), 1e-12);
+  std::vector<double>().swap(dts);
+  const VelocityJumps none;
+  const double whole = max_likelihood_jerk(t, y, none, dt);
+  std::vector<double> q(n, whole);
+  const std::vector<std::size_t> starts = setpoint_stretches(t, r);
+  for (std::size_t k = 0; k < starts.size(); ++k) {
+    const std::size_t first = starts[k], last = k + 1 < starts.size() ? starts[k + 1] : n;
+    if (last - first < kStretchMinForItsOwnJerk) continue;
+    const std::vector<double> ts(t.begin() + static_cast<std::ptrdiff_t>(first), t.begin() + static_cast<std::ptrdiff_t>(last));
+    const std::vector<double> ys(y.begin() + static_cast<std::ptrdiff_t>(first), y.begin() + static_cast<std::ptrdiff_t>(last));
+    std::fill(q.begin() + static_cast<std::ptrdiff_t>(first), q.begin() + static_cast<std::ptrdiff_t>(last),
+              max_likelihood_jerk(ts, ys, none, dt));
+  }
+  // The samples between the stretches long enough for their own intensity
+  // (a ramp's, where the setpoint's slope changes every sample) take one
+  // intensity together, of largest likelihood with the others held: the
+  // record's would be too low for the change of speed they carry, which then
+  // leaks into the still stretch beside them.
+  std::vector<char> between(n, 0);
+  for (std::size_t k = 0; k < starts.size(); ++k) {
+    const std::size_t first = starts[k], last = k + 1 < starts.size() ? starts[k + 1] : n;
+    if (last - first < kStretchMinForItsOwnJerk) std::fill(between.begin() + static_cast<std::ptrdiff_t>(first),
+                                                           between.begin() + static_cast<std::ptrdiff_t>(last), 1);
+  }
+  if (std::find(between.begin(), between.end(), 1) != between.end()) {
+    const auto with = [&](double log_q) {
+      const double qb = std::exp(log_q);
+      for (std::size_t i = 0; i < n; ++i) {
+        if (between[i]) q[i] = qb;
+      }
+    };
+    with(max_likelihood_log_jerk(t.back() - t.front(), dt, [&](double log_q) {
+      with(log_q);
+      return kalman(t, y, JerkIntensity{0.0, &q}, none).log_likelihood;
+    }));
+  }
+  out.jerk_intensity = whole * noise * noise;
+  std::vector<double> velocity_sd;
+  smooth_motion(t, y, JerkIntensity{0.0, &q}, none, noise, out.position_m, out.velocity_m_per_s, out.acceleration_m_per_s2,
+                velocity_sd);
   out.velocity_std_m_per_s = median(velocity_sd) * noise;
   return out;
 }

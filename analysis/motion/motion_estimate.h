@@ -64,6 +64,23 @@ MotionEstimate estimate_motion(const std::vector<double>& time_s, const std::vec
 // errors from friction, model mismatch), whose jerk is small. Falls back to
 // estimate_motion() when the loop model explains less than 90 % of the
 // position's variance, or the sampling is not uniform.
+// The setpoint's stretches: holds, passes at one speed, ramps; the sample
+// index at which each starts (0 first). A stretch ends where the setpoint's
+// slope changes by more than 2 % of itself plus 0.1 % of the record's
+// steepest slope.
+std::vector<std::size_t> setpoint_stretches(const std::vector<double>& time_s, const std::vector<double>& reference_m);
+
+// The smoother above with a jerk intensity of its own, by maximum
+// likelihood, for each stretch of the setpoint of at least 50 samples (the
+// whole record's for shorter ones): a servo that holds still, moves at a
+// steady speed and changes speed has a different motion's roughness in
+// each, which one intensity for the record blurs (it rounds the onsets off
+// and lets the holds wander). The setpoint serves only to cut the record:
+// no loop model enters the motion. Estimator
+// "rts_constant_acceleration_by_setpoint_stretches".
+MotionEstimate estimate_motion_by_stretches(const std::vector<double>& time_s, const std::vector<double>& position_m,
+                                            const std::vector<double>& reference_m);
+
 // normal_matrix: the loop model's normal-equation matrix with the force
 // taps, as loop_normal_matrix() forms it, or null (formed here).
 MotionEstimate estimate_motion_with_reference(const std::vector<double>& time_s, const std::vector<double>& position_m,

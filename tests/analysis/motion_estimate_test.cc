@@ -345,6 +345,50 @@ TEST(MotionEstimate, TheGramMatrixIsTheRankOneUpdatesBitForBit) {
   for (unsigned threads : {0u, 2u, 3u}) EXPECT_EQ(gram_in_sample_order(columns, n, threads), expected) << threads << " threads";
 }
 
+// The setpoint's stretches start where its slope changes: the yielding
+// record's twelve holds and twelve passes (0.5 s holds at 500 Hz: the first
+// pass's first step is from sample 249 to 250).
+TEST(MotionEstimate, TheSetpointStretchesStartWhereItsSlopeChanges) {
+  const YieldingRecord r = yielding_record(3);
+  const std::vector<std::size_t> starts = setpoint_stretches(r.t, r.reference);
+  ASSERT_EQ(starts.size(), 24u);
+  EXPECT_EQ(starts[0], 0u);
+  EXPECT_EQ(starts[1], 249u);
+  // The first pass: 4 um at 0.5 um/s, 8 s, 4000 samples.
+  EXPECT_NEAR(static_cast<double>(starts[2] - starts[1]), 4000.0, 1.0);
+  // A slope that changes by less than 2 % within a pass is one stretch.
+  std::vector<double> ramp(r.reference.size());
+  for (std::size_t i = 0; i < ramp.size(); ++i) ramp[i] = 1e-6 * r.t[i] * (1 + 0.005 * std::sin(r.t[i]));
+  EXPECT_EQ(setpoint_stretches(r.t, ramp).size(), 1u);
+}
+
+// An intensity per stretch: in the holds the smoother keeps the tip still
+// and on the plateaus at its speed, where one intensity for the record
+// rounds the onsets off into both (Table 3.2's floors, the passes' own
+// record as the setpoint; measured 2026-11-30: holds 9 nm/s RMS against 140,
+// plateaus 1-2 nm/s against 76).
+TEST(MotionEstimate, AnIntensityPerStretchKeepsTheHoldsStill) {
+  for (unsigned seed : {1u, 2u}) {
+    const Record r = noisy_record(seed);
+    const MotionEstimate one = estimate_motion(r.t, r.x);
+    const MotionEstimate per_stretch = estimate_motion_by_stretches(r.t, r.x, r.x_true);
+    EXPECT_EQ(per_stretch.estimator, "rts_constant_acceleration_by_setpoint_stretches");
+    double hold_one = 0, hold_stretch = 0;
+    int holds = 0;
+    for (std::size_t i = 0; i < r.t.size(); ++i) {
+      if (r.v_true[i] != 0) continue;
+      hold_one += one.velocity_m_per_s[i] * one.velocity_m_per_s[i];
+      hold_stretch += per_stretch.velocity_m_per_s[i] * per_stretch.velocity_m_per_s[i];
+      ++holds;
+    }
+    hold_one = std::sqrt(hold_one / holds);
+    hold_stretch = std::sqrt(hold_stretch / holds);
+    EXPECT_LT(hold_stretch, 0.5 * hold_one) << "seed " << seed << ": " << hold_stretch << " m/s against " << hold_one;
+    EXPECT_LT(plateau_velocity_rms_error(r, per_stretch.velocity_m_per_s), 0.5 * plateau_velocity_rms_error(r, one.velocity_m_per_s))
+        << "seed " << seed;
+  }
+}
+
 // Both loop models from one normal-equation matrix (the diagnosis forms it
 // once for the two): the same estimate, bit for bit, as each forming its own.
 TEST(MotionEstimate, TheSharedLoopMatrixGivesEachLoopModelsOwnEstimate) {
