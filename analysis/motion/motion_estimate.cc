@@ -20,8 +20,8 @@ constexpr int kForceTaps = 3;
 
 // The setpoint's stretches (setpoint_stretches): a slope change of more than
 // 2 % of the slope plus 0.1 % of the record's steepest ends a stretch (a
-// ramp's changing slope makes stretches of a sample); one of fewer than 50
-// samples takes the whole record's jerk intensity (too few for its own).
+// ramp's changing slope makes stretches of a sample); those of fewer than 50
+// samples, too few for an intensity of their own, share one.
 constexpr double kStretchSlopeChange = 0.02;
 constexpr double kStretchSlopeFloor = 1e-3;
 constexpr std::size_t kStretchMinForItsOwnJerk = 50;

@@ -72,10 +72,11 @@ std::vector<std::size_t> setpoint_stretches(const std::vector<double>& time_s, c
 
 // The smoother above with a jerk intensity of its own, by maximum
 // likelihood, for each stretch of the setpoint of at least 50 samples (the
-// whole record's for shorter ones): a servo that holds still, moves at a
-// steady speed and changes speed has a different motion's roughness in
-// each, which one intensity for the record blurs (it rounds the onsets off
-// and lets the holds wander). The setpoint serves only to cut the record:
+// shorter ones, where the slope keeps changing, share one, fitted with the
+// others held): a servo that holds still, moves at a steady speed and
+// changes speed has a different motion's roughness in each, which one
+// intensity for the record blurs (it rounds the onsets off into the holds
+// and the passes). The setpoint serves only to cut the record:
 // no loop model enters the motion. Estimator
 // "rts_constant_acceleration_by_setpoint_stretches".
 MotionEstimate estimate_motion_by_stretches(const std::vector<double>& time_s, const std::vector<double>& position_m,
