@@ -68,8 +68,9 @@ def main():
         csv = gen.write(args.work_dir, "none", seed)
         _, rec = gen.run("none", seed, traces=True)
         v5 = np.convolve(rec["v_true"], np.ones(5) / 5, mode="same")
-        t = np.loadtxt(csv, delimiter=",", skiprows=1, usecols=(0, 2))
-        onset, steady = regions(t[:, 0], t[:, 1])
+        t, reference = np.loadtxt(csv, delimiter=",", skiprows=1, usecols=(0, 2), unpack=True)
+        onset, steady = regions(t, reference)
+        rate_hz = 1.0 / np.median(np.diff(t))
         for est in args.estimators.split(","):
             out = os.path.join(args.work_dir, f"seed{seed}_{est}")
             subprocess.run([args.tribo_fit, "diagnose", csv, "--time", "t_s", "--position", "x_m", "--force", "force_N",
@@ -77,11 +78,7 @@ def main():
                             "--effects", "tilt_offset", "--out", out], check=True, stdout=subprocess.DEVNULL)
             v = np.loadtxt(os.path.join(out, "traces.csv"), delimiter=",", skiprows=1, usecols=2)
             rms = lambda m: float(np.sqrt(np.mean((v[m] - v5[m]) ** 2))) * 1e6
-            print(f"{est} {seed} {rec_rate(t[:, 0]):.0f} {rms(onset):.2f} {rms(steady):.2f}")
-
-
-def rec_rate(t):
-    return 1.0 / np.median(np.diff(t))
+            print(f"{est} {seed} {rate_hz:.0f} {rms(onset):.2f} {rms(steady):.2f}")
 
 
 if __name__ == "__main__":

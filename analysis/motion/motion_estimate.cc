@@ -36,6 +36,13 @@ double median(std::vector<double> v) {
   return *mid;
 }
 
+// The median sampling step (at least 1e-12 s).
+double median_step(const std::vector<double>& t) {
+  std::vector<double> dts;
+  for (std::size_t i = 1; i < t.size(); ++i) dts.push_back(t[i] - t[i - 1]);
+  return std::max(median(dts), 1e-12);
+}
+
 void transition(double dt, double q, Mat3& F, Mat3& Q) {
   F << 1, dt, 0.5 * dt * dt, 0, 1, dt, 0, 0, 1;
   const double d2 = dt * dt, d3 = d2 * dt, d4 = d3 * dt, d5 = d4 * dt;
@@ -462,9 +469,7 @@ MotionEstimate estimate_motion(const std::vector<double>& t, const std::vector<d
     out.acceleration_m_per_s2.assign(n, 0.0);
     return out;
   }
-  std::vector<double> dts;
-  for (std::size_t i = 1; i < n; ++i) dts.push_back(t[i] - t[i - 1]);
-  const double dt = std::max(median(dts), 1e-12);
+  const double dt = median_step(t);
   // The jerk intensity with the velocity jumps found so far, then the jumps
   // it reveals (a step smoothed over by a jerk raised to follow it), twice.
   // A jump's prior is diffuse, a hundred times the largest one-sample speed:
@@ -547,32 +552,25 @@ MotionEstimate estimate_motion_by_stretches(const std::vector<double>& t, const 
   out.position_noise_m = noise;
   std::vector<double> y(n);
   for (std::size_t i = 0; i < n; ++i) y[i] = x[i] / noise;
-  std::vector<double> dts;
-  for (std::size_t i = 1; i < n; ++i) dts.push_back(t[i] - t[i - 1]);
-  const double dt = std::max(median(dts), 1e-12);
-  std::vector<double>().swap(dts);
+  const double dt = median_step(t);
   const VelocityJumps none;
-  const double whole = max_likelihood_jerk(t, y, none, dt);
-  std::vector<double> q(n, whole);
-  const std::vector<std::size_t> starts = setpoint_stretches(t, r);
-  for (std::size_t k = 0; k < starts.size(); ++k) {
-    const std::size_t first = starts[k], last = k + 1 < starts.size() ? starts[k + 1] : n;
-    if (last - first < kStretchMinForItsOwnJerk) continue;
-    const std::vector<double> ts(t.begin() + static_cast<std::ptrdiff_t>(first), t.begin() + static_cast<std::ptrdiff_t>(last));
-    const std::vector<double> ys(y.begin() + static_cast<std::ptrdiff_t>(first), y.begin() + static_cast<std::ptrdiff_t>(last));
-    std::fill(q.begin() + static_cast<std::ptrdiff_t>(first), q.begin() + static_cast<std::ptrdiff_t>(last),
-              max_likelihood_jerk(ts, ys, none, dt));
-  }
-  // The samples between the stretches long enough for their own intensity
-  // (a ramp's, where the setpoint's slope changes every sample) take one
-  // intensity together, of largest likelihood with the others held: the
+  // Each stretch long enough gets its own intensity. The samples between
+  // them (a ramp's, where the setpoint's slope changes every sample) take
+  // one intensity together, of largest likelihood with the others held: the
   // record's would be too low for the change of speed they carry, which then
   // leaks into the still stretch beside them.
+  std::vector<double> q(n, 0.0);
   std::vector<char> between(n, 0);
+  const std::vector<std::size_t> starts = setpoint_stretches(t, r);
   for (std::size_t k = 0; k < starts.size(); ++k) {
-    const std::size_t first = starts[k], last = k + 1 < starts.size() ? starts[k + 1] : n;
-    if (last - first < kStretchMinForItsOwnJerk) std::fill(between.begin() + static_cast<std::ptrdiff_t>(first),
-                                                           between.begin() + static_cast<std::ptrdiff_t>(last), 1);
+    const auto first = static_cast<std::ptrdiff_t>(starts[k]);
+    const auto last = static_cast<std::ptrdiff_t>(k + 1 < starts.size() ? starts[k + 1] : n);
+    if (static_cast<std::size_t>(last - first) < kStretchMinForItsOwnJerk) {
+      std::fill(between.begin() + first, between.begin() + last, 1);
+      continue;
+    }
+    const std::vector<double> ts(t.begin() + first, t.begin() + last), ys(y.begin() + first, y.begin() + last);
+    std::fill(q.begin() + first, q.begin() + last, max_likelihood_jerk(ts, ys, none, dt));
   }
   if (std::find(between.begin(), between.end(), 1) != between.end()) {
     const auto with = [&](double log_q) {
@@ -586,7 +584,7 @@ MotionEstimate estimate_motion_by_stretches(const std::vector<double>& t, const 
       return kalman(t, y, JerkIntensity{0.0, &q}, none).log_likelihood;
     }));
   }
-  out.jerk_intensity = whole * noise * noise;
+  out.jerk_intensity = median(q) * noise * noise;
   std::vector<double> velocity_sd;
   smooth_motion(t, y, JerkIntensity{0.0, &q}, none, noise, out.position_m, out.velocity_m_per_s, out.acceleration_m_per_s2,
                 velocity_sd);
@@ -599,11 +597,9 @@ namespace {
 // The step of a record sampled uniformly enough for an impulse response on
 // the sample grid (every step within 1 % of the median), or 0.
 double uniform_step(const std::vector<double>& t) {
-  std::vector<double> dts;
-  for (std::size_t i = 1; i < t.size(); ++i) dts.push_back(t[i] - t[i - 1]);
-  const double dt = std::max(median(dts), 1e-12);
-  for (double h : dts) {
-    if (std::fabs(h - dt) > 0.01 * dt) return 0;
+  const double dt = median_step(t);
+  for (std::size_t i = 1; i < t.size(); ++i) {
+    if (std::fabs(t[i] - t[i - 1] - dt) > 0.01 * dt) return 0;
   }
   return dt;
 }

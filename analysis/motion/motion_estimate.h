@@ -23,7 +23,7 @@ struct MotionEstimate {
   std::string estimator;             // e.g. "rts_constant_acceleration"
   double position_noise_m = 0;       // estimated white position noise (RMS)
   double position_resolution_m = 0;  // smallest step of the position record (0: none seen)
-  double jerk_intensity = 0;         // q of the motion model (m^2/s^5), maximum likelihood
+  double jerk_intensity = 0;         // q of the motion model (m^2/s^5), maximum likelihood (by stretches: the samples' median)
   double velocity_std_m_per_s = 0;   // median smoothed velocity standard deviation
   // Samples i where the velocity was let jump from sample i - 1's (speed
   // steps, break-aways): found by a likelihood-ratio test (motion_estimate.cc).
