@@ -110,7 +110,7 @@ void BM_InstrumentPlainWithNewLaw(benchmark::State& state) {
 }
 
 // A whole protocol through the daemon's loop as tribo_native.simulate runs it
-// (client/python/native/tribo_native.cc, simulate_run): the C++ side of
+// (daemon/unpaced_run.cc), with the simulated plant's per-tick report: the C++ side of
 // bench/sim_in_process_bench.py. Simulated seconds per CPU second over the
 // protocol (config/protocols/identification.textproto, 198 s), and the
 // evaluations of the contact law S per tick.

@@ -27,7 +27,7 @@
 #include "daemon/protocol_validator.h"
 #include "daemon/validation_messages.h"
 #include "daemon/run_loop.h"
-#include "hal/backend_factory.h"
+#include "daemon/unpaced_run.h"
 #include "proto/run_files.h"
 #include "proto/sample_record.h"
 #include "proto/text_format_file.h"
@@ -118,36 +118,6 @@ py::dict protocol_summary(const daemon::ProtocolCheck& check) {
   }
   out["friction_models"] = models;
   return out;
-}
-
-struct SimulatedRun {
-  std::vector<Sample> samples;
-  daemon::RunOutcome outcome;
-};
-
-// What tribod's run thread does for one run (daemon/instrument_service.cc,
-// run_main), minus recording and publishing: the same transducer and loop
-// config, ticked unpaced on this thread, samples drained every tick.
-SimulatedRun simulate_run(const v1::DaemonConfig& config, const daemon::LoadFunction& load_function,
-                          std::uint64_t seed) {
-  auto transducer = hal::make_transducer(config, seed);
-  if (!transducer) throw std::runtime_error("cannot create the backend of this config");
-  daemon::SpscQueue<Sample> queue(1 << 16);
-  daemon::RunControl control;
-  daemon::RunTelemetry telemetry;
-  daemon::RunLoopConfig loop_config = daemon::run_loop_config_from(config);
-  loop_config.backpressure = true;
-  loop_config.time_stages_every = 0;  // unpaced: no clock reads (nobody asks for stage times)
-  daemon::RunLoop loop(*transducer, load_function, loop_config, queue, control, telemetry);
-  SimulatedRun run;
-  run.samples.reserve(load_function.expected_samples() + 1024);
-  Sample sample;
-  while (loop.tick()) {
-    while (queue.try_pop(sample)) run.samples.push_back(sample);
-  }
-  while (queue.try_pop(sample)) run.samples.push_back(sample);
-  run.outcome = loop.outcome();
-  return run;
 }
 
 template <typename T>
@@ -296,10 +266,10 @@ PYBIND11_MODULE(tribo_native, m) {
     }
     const v1::Protocol parsed = parse_message<v1::Protocol>(protocol, "protocol");
     const daemon::ProtocolCheck check = checked_protocol(parsed, parsed_config);
-    SimulatedRun run;
+    daemon::UnpacedRun run;
     {
       py::gil_scoped_release release;
-      run = simulate_run(parsed_config, check.load_function, seed);
+      run = daemon::run_unpaced(parsed_config, check.load_function, seed);
     }
     py::dict out;
     out["samples"] = sample_columns(run.samples);
