@@ -40,7 +40,7 @@ function(tribo_unit_source var name)
     string(APPEND content "#include \"${CMAKE_CURRENT_SOURCE_DIR}/${source}\"\n")
   endforeach()
   set(unit ${CMAKE_CURRENT_BINARY_DIR}/${name}_unit.cc)
-  file(CONFIGURE OUTPUT ${unit} CONTENT "${content}")
+  file(CONFIGURE OUTPUT ${unit} CONTENT "${content}" @ONLY)
   set(${var} ${unit} PARENT_SCOPE)
 endfunction()
 
