@@ -74,7 +74,7 @@ DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r)
     if (alternative) gram = loop_normal_matrix(series.time_s, series.reference_m, series.force_n, 0);
     const Eigen::MatrixXd* shared = gram ? &*gram : nullptr;
     parallel_for(alternative ? 2 : 1, 0, [&](std::size_t k) {
-      if (k == 0) derive_motion_smoothed(series, r.loop_force, r.velocity_jumps, shared, r.setpoint_stretches);
+      if (k == 0) derive_motion_smoothed(series, r.loop_force, r.velocity_jumps, shared, r.reference_motion);
       else derive_motion_smoothed(*alternative, !r.loop_force, r.velocity_jumps, shared);
     });
   }

@@ -13,6 +13,8 @@
 
 #include <Eigen/Core>
 
+#include "analysis/motion/motion_estimate.h"
+
 namespace tribo::analysis {
 
 struct MeasuredSeries {
@@ -40,6 +42,7 @@ struct MeasuredSeries {
   double loop_variance_explained = 0;
   int loop_force_taps = 0;                 // ... and of the force's (0: not used)
   double loop_force_response_m_per_n = 0;  // the force taps' sum
+  std::vector<MotionModelEvidence> motion_evidence;  // the models weighed (ReferenceMotion::by_evidence); else empty
 
   std::size_t size() const { return time_s.size(); }
   bool has_normal() const { return !normal_force_n.empty(); }
@@ -60,11 +63,15 @@ void derive_motion(MeasuredSeries& series, double smoothing_s);
 // carry the full position noise (10 nm at 500 Hz is 5 um/s).
 // loop_normal_matrix: the loop model's matrix as loop_normal_matrix()
 // (analysis/motion/motion_estimate.h) formed it for this series, or null.
-// by_setpoint_stretches: with a reference, the smoother with an intensity
-// per stretch of the setpoint (estimate_motion_by_stretches) instead of the
-// loop model.
+// With a reference, the motion model: the loop model
+// (estimate_motion_with_reference), the smoother with an intensity per
+// stretch of the setpoint (estimate_motion_by_stretches), or the one of the
+// two the record's evidence favours (estimate_motion_by_evidence; there
+// loop_force and velocity_jumps are not used).
+enum class ReferenceMotion { loop_model, setpoint_stretches, by_evidence };
 void derive_motion_smoothed(MeasuredSeries& series, bool loop_force = false, bool velocity_jumps = false,
-                            const Eigen::MatrixXd* loop_normal_matrix = nullptr, bool by_setpoint_stretches = false);
+                            const Eigen::MatrixXd* loop_normal_matrix = nullptr,
+                            ReferenceMotion reference_motion = ReferenceMotion::loop_model);
 
 // Keeps only what the motion estimate gave (position, velocity, acceleration
 // and the estimator's figures): another estimate of a series' motion, kept

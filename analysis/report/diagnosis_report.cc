@@ -93,6 +93,19 @@ Json confusion_json(const EffectConfusion& c) {
           {"rivals", std::move(rivals)}};
 }
 
+// The motion models weighed by their evidence, or null (none weighed).
+Json motion_evidence_json(const std::vector<MotionModelEvidence>& evidence) {
+  if (evidence.empty()) return Json(nullptr);
+  Json models = Json::array();
+  for (const MotionModelEvidence& e : evidence) {
+    models.push_back({{"estimator", e.estimator},
+                      {"log_likelihood", e.log_likelihood},
+                      {"fitted_parameters", e.fitted_parameters},
+                      {"criterion", e.criterion}});
+  }
+  return {{"criterion", "log_likelihood - fitted_parameters ln(samples) / 2 (nats; the larger chosen)"}, {"models", models}};
+}
+
 }  // namespace
 
 std::string confusion_text(const EffectConfusion& c) {
@@ -130,6 +143,7 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
                 {"loop_variance_explained", s.loop_variance_explained},
                 {"loop_force_taps", s.loop_force_taps},
                 {"loop_force_response_m_per_n", s.loop_force_response_m_per_n},
+                {"motion_evidence", motion_evidence_json(s.motion_evidence)},
                 {"command", info.command_line}};
   j["segmentation"] = {{"passes", d.motion.passes.size()},
                        {"holds", d.motion.holds.size()},
@@ -338,6 +352,10 @@ std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
   if (s.motion_estimator.find("with_velocity_jumps") != std::string::npos) {
     line("  the velocity let jump at %d samples (a likelihood-ratio test at 1 %% over the record; %d more the force did not follow, not taken)",
          s.velocity_jumps, s.velocity_jumps_force_did_not_follow);
+  }
+  for (const MotionModelEvidence& e : s.motion_evidence) {
+    line("  weighed: %s, log-likelihood %.1f, %d fitted parameters, criterion %.1f (the larger chosen)", e.estimator.c_str(),
+         e.log_likelihood, e.fitted_parameters, e.criterion);
   }
   if (s.loop_taps > 0) {
     line("  reference through the fitted loop response (%d taps; explains %.6f of the position's variance)", s.loop_taps,
