@@ -69,8 +69,6 @@ MotionEstimate estimate_with_reference(const MeasuredSeries& s, bool loop_force,
   switch (reference_motion) {
     case ReferenceMotion::setpoint_stretches:
       return estimate_motion_by_stretches(s.time_s, s.position_m, s.reference_m);
-    case ReferenceMotion::by_evidence:
-      return estimate_motion_by_evidence(s.time_s, s.position_m, s.reference_m, loop_normal_matrix);
     case ReferenceMotion::loop_model:
       break;
   }
@@ -93,7 +91,6 @@ void derive_motion_smoothed(MeasuredSeries& s, bool loop_force, bool velocity_ju
   s.loop_variance_explained = m.loop_variance_explained;
   s.loop_force_taps = m.loop_force_taps;
   s.loop_force_response_m_per_n = m.loop_force_response_m_per_n;
-  s.motion_evidence = std::move(m.evidence);
   s.position_noise_m = m.position_noise_m;
   s.position_resolution_m = m.position_resolution_m;
   s.velocity_noise_m_per_s = m.velocity_std_m_per_s;

@@ -236,23 +236,17 @@ struct SmootherStep {
 // states again from there (the same operations, so the same values). Holding
 // them for the whole record took 96 bytes a sample, twice over when the two
 // motion estimates run at once.
-//
-// Returns the forward pass's log-likelihood (noise units, as kalman()'s): the
-// evidence for the motion model comes free with the estimate.
-double smooth_motion(const std::vector<double>& t, const std::vector<double>& y, const JerkIntensity& q, const VelocityJumps& jumps,
-                     double scale, std::vector<double>& position, std::vector<double>& velocity,
-                     std::vector<double>& acceleration, std::vector<double>& velocity_sd) {
+void smooth_motion(const std::vector<double>& t, const std::vector<double>& y, const JerkIntensity& q, const VelocityJumps& jumps,
+                   double scale, std::vector<double>& position, std::vector<double>& velocity,
+                   std::vector<double>& acceleration, std::vector<double>& velocity_sd) {
   constexpr std::size_t kChunk = 4096;
   const std::size_t n = y.size(), chunks = (n + kChunk - 1) / kChunk;
   std::vector<FilterState> chunk_start(chunks);
   FilterState state = prior_state(t, y);
   CovarianceStep memo;
-  double log_likelihood = 0, log_variance = 0, log_of = std::numeric_limits<double>::quiet_NaN();
   for (std::size_t i = 0; i < n; ++i) {
     if (i % kChunk == 0) chunk_start[i / kChunk] = state;
-    const FilterUpdate u = filter_step(t, y, q.at(i), jumps, i, state, memo);
-    if (u.variance != log_of) log_of = u.variance, log_variance = std::log(u.variance);
-    if (i > 0) log_likelihood += -0.5 * (log_variance + u.innovation * u.innovation / u.variance);
+    filter_step(t, y, q.at(i), jumps, i, state, memo);
   }
   position.resize(n);
   velocity.resize(n);
@@ -288,17 +282,6 @@ double smooth_motion(const std::vector<double>& t, const std::vector<double>& y,
       next_smooth = smooth;
     }
   }
-  return log_likelihood;
-}
-
-// The log-likelihood of the positions in metres (with the Gaussian's
-// constant) from the filter's in noise units y = x / noise: the change of
-// variables adds -ln(noise) for each sample the filter predicted (all but the
-// first). Models that scale the record by different noise floors are then
-// weighed on the same data.
-double log_likelihood_in_metres(double log_likelihood_noise_units, std::size_t samples, double noise_m) {
-  const double predicted = static_cast<double>(samples > 0 ? samples - 1 : 0);
-  return log_likelihood_noise_units - predicted * (std::log(noise_m) + 0.5 * std::log(2 * M_PI));
 }
 
 // The log jerk intensity of largest likelihood ll(log q): a log grid from a
@@ -532,11 +515,8 @@ MotionEstimate estimate_motion(const std::vector<double>& t, const std::vector<d
     if (jumps.at[i]) out.velocity_jumps.push_back(i);
   }
   std::vector<double> velocity_sd;
-  const double log_likelihood = smooth_motion(t, y, JerkIntensity{q}, jumps, noise, out.position_m, out.velocity_m_per_s,
-                                              out.acceleration_m_per_s2, velocity_sd);
-  out.log_likelihood = log_likelihood_in_metres(log_likelihood, n, noise);
-  // The noise floor, the jerk intensity and each velocity jump's size.
-  out.fitted_parameters = 2 + static_cast<int>(out.velocity_jumps.size());
+  smooth_motion(t, y, JerkIntensity{q}, jumps, noise, out.position_m, out.velocity_m_per_s, out.acceleration_m_per_s2,
+                velocity_sd);
   out.velocity_std_m_per_s = median(velocity_sd) * noise;
   return out;
 }
@@ -582,7 +562,6 @@ MotionEstimate estimate_motion_by_stretches(const std::vector<double>& t, const 
   std::vector<double> q(n, 0.0);
   std::vector<char> between(n, 0);
   const std::vector<std::size_t> starts = setpoint_stretches(t, r);
-  int own_intensities = 0;
   for (std::size_t k = 0; k < starts.size(); ++k) {
     const auto first = static_cast<std::ptrdiff_t>(starts[k]);
     const auto last = static_cast<std::ptrdiff_t>(k + 1 < starts.size() ? starts[k + 1] : n);
@@ -592,7 +571,6 @@ MotionEstimate estimate_motion_by_stretches(const std::vector<double>& t, const 
     }
     const std::vector<double> ts(t.begin() + first, t.begin() + last), ys(y.begin() + first, y.begin() + last);
     std::fill(q.begin() + first, q.begin() + last, max_likelihood_jerk(ts, ys, none, dt));
-    ++own_intensities;
   }
   if (std::find(between.begin(), between.end(), 1) != between.end()) {
     const auto with = [&](double log_q) {
@@ -608,11 +586,8 @@ MotionEstimate estimate_motion_by_stretches(const std::vector<double>& t, const 
   }
   out.jerk_intensity = median(q) * noise * noise;
   std::vector<double> velocity_sd;
-  const double log_likelihood = smooth_motion(t, y, JerkIntensity{0.0, &q}, none, noise, out.position_m, out.velocity_m_per_s,
-                                              out.acceleration_m_per_s2, velocity_sd);
-  out.log_likelihood = log_likelihood_in_metres(log_likelihood, n, noise);
-  // The noise floor and each intensity: the stretches' own and the one the short ones share.
-  out.fitted_parameters = 1 + own_intensities + (std::find(between.begin(), between.end(), 1) != between.end() ? 1 : 0);
+  smooth_motion(t, y, JerkIntensity{0.0, &q}, none, noise, out.position_m, out.velocity_m_per_s, out.acceleration_m_per_s2,
+                velocity_sd);
   out.velocity_std_m_per_s = median(velocity_sd) * noise;
   return out;
 }
@@ -706,48 +681,15 @@ std::optional<Eigen::MatrixXd> loop_normal_matrix(const std::vector<double>& t, 
   return gram_in_sample_order(l.columns(), n, threads);
 }
 
-namespace {
-
-// The loop model fitted to a record: its position at each sample (a
-// function of the reference and the force alone) and what the report gives.
-struct LoopFit {
-  std::vector<double> position_m;
-  double dt = 0;
-  int taps = 0, force_taps = 0;
-  double force_response_m_per_n = 0, variance_explained = 0;
-};
-
-// The normal equations summed in sample order, each element as a rank-one
-// update per sample would sum it. Forming them from sums over the windows
-// and shifting those by a sample is cheaper (a few percent of the
-// diagnosis' CPU) but sums in another order; the reference taps are nearly
-// collinear, and that rounding moved the final model of an 800 s record
-// past its standard errors. A matrix formed once with the force taps
-// (loop_normal_matrix) holds the model without them as its
-// reference-and-constant part: each element is the same sum.
-Eigen::MatrixXd loop_normal_equations(const LoopColumns& l, std::size_t n, const Eigen::MatrixXd* normal_matrix) {
-  const Eigen::Index shared_cols = static_cast<Eigen::Index>(l.taps) + kForceTaps + 1;
-  if (!normal_matrix || normal_matrix->rows() != shared_cols || (l.force_taps != 0 && l.force_taps != kForceTaps)) {
-    return gram_in_sample_order(l.columns(), n, 1);
-  }
-  if (l.force_taps > 0) return *normal_matrix;
-  std::vector<Eigen::Index> keep(static_cast<std::size_t>(l.taps));
-  for (int c = 0; c < l.taps; ++c) keep[static_cast<std::size_t>(c)] = c;
-  keep.push_back(shared_cols - 1);
-  return (*normal_matrix)(keep, keep);
-}
-
-// The loop model by least squares, or nullopt where none is fitted (a short
-// record, non-uniform sampling) or it explains less than 90 % of the
-// position's variance.
-std::optional<LoopFit> fit_loop(const std::vector<double>& t, const std::vector<double>& x, const std::vector<double>& r,
-                                const std::vector<double>& force, const Eigen::MatrixXd* normal_matrix) {
+MotionEstimate estimate_motion_with_reference(const std::vector<double>& t, const std::vector<double>& x,
+                                              const std::vector<double>& r, const std::vector<double>& force,
+                                              bool velocity_jumps, const std::vector<double>& force_for_jumps,
+                                              const Eigen::MatrixXd* normal_matrix) {
   const std::size_t n = x.size();
-  if (r.size() != n || n < 400) return std::nullopt;
-  LoopFit fit;
-  fit.dt = uniform_step(t);
-  if (!(fit.dt > 0)) return std::nullopt;
-  LoopColumns l = loop_columns(r, force, fit.dt);
+  if (r.size() != n || n < 400) return estimate_motion(t, x, velocity_jumps, force_for_jumps);
+  const double dt = uniform_step(t);
+  if (!(dt > 0)) return estimate_motion(t, x, velocity_jumps, force_for_jumps);
+  LoopColumns l = loop_columns(r, force, dt);
   const int taps = l.taps, force_taps = l.force_taps;
   const Eigen::Index cols = l.count();
   const auto fill_row = [&](std::size_t i, Eigen::VectorXd& row) {
@@ -755,7 +697,28 @@ std::optional<LoopFit> fit_loop(const std::vector<double>& t, const std::vector<
     for (int k = 0; k < force_taps; ++k) row[taps + k] = l.force_tap(k, i);
     row[taps + force_taps] = 1.0;
   };
-  const Eigen::MatrixXd xtx = loop_normal_equations(l, n, normal_matrix);
+  // The normal equations summed in sample order, each element as a rank-one
+  // update per sample would sum it. Forming them from sums over the windows
+  // and shifting those by a sample is cheaper (a few percent of the
+  // diagnosis' CPU) but sums in another order; the reference taps are nearly
+  // collinear, and that rounding moved the final model of an 800 s record
+  // past its standard errors. A matrix formed once with the force taps
+  // (loop_normal_matrix) holds the model without them as its
+  // reference-and-constant part: each element is the same sum.
+  Eigen::MatrixXd xtx;
+  const Eigen::Index shared_cols = static_cast<Eigen::Index>(taps) + kForceTaps + 1;
+  if (normal_matrix && normal_matrix->rows() == shared_cols && (force_taps == 0 || force_taps == kForceTaps)) {
+    if (force_taps > 0) {
+      xtx = *normal_matrix;
+    } else {
+      std::vector<Eigen::Index> keep(static_cast<std::size_t>(taps));
+      for (int c = 0; c < taps; ++c) keep[static_cast<std::size_t>(c)] = c;
+      keep.push_back(shared_cols - 1);
+      xtx = (*normal_matrix)(keep, keep);
+    }
+  } else {
+    xtx = gram_in_sample_order(l.columns(), n, 1);
+  }
   std::vector<double>().swap(l.ones);
   Eigen::VectorXd xty = Eigen::VectorXd::Zero(cols);
   Eigen::VectorXd row(cols);
@@ -764,8 +727,8 @@ std::optional<LoopFit> fit_loop(const std::vector<double>& t, const std::vector<
     xty += row * (x[i] - l.r0);
   }
   const Eigen::VectorXd coef = xtx.ldlt().solve(xty);
-  std::vector<double>& xm = fit.position_m;
-  xm.resize(n);
+  std::vector<double> e(n);  // the loop model's residual
+  std::vector<double> xm(n);
   double mean_x = 0, tss = 0, sse = 0;
   for (double v : x) mean_x += v;
   mean_x /= static_cast<double>(n);
@@ -777,93 +740,29 @@ std::optional<LoopFit> fit_loop(const std::vector<double>& t, const std::vector<
     tss += (x[i] - mean_x) * (x[i] - mean_x);
     sse += (x[i] - xm[i]) * (x[i] - xm[i]);
   }
-  if (!(tss > 0) || !std::isfinite(sse) || sse > 0.1 * tss) return std::nullopt;
-  fit.taps = taps;
-  fit.force_taps = force_taps;
-  for (int k = 0; k < force_taps; ++k) fit.force_response_m_per_n += coef[taps + k] * l.force_unit;
-  fit.variance_explained = 1.0 - sse / tss;
-  return fit;
-}
-
-std::vector<double> loop_residual(const std::vector<double>& x, const LoopFit& fit) {
-  std::vector<double> e(x.size());
-  for (std::size_t i = 0; i < x.size(); ++i) e[i] = x[i] - fit.position_m[i];
-  return e;
-}
-
-// The estimate of what the loop model leaves (`residual`, the smoother's)
-// with the loop model's motion added: the record's.
-MotionEstimate with_loop_motion(MotionEstimate out, const std::vector<double>& t, const std::vector<double>& x,
-                                const LoopFit& fit) {
+  std::vector<double>().swap(l.reference_padded);
+  std::vector<double>().swap(l.force_padded);
+  if (!(tss > 0) || !std::isfinite(sse) || sse > 0.1 * tss) return estimate_motion(t, x, velocity_jumps, force_for_jumps);
+  for (std::size_t i = 0; i < n; ++i) e[i] = x[i] - xm[i];
+  MotionEstimate out = estimate_motion(t, e, velocity_jumps, force_for_jumps);
   // The noise floor and resolution belong to the record's position.
   out.position_resolution_m = resolution_of(x);
   out.position_noise_m = std::max(third_difference_noise(x), out.position_resolution_m / std::sqrt(12.0));
+  std::vector<double>().swap(e);
   // The loop model's motion is noise-free: its derivatives by differences.
-  const std::vector<double>& xm = fit.position_m;
-  for (std::size_t i = 0; i < xm.size(); ++i) {
+  for (std::size_t i = 0; i < n; ++i) {
     out.position_m[i] += xm[i];
-    if (i == 0 || i + 1 == xm.size()) continue;
+    if (i == 0 || i + 1 == n) continue;
     out.velocity_m_per_s[i] += (xm[i + 1] - xm[i - 1]) / (t[i + 1] - t[i - 1]);
-    out.acceleration_m_per_s2[i] += (xm[i + 1] - 2 * xm[i] + xm[i - 1]) / (fit.dt * fit.dt);
+    out.acceleration_m_per_s2[i] += (xm[i + 1] - 2 * xm[i] + xm[i - 1]) / (dt * dt);
   }
-  out.loop_taps = fit.taps;
-  out.loop_force_taps = fit.force_taps;
-  out.loop_force_response_m_per_n = fit.force_response_m_per_n;
-  out.loop_variance_explained = fit.variance_explained;
-  // The residual's likelihood is the position's given the loop model (a
-  // fixed function of the reference and force once its taps are fitted), and
-  // the taps and the constant are fitted parameters of it.
-  out.fitted_parameters += fit.taps + fit.force_taps + 1;
-  return out;
-}
-
-}  // namespace
-
-MotionEstimate estimate_motion_with_reference(const std::vector<double>& t, const std::vector<double>& x,
-                                              const std::vector<double>& r, const std::vector<double>& force,
-                                              bool velocity_jumps, const std::vector<double>& force_for_jumps,
-                                              const Eigen::MatrixXd* normal_matrix) {
-  const std::optional<LoopFit> fit = fit_loop(t, x, r, force, normal_matrix);
-  if (!fit) return estimate_motion(t, x, velocity_jumps, force_for_jumps);
-  MotionEstimate out = with_loop_motion(estimate_motion(t, loop_residual(x, *fit), velocity_jumps, force_for_jumps), t, x, *fit);
-  out.estimator = std::string(fit->force_taps > 0 ? "rts_constant_acceleration_on_reference_and_force_loop_residual"
-                                                  : "rts_constant_acceleration_on_reference_loop_residual") +
+  out.estimator = std::string(force_taps > 0 ? "rts_constant_acceleration_on_reference_and_force_loop_residual"
+                                              : "rts_constant_acceleration_on_reference_loop_residual") +
                   (velocity_jumps ? "_with_velocity_jumps" : "");
-  return out;
-}
-
-namespace {
-
-// Schwarz's criterion: the log-likelihood less ln(samples) / 2 per fitted
-// parameter, the marginal likelihood's large-sample approximation. The loop
-// model's 44-205 taps (0.2 s at 200 Hz to 1 kHz) are fitted by least squares
-// to the very record they are judged on, so its likelihood gains from them
-// whether or not a linear loop describes the record; the penalty asks each
-// tap to earn its place. A loop model fitted on one half of the record and
-// judged on the other would be the stricter test, at twice the loop fits;
-// it can only lower the loop model's likelihood, so it would change no
-// choice the stretches win, and where the loop model won on the development
-// records its margin (5.5e5 nats and more) dwarfs what 205 taps can overfit.
-MotionModelEvidence evidence_of(const MotionEstimate& m, std::size_t samples) {
-  const double penalty = 0.5 * m.fitted_parameters * std::log(static_cast<double>(samples));
-  return {m.estimator, m.log_likelihood, m.fitted_parameters, m.log_likelihood - penalty};
-}
-
-}  // namespace
-
-MotionEstimate estimate_motion_by_evidence(const std::vector<double>& t, const std::vector<double>& x,
-                                           const std::vector<double>& r, const Eigen::MatrixXd* normal_matrix) {
-  // Both describe the same positions in metres, each with its own noise
-  // floor: the likelihoods compare (log_likelihood_in_metres).
-  MotionEstimate loop = estimate_motion_with_reference(t, x, r, {}, false, {}, normal_matrix);
-  MotionEstimate stretches = estimate_motion_by_stretches(t, x, r);
-  const MotionModelEvidence loop_evidence = evidence_of(loop, x.size());
-  const MotionModelEvidence stretches_evidence = evidence_of(stretches, x.size());
-  // The loop model, the default, keeps a tie and a criterion that is not a number.
-  const bool loop_chosen = !(stretches_evidence.criterion > loop_evidence.criterion);
-  MotionEstimate out = std::move(loop_chosen ? loop : stretches);
-  out.estimator += ", chosen by evidence over " + (loop_chosen ? stretches_evidence : loop_evidence).estimator;
-  out.evidence = {loop_evidence, stretches_evidence};
+  out.loop_taps = taps;
+  out.loop_force_taps = force_taps;
+  for (int k = 0; k < force_taps; ++k) out.loop_force_response_m_per_n += coef[taps + k] * l.force_unit;
+  out.loop_variance_explained = 1.0 - sse / tss;
   return out;
 }
 

@@ -19,13 +19,6 @@
 
 namespace tribo::analysis {
 
-struct MotionModelEvidence {
-  std::string estimator;
-  double log_likelihood = 0;  // nats
-  int fitted_parameters = 0;
-  double criterion = 0;       // nats: the larger is chosen
-};
-
 struct MotionEstimate {
   std::string estimator;             // e.g. "rts_constant_acceleration"
   double position_noise_m = 0;       // estimated white position noise (RMS)
@@ -41,15 +34,6 @@ struct MotionEstimate {
   int loop_force_taps = 0;           // with a reference and a force: taps of the force's response
   double loop_force_response_m_per_n = 0;  // the force taps' sum: position per newton of measured force
   double loop_variance_explained = 0;
-  // The position record's log-likelihood under this estimate's state-space
-  // model (the forward filter's Gaussian innovations, positions in metres,
-  // nats) and the parameters fitted to the record for it.
-  double log_likelihood = 0;
-  int fitted_parameters = 0;
-  // estimate_motion_by_evidence(): each model's log-likelihood, parameters
-  // and criterion (log-likelihood - parameters ln(samples) / 2), the loop
-  // model's first; empty otherwise.
-  std::vector<MotionModelEvidence> evidence;
   std::vector<double> position_m, velocity_m_per_s, acceleration_m_per_s2;
 };
 
@@ -97,17 +81,6 @@ std::vector<std::size_t> setpoint_stretches(const std::vector<double>& time_s, c
 // "rts_constant_acceleration_by_setpoint_stretches".
 MotionEstimate estimate_motion_by_stretches(const std::vector<double>& time_s, const std::vector<double>& position_m,
                                             const std::vector<double>& reference_m);
-
-// With the commanded position, the motion model the record's own evidence
-// favours: the loop model (estimate_motion_with_reference, without the force)
-// or the setpoint's stretches (estimate_motion_by_stretches), by each one's
-// log-likelihood of the position record less ln(samples) / 2 per fitted
-// parameter (Schwarz's criterion). Estimator: the chosen one's name, ", chosen
-// by evidence over " the other's; both models' figures in `evidence`.
-// normal_matrix: as for estimate_motion_with_reference below.
-MotionEstimate estimate_motion_by_evidence(const std::vector<double>& time_s, const std::vector<double>& position_m,
-                                           const std::vector<double>& reference_m,
-                                           const Eigen::MatrixXd* normal_matrix = nullptr);
 
 // normal_matrix: the loop model's normal-equation matrix with the force
 // taps, as loop_normal_matrix() forms it, or null (formed here).
