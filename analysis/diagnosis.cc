@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <utility>
 
@@ -966,6 +967,55 @@ Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options
   MotionSegmentation motion = segment_motion(series, options.segmentation);
   if (options.choose_state_from_rest && !motion.holds.empty()) return diagnose_both_pass_starts(series, options, motion);
   return diagnose_one(series, options, std::move(motion));
+}
+
+// A held-out difference smaller than its own standard error is no evidence
+// for either motion estimate (contact_choice.cc's rule for contacts).
+constexpr double kMotionIndistinguishableSe = 1.0;
+
+std::vector<MotionModelEvidence> weigh_motion_estimates(const std::vector<const MeasuredSeries*>& estimates,
+                                                        const DiagnosisOptions& options) {
+  std::vector<MotionModelEvidence> out(estimates.size());
+  if (estimates.empty()) return out;
+  const MotionSegmentation motion = segment_motion(*estimates.front(), options.segmentation);
+  std::vector<bool> starts{options.base.state_from_rest};
+  if (options.choose_state_from_rest && !motion.holds.empty()) starts = {false, true};
+  LugreFitOptions lugre = options.lugre;
+  lugre.threads = options.threads;
+  const std::vector<char> in_fit = invert(motion.heldout);
+  for (std::size_t k = 0; k < estimates.size(); ++k) {
+    const MeasuredSeries& series = *estimates[k];
+    MotionModelEvidence& e = out[k];
+    e.estimator = series.motion_estimator;
+    e.heldout_pass_rms = std::numeric_limits<double>::quiet_NaN();
+    const ModelData data(series, motion);
+    const std::vector<char> passes = without_holds(data, std::vector<char>(motion.heldout.begin(), motion.heldout.end()));
+    e.heldout_samples = static_cast<std::size_t>(std::count(passes.begin(), passes.end(), 1));
+    for (const bool from_rest : starts) {
+      ModelStructure base = options.base;
+      base.state_from_rest = from_rest;
+      const LugreFit fit = fit_lugre(data, base, from_rest ? without_holds(data, in_fit) : in_fit, lugre);
+      const std::vector<double> model = simulate(data, fit.result.params);
+      const double rms = rms_over(series.force_n, model, passes);
+      if (!(e.heldout_pass_rms <= rms)) {
+        e.heldout_pass_rms = rms;
+        e.state_from_rest = from_rest;
+        e.block_sse = heldout_block_sse(data, model, passes);
+      }
+    }
+  }
+  // The first (the default) keeps a tie and a figure that is not a number.
+  std::size_t chosen = 0;
+  for (std::size_t k = 1; k < out.size(); ++k) {
+    const bool gains = out[k].heldout_pass_rms <= (1 - options.min_heldout_gain) * out[0].heldout_pass_rms;
+    const bool clear = excess_in_standard_errors(out[0].block_sse, out[k].block_sse) >= kMotionIndistinguishableSe;
+    if (gains && clear && out[k].heldout_pass_rms < out[chosen].heldout_pass_rms) chosen = k;
+  }
+  out[chosen].chosen = true;
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    if (k != chosen) out[k].heldout_excess_se = excess_in_standard_errors(out[k].block_sse, out[chosen].block_sse);
+  }
+  return out;
 }
 
 }  // namespace tribo::analysis

@@ -185,5 +185,22 @@ struct Diagnosis {
 // series must have velocity and acceleration (derive_motion()).
 Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options = {});
 
+// The motion estimate the friction analysis can use, by how well the base
+// model predicts the measured force on held-out data under each of several
+// estimates of one record (the same samples, each with velocity and
+// acceleration; the first is the default): the diagnosis' base LuGre fit
+// (options.base, options.lugre) on the fit samples of one segmentation (the
+// first estimate's), its RMS error over the held-out pass samples (holds
+// excluded, as where each pass starts is chosen). Where the diagnosis tries
+// both pass starts (options.choose_state_from_rest, a record with holds)
+// each estimate gets the better of its two base fits. Another estimate
+// replaces the first only if it lowers that RMS by options.min_heldout_gain
+// and its held-out mean squared error lies at least one standard error of
+// the difference (over the held-out passes) below the first's, as a richer
+// contact must (analysis/models/contact_choice.h); of those, the lowest RMS.
+// Returns each estimate's figures, the chosen one marked.
+std::vector<MotionModelEvidence> weigh_motion_estimates(const std::vector<const MeasuredSeries*>& estimates,
+                                                        const DiagnosisOptions& options = {});
+
 
 }  // namespace tribo::analysis

@@ -47,6 +47,23 @@ std::string metrics_json(const v1::SampleBlock& samples) {
   return j.dump(2) + "\n";
 }
 
+namespace {
+
+// --motion-estimator auto: the loop model's estimate (series, the default)
+// or the setpoint stretches', as weigh_motion_estimates chooses on the base
+// fit's held-out force error, becomes the series' motion; both estimates'
+// figures go to series.motion_evidence, the loop model's first.
+void keep_motion_by_heldout_force(MeasuredSeries& series, MeasuredSeries& stretches, const DiagnosisOptions& options) {
+  std::vector<MotionModelEvidence> evidence = weigh_motion_estimates({&series, &stretches}, options);
+  const bool take_stretches = evidence[1].chosen;
+  const std::string other = evidence[take_stretches ? 0 : 1].estimator;
+  if (take_stretches) series = std::move(stretches);
+  series.motion_estimator += ", chosen on held-out force over " + other;
+  series.motion_evidence = std::move(evidence);
+}
+
+}  // namespace
+
 DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r) {
   DiagnoseOutcome out;
   if (r.begin_s > -HUGE_VAL || r.end_s < HUGE_VAL) {
@@ -65,17 +82,24 @@ DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r)
   std::optional<MeasuredSeries> alternative;
   const bool smoothed = !(r.smooth_s > 0 || r.central_differences);
   if (smoothed && !series.reference_m.empty() && series.velocity_m_per_s.empty()) alternative = series;
+  // --motion-estimator auto: the setpoint's stretches beside the loop model
+  // without the force, one of the two kept below.
+  std::optional<MeasuredSeries> stretches;
+  if (alternative && r.motion_by_heldout_force) stretches = series;
+  const bool loop_force = r.loop_force && !r.motion_by_heldout_force;
+  const ReferenceMotion reference_motion = r.motion_by_heldout_force ? ReferenceMotion::loop_model : r.reference_motion;
   if (!smoothed) {
     derive_motion(series, r.smooth_s);
   } else {
-    // The two estimates are independent (one per core) but for their loop
+    // The estimates are independent (one per core) but for their loop
     // models' normal equations, formed once on every core.
     std::optional<Eigen::MatrixXd> gram;
     if (alternative) gram = loop_normal_matrix(series.time_s, series.reference_m, series.force_n, 0);
     const Eigen::MatrixXd* shared = gram ? &*gram : nullptr;
-    parallel_for(alternative ? 2 : 1, 0, [&](std::size_t k) {
-      if (k == 0) derive_motion_smoothed(series, r.loop_force, r.velocity_jumps, shared, r.setpoint_stretches);
-      else derive_motion_smoothed(*alternative, !r.loop_force, r.velocity_jumps, shared);
+    parallel_for(stretches ? 3 : alternative ? 2 : 1, 0, [&](std::size_t k) {
+      if (k == 0) derive_motion_smoothed(series, loop_force, r.velocity_jumps, shared, reference_motion);
+      else if (k == 1) derive_motion_smoothed(*alternative, !loop_force, r.velocity_jumps, shared);
+      else derive_motion_smoothed(*stretches, false, false, nullptr, ReferenceMotion::setpoint_stretches);
     });
   }
   if (alternative && alternative->loop_taps == 0) alternative.reset();
@@ -94,9 +118,13 @@ DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r)
   options.candidates = r.candidates;
   options.choose_base_contact = r.choose_base_contact;
   options.min_confusion_z = r.min_confusion_z;
-  if (alternative && series.loop_taps > 0) options.alternative_motion = &*alternative;
   const auto t0 = std::chrono::steady_clock::now();
   try {
+    if (stretches) {
+      keep_motion_by_heldout_force(series, *stretches, options);
+      stretches.reset();
+    }
+    if (alternative && series.loop_taps > 0) options.alternative_motion = &*alternative;
     out.diagnosis = diagnose(series, options);
   } catch (const std::exception& e) {
     out.error = std::string("the analysis failed: ") + e.what();

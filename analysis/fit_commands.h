@@ -28,7 +28,12 @@ struct DiagnoseRequest {
   bool central_differences = false;  // instead of the smoother with the record's noise floor
   bool loop_force = false;           // the reference loop's model also driven by the measured force
   bool velocity_jumps = false;       // the smoother may let the velocity jump (speed steps within a sample)
-  bool setpoint_stretches = false;   // with a reference: the smoother's intensity per setpoint stretch, no loop model
+  ReferenceMotion reference_motion = ReferenceMotion::loop_model;  // with a reference: the motion model (derive_motion_smoothed)
+  // With a reference: the loop model (without the force) and the setpoint's
+  // stretches both estimated, and the one under which the base fit predicts
+  // the held-out force better kept (weigh_motion_estimates,
+  // analysis/diagnosis.h); reference_motion and loop_force are then not used.
+  bool motion_by_heldout_force = false;
   // A tribo run directory: holds, directions and passes from the setpoint;
   // each pass starts from the force measured at rest (the loop's dither
   // relaxes the contact in holds in a way the record cannot show).

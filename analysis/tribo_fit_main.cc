@@ -169,7 +169,8 @@ int diagnose_command(const DiagnoseArgs& a) {
   request.central_differences = a.motion_estimator == "central";
   request.loop_force = a.motion_estimator == "rts_loop_force";
   request.velocity_jumps = a.motion_estimator == "rts_jumps";
-  request.setpoint_stretches = a.motion_estimator == "rts_stretches";
+  if (a.motion_estimator == "rts_stretches") request.reference_motion = ReferenceMotion::setpoint_stretches;
+  request.motion_by_heldout_force = a.motion_estimator == "auto";
   request.tribo_run = std::filesystem::is_directory(input);
   request.choose_base_contact = a.base_model == "choose";
   request.min_confusion_z = a.min_confusion_z;
@@ -335,8 +336,10 @@ int main(int argc, char** argv) {
                    "(a servo that yields to friction); rts_jumps: rts, the velocity also let jump where a likelihood-ratio "
                    "test finds it did (a drive that steps its speed within a sample: velocity-step tests; "
                    "docs/identification.md); rts_stretches: with --reference, rts with a jerk intensity of its own "
-                   "for each stretch of the setpoint (holds, steady passes, ramps) and no loop model")
-      ->check(CLI::IsMember({"rts", "central", "rts_loop_force", "rts_jumps", "rts_stretches"}))->capture_default_str();
+                   "for each stretch of the setpoint (holds, steady passes, ramps) and no loop model; auto: with "
+                   "--reference, rts or rts_stretches, whichever lets the base LuGre fit predict the measured force "
+                   "better on the held-out passes (both figures in the JSON's input.motion_evidence)")
+      ->check(CLI::IsMember({"rts", "central", "rts_loop_force", "rts_jumps", "rts_stretches", "auto"}))->capture_default_str();
   diag->add_option("--effects", d.effects, "comma-separated candidates (default: all)");
   diag->add_option("--base-model", d.base_model,
                    "lugre: the LuGre base (default); choose: LuGre, + elasto-plastic presliding, + rate-and-state, "

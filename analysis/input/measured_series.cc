@@ -59,19 +59,34 @@ void derive_motion(MeasuredSeries& s, double smoothing_s) {
   }
 }
 
+namespace {
+
+MotionEstimate estimate_with_reference(const MeasuredSeries& s, bool loop_force, bool velocity_jumps,
+                                       const Eigen::MatrixXd* loop_normal_matrix, ReferenceMotion reference_motion) {
+  // The force enters the loop model only with loop_force (no copy of it otherwise).
+  static const std::vector<double> no_force;
+  const std::vector<double>& loop_input = loop_force ? s.force_n : no_force;
+  switch (reference_motion) {
+    case ReferenceMotion::setpoint_stretches:
+      return estimate_motion_by_stretches(s.time_s, s.position_m, s.reference_m);
+    case ReferenceMotion::loop_model:
+      break;
+  }
+  return estimate_motion_with_reference(s.time_s, s.position_m, s.reference_m, loop_input, velocity_jumps, s.force_n,
+                                        loop_normal_matrix);
+}
+
+}  // namespace
+
 void derive_motion_smoothed(MeasuredSeries& s, bool loop_force, bool velocity_jumps, const Eigen::MatrixXd* loop_normal_matrix,
-                            bool by_setpoint_stretches) {
+                            ReferenceMotion reference_motion) {
   if (!s.velocity_m_per_s.empty() && !s.acceleration_m_per_s2.empty()) {
     derive_motion(s, 0);
     return;
   }
-  // The force enters the loop model only with loop_force (no copy of it otherwise).
-  static const std::vector<double> no_force;
-  const std::vector<double>& loop_input = loop_force ? s.force_n : no_force;
-  MotionEstimate m = s.reference_m.empty()    ? estimate_motion(s.time_s, s.position_m, velocity_jumps, s.force_n)
-                      : by_setpoint_stretches ? estimate_motion_by_stretches(s.time_s, s.position_m, s.reference_m)
-                                              : estimate_motion_with_reference(s.time_s, s.position_m, s.reference_m, loop_input,
-                                                                               velocity_jumps, s.force_n, loop_normal_matrix);
+  MotionEstimate m = s.reference_m.empty()
+                         ? estimate_motion(s.time_s, s.position_m, velocity_jumps, s.force_n)
+                         : estimate_with_reference(s, loop_force, velocity_jumps, loop_normal_matrix, reference_motion);
   s.loop_taps = m.loop_taps;
   s.loop_variance_explained = m.loop_variance_explained;
   s.loop_force_taps = m.loop_force_taps;
@@ -133,6 +148,7 @@ MeasuredSeries slice(const MeasuredSeries& s, std::size_t first, std::size_t las
   out.loop_variance_explained = s.loop_variance_explained;
   out.loop_force_taps = s.loop_force_taps;
   out.loop_force_response_m_per_n = s.loop_force_response_m_per_n;
+  out.motion_evidence = s.motion_evidence;
   return out;
 }
 

@@ -8,12 +8,28 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
 namespace tribo::analysis {
+
+// A motion estimate of the record as the base model's held-out force error
+// weighs it (tribo-fit --motion-estimator auto: weigh_motion_estimates in
+// analysis/diagnosis.h).
+struct MotionModelEvidence {
+  std::string estimator;
+  double heldout_pass_rms = 0;        // force units, over the held-out pass samples
+  std::size_t heldout_samples = 0;    // those samples (the same for every estimate weighed)
+  bool state_from_rest = false;       // the pass start whose base fit gave it
+  std::map<int, double> block_sse;    // that fit's squared error summed per held-out pass
+  // Its held-out mean squared error above the chosen one's, in standard
+  // errors of the difference over the held-out passes (0 for the chosen).
+  double heldout_excess_se = 0;
+  bool chosen = false;
+};
 
 struct MeasuredSeries {
   std::string source;        // file or run directory, for the report
@@ -40,6 +56,7 @@ struct MeasuredSeries {
   double loop_variance_explained = 0;
   int loop_force_taps = 0;                 // ... and of the force's (0: not used)
   double loop_force_response_m_per_n = 0;  // the force taps' sum
+  std::vector<MotionModelEvidence> motion_evidence;  // the estimates weighed (--motion-estimator auto); else empty
 
   std::size_t size() const { return time_s.size(); }
   bool has_normal() const { return !normal_force_n.empty(); }
@@ -60,11 +77,14 @@ void derive_motion(MeasuredSeries& series, double smoothing_s);
 // carry the full position noise (10 nm at 500 Hz is 5 um/s).
 // loop_normal_matrix: the loop model's matrix as loop_normal_matrix()
 // (analysis/motion/motion_estimate.h) formed it for this series, or null.
-// by_setpoint_stretches: with a reference, the smoother with an intensity
-// per stretch of the setpoint (estimate_motion_by_stretches) instead of the
-// loop model.
+// With a reference, the motion model: the loop model
+// (estimate_motion_with_reference) or the smoother with an intensity per
+// stretch of the setpoint (estimate_motion_by_stretches; there loop_force and
+// velocity_jumps are not used).
+enum class ReferenceMotion { loop_model, setpoint_stretches };
 void derive_motion_smoothed(MeasuredSeries& series, bool loop_force = false, bool velocity_jumps = false,
-                            const Eigen::MatrixXd* loop_normal_matrix = nullptr, bool by_setpoint_stretches = false);
+                            const Eigen::MatrixXd* loop_normal_matrix = nullptr,
+                            ReferenceMotion reference_motion = ReferenceMotion::loop_model);
 
 // Keeps only what the motion estimate gave (position, velocity, acceleration
 // and the estimator's figures): another estimate of a series' motion, kept

@@ -176,6 +176,8 @@ FitResult fit_nested_law(const ModelData& data, const FitResult& last, Effect la
   return std::move(fits[best]);
 }
 
+}  // namespace
+
 // Per held-out block (MotionSegmentation::block_of: a pass, or a time chunk
 // of a one-pass record), the model's sum of squared errors.
 std::map<int, double> heldout_block_sse(const ModelData& data, const std::vector<double>& model, const std::vector<char>& heldout) {
@@ -203,8 +205,6 @@ double excess_in_standard_errors(const std::map<int, double>& sse, const std::ma
   const double se_of_sum = std::sqrt(b * var);
   return se_of_sum > 0 ? mean * b / se_of_sum : (mean > 0 ? std::numeric_limits<double>::infinity() : 0.0);
 }
-
-}  // namespace
 
 std::string contact_objection(const ModelData& data, const FitResult& fit) {
   std::string objection;

@@ -58,6 +58,16 @@ struct ContactPick {
   std::string warning;    // when LuGre is past a bound and the pick is not one that predicts no worse
 };
 
+// Per held-out block (MotionSegmentation::block_of: a pass, or a time chunk
+// of a one-pass record), the model's sum of squared errors.
+std::map<int, double> heldout_block_sse(const ModelData& data, const std::vector<double>& model, const std::vector<char>& heldout);
+
+// How far one model's held-out mean squared error lies above another's, in
+// standard errors of that difference, the held-out blocks taken as the
+// independent units (the residual is correlated within a block). Infinite
+// with fewer than two blocks: no error to judge by.
+double excess_in_standard_errors(const std::map<int, double>& sse, const std::map<int, double>& reference);
+
 // Why a contact's fit is not physical: the base model's values past their
 // bounds, each added law's, and a slip trend of more than half the level
 // over the record's slip (empty when it is physical).

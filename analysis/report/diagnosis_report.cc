@@ -93,6 +93,25 @@ Json confusion_json(const EffectConfusion& c) {
           {"rivals", std::move(rivals)}};
 }
 
+// The motion estimates weighed by the base fit's held-out force error, or
+// null (none weighed).
+Json motion_evidence_json(const std::vector<MotionModelEvidence>& evidence) {
+  if (evidence.empty()) return Json(nullptr);
+  Json models = Json::array();
+  for (const MotionModelEvidence& e : evidence) {
+    models.push_back({{"estimator", e.estimator},
+                      {"heldout_pass_rms", finite_or_null(e.heldout_pass_rms)},
+                      {"state_from_rest", e.state_from_rest},
+                      {"heldout_excess_se", finite_or_null(e.heldout_excess_se)},
+                      {"chosen", e.chosen}});
+  }
+  return {{"criterion", "the base fit's RMS force error over the held-out pass samples (force units); the setpoint's "
+                        "stretches replace the loop model when 2 % lower and at least one standard error of the "
+                        "difference over the held-out passes"},
+          {"heldout_samples", evidence.front().heldout_samples},
+          {"models", models}};
+}
+
 }  // namespace
 
 std::string confusion_text(const EffectConfusion& c) {
@@ -130,6 +149,7 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
                 {"loop_variance_explained", s.loop_variance_explained},
                 {"loop_force_taps", s.loop_force_taps},
                 {"loop_force_response_m_per_n", s.loop_force_response_m_per_n},
+                {"motion_evidence", motion_evidence_json(s.motion_evidence)},
                 {"command", info.command_line}};
   j["segmentation"] = {{"passes", d.motion.passes.size()},
                        {"holds", d.motion.holds.size()},
@@ -338,6 +358,12 @@ std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
   if (s.motion_estimator.find("with_velocity_jumps") != std::string::npos) {
     line("  the velocity let jump at %d samples (a likelihood-ratio test at 1 %% over the record; %d more the force did not follow, not taken)",
          s.velocity_jumps, s.velocity_jumps_force_did_not_follow);
+  }
+  for (const MotionModelEvidence& e : s.motion_evidence) {
+    line("  weighed: %s, the base fit's held-out pass RMS %.4g %s over %zu samples (each pass starting %s), %s",
+         e.estimator.c_str(), e.heldout_pass_rms, s.force_unit.c_str(), e.heldout_samples,
+         e.state_from_rest ? "from the force at rest" : "modelled through the holds",
+         e.chosen ? "chosen" : fmt::sprintf("%.2f standard errors above the chosen", e.heldout_excess_se).c_str());
   }
   if (s.loop_taps > 0) {
     line("  reference through the fitted loop response (%d taps; explains %.6f of the position's variance)", s.loop_taps,
