@@ -183,6 +183,19 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
     j["base_model"]["contact_choice"] = {{"chosen", d.base_contact->chosen}, {"options", std::move(options)}};
     if (!d.base_contact->not_tried.empty()) j["base_model"]["contact_choice"]["not_tried"] = d.base_contact->not_tried;
   }
+  if (d.dither) {
+    const DitherChoice& c = *d.dither;
+    j["base_model"]["dither_choice"] = {
+        {"chosen", c.chosen},
+        {"criterion", "kept when within its bounds and it lowers the held-out pass RMS by 2 % and by 1 standard error "
+                      "of the difference over the held-out blocks"},
+        {"heldout_pass_rms_without", c.heldout_rms_without},
+        {"heldout_pass_rms_with", c.heldout_rms_with},
+        {"excess_se_without", std::isfinite(c.excess_se_without) ? Json(c.excess_se_without) : Json(nullptr)},
+        {"dither_speed_m_per_s", c.dither_speed_m_per_s},
+        {"dither_speed_std_error", std::isfinite(c.dither_speed_se) ? Json(c.dither_speed_se) : Json(nullptr)}};
+    if (!c.objection.empty()) j["base_model"]["dither_choice"]["not_physical"] = c.objection;
+  }
   if (d.pass_start) {
     j["base_model"]["pass_start_state"] = {
         {"chosen", d.pass_start->state_from_rest ? "from the force at rest" : "modelled through the holds"},
