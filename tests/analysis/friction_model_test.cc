@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -48,6 +49,36 @@ std::vector<Dual> seeded_duals(const std::vector<double>& values) {
     out[static_cast<std::size_t>(k)].derivatives()[k] = 1.0;
   }
   return out;
+}
+
+// Every parameter's Jacobian column from the dual numbers against central
+// finite differences; each column must move the force somewhere. Switching
+// points (the sub-step count, backlash contact, elasto-plastic zones, the
+// lag's interpolation interval) make a few samples non-differentiable for
+// finite differences: 99 % of them must agree.
+void expect_jacobian_matches_finite_differences(const ModelData& data, const ModelParams& p) {
+  const auto n = static_cast<int>(p.theta.size());
+  ASSERT_LE(n, kMaxFreeParams);
+  std::vector<Dual> ad;
+  simulate_generic<Dual>(data, p, seeded_duals(p.theta), ad);
+  for (int k = 0; k < n; ++k) {
+    ModelParams up = p, down = p;
+    const double h = 1e-6;
+    up.theta[static_cast<std::size_t>(k)] += h;
+    down.theta[static_cast<std::size_t>(k)] -= h;
+    const auto fu = simulate(data, up), fd = simulate(data, down);
+    double scale = 0;
+    for (std::size_t i = 0; i < fu.size(); ++i) scale = std::max(scale, std::fabs(fu[i] - fd[i]) / (2 * h));
+    std::size_t agree = 0;
+    for (std::size_t i = 0; i < fu.size(); ++i) {
+      const double numeric = (fu[i] - fd[i]) / (2 * h);
+      const double exact = ad[i].derivatives().size() > k ? ad[i].derivatives()[k] : 0.0;
+      if (std::fabs(numeric - exact) <= 1e-4 * scale + 1e-6 * std::fabs(exact) + 1e-15) ++agree;
+    }
+    const std::string& name = p.specs[static_cast<std::size_t>(k)].name;
+    EXPECT_GT(scale, 0.0) << name;
+    EXPECT_GE(static_cast<double>(agree), 0.99 * static_cast<double>(fu.size())) << name;
+  }
 }
 
 TEST(FrictionModel, SlidingSettlesOnTheLugreSteadyState) {
@@ -127,25 +158,7 @@ TEST(FrictionModel, TheUnresolvedDithersJacobianMatchesFiniteDifferences) {
   ModelParams p = base_params(f.data, st);
   for (const ParamSpec& spec : plain.specs) p.set_value(spec.name, plain.value(spec.name));
   p.set_value("dither_speed", 0.3 * f.data.speed_ref);
-  const auto n = static_cast<int>(p.theta.size());
-  std::vector<Dual> ad;
-  simulate_generic<Dual>(f.data, p, seeded_duals(p.theta), ad);
-  for (int k = 0; k < n; ++k) {
-    ModelParams up = p, down = p;
-    const double h = 1e-6;
-    up.theta[static_cast<std::size_t>(k)] += h;
-    down.theta[static_cast<std::size_t>(k)] -= h;
-    const auto fu = simulate(f.data, up), fd = simulate(f.data, down);
-    double scale = 0;
-    for (std::size_t i = 0; i < fu.size(); ++i) scale = std::max(scale, std::fabs(fu[i] - fd[i]) / (2 * h));
-    std::size_t agree = 0;
-    for (std::size_t i = 0; i < fu.size(); ++i) {
-      const double numeric = (fu[i] - fd[i]) / (2 * h), exact = ad[i].derivatives()[k];
-      if (std::fabs(numeric - exact) <= 1e-4 * scale + 1e-6 * std::fabs(exact) + 1e-15) ++agree;
-    }
-    EXPECT_GT(scale, 0.0) << p.specs[static_cast<std::size_t>(k)].name;
-    EXPECT_GE(static_cast<double>(agree), 0.99 * static_cast<double>(fu.size())) << p.specs[static_cast<std::size_t>(k)].name;
-  }
+  expect_jacobian_matches_finite_differences(f.data, p);
 }
 
 TEST(FrictionModel, ExtensionsAtTheirNeutralValuesLeaveTheModelUnchanged) {
@@ -174,30 +187,7 @@ TEST(FrictionModel, AutodiffJacobianMatchesFiniteDifferencesForEveryEffect) {
   for (std::size_t k = 0; k < p.theta.size(); ++k) {
     if (p.specs[k].name.rfind("drift_", 0) == 0) p.theta[k] = 0.3;
   }
-  const auto n = static_cast<int>(p.theta.size());
-  ASSERT_LE(n, kMaxFreeParams);
-  const std::vector<Dual> theta = seeded_duals(p.theta);
-  std::vector<Dual> ad;
-  simulate_generic<Dual>(f.data, p, theta, ad);
-  for (int k = 0; k < n; ++k) {
-    ModelParams up = p, down = p;
-    const double h = 1e-6;
-    up.theta[static_cast<std::size_t>(k)] += h;
-    down.theta[static_cast<std::size_t>(k)] -= h;
-    const auto fu = simulate(f.data, up), fd = simulate(f.data, down);
-    // Switching points (the sub-step count, backlash contact, elasto-plastic
-    // zones, the lag's interpolation interval) make a few samples
-    // non-differentiable for finite differences: 99 % of them must agree.
-    double scale = 0;
-    for (std::size_t i = 0; i < fu.size(); ++i) scale = std::max(scale, std::fabs(fu[i] - fd[i]) / (2 * h));
-    std::size_t agree = 0;
-    for (std::size_t i = 0; i < fu.size(); ++i) {
-      const double numeric = (fu[i] - fd[i]) / (2 * h);
-      const double exact = ad[i].derivatives().size() > k ? ad[i].derivatives()[k] : 0.0;
-      if (std::fabs(numeric - exact) <= 1e-4 * scale + 1e-6 * std::fabs(exact) + 1e-15) ++agree;
-    }
-    EXPECT_GE(static_cast<double>(agree), 0.99 * static_cast<double>(fu.size())) << p.specs[static_cast<std::size_t>(k)].name;
-  }
+  expect_jacobian_matches_finite_differences(f.data, p);
 }
 
 // The fit evaluates its trial points with their Jacobian (analysis/models/model_fit.cc,
