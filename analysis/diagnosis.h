@@ -56,7 +56,7 @@ namespace tribo::analysis {
 enum class DitherTerm { off, on, choose };
 
 // The evidence for the unresolved-dither term (DitherTerm::choose): the base
-// fitted without and with it, each judged on the held-out passes.
+// fitted without and with it, each judged on the held-out samples.
 struct DitherChoice {
   double heldout_rms_without = 0, heldout_rms_with = 0;  // force units
   // The held-out mean squared error without the dither above that with it,
