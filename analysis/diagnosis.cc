@@ -803,6 +803,34 @@ void withdraw_effects(Diagnosis& out) {
   out.accepted.clear();
 }
 
+// The base fitted again with the unresolved dither; kept when within its
+// bounds and it predicts the held-out passes better by the contact choice's
+// rule: a gain of min_heldout_gain and one standard error of the difference
+// over the held-out blocks. base is the plain fit on entry, the kept on return.
+DitherChoice choose_dither(const ModelData& data, const ModelStructure& structure, const std::vector<char>& in_fit,
+                           const std::vector<char>& heldout, const LugreFitOptions& lugre, double min_heldout_gain,
+                           LugreFit& base) {
+  ModelStructure with = structure;
+  with.unresolved_dither = true;
+  LugreFit dithered = fit_lugre(data, with, in_fit, lugre);
+  const std::vector<double> plain_model = simulate(data, base.result.params);
+  const std::vector<double> dithered_model = simulate(data, dithered.result.params);
+  DitherChoice out;
+  out.heldout_rms_without = rms_over(data.series.force_n, plain_model, heldout);
+  out.heldout_rms_with = rms_over(data.series.force_n, dithered_model, heldout);
+  out.excess_se_without = excess_in_standard_errors(heldout_block_sse(data, plain_model, heldout),
+                                                    heldout_block_sse(data, dithered_model, heldout));
+  for (const std::string& w : base_out_of_bounds(data, dithered.result)) out.objection += (out.objection.empty() ? "" : "; ") + w;
+  out.dither_speed_m_per_s = dithered.result.params.value("dither_speed");
+  for (const ParamEstimate& e : dithered.result.estimates) {
+    if (e.name == "dither_speed") out.dither_speed_se = e.std_error;
+  }
+  out.chosen = out.objection.empty() && out.heldout_rms_with <= (1 - min_heldout_gain) * out.heldout_rms_without &&
+               out.excess_se_without >= 1.0;
+  if (out.chosen) base = std::move(dithered);
+  return out;
+}
+
 Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& options, MotionSegmentation motion) {
   Diagnosis out;
   out.motion = std::move(motion);
@@ -819,6 +847,7 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
     in_fit = without_holds(data, in_fit);
     heldout = without_holds(data, heldout);
   }
+  if (options.dither == DitherTerm::choose) out.dither = choose_dither(data, base, in_fit, heldout, lugre, options.min_heldout_gain, out.base);
   for (auto& w : base_bound_warnings(data, out.base.result)) out.base.result.warnings.push_back(w);
   EvaluatedFit current = evaluate_fit(data, out.base.result);
   out.model_before = current.model;

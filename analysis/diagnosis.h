@@ -50,8 +50,26 @@
 
 namespace tribo::analysis {
 
+// The base model's unresolved-dither term (ModelStructure::unresolved_dither):
+// left out, always in, or kept where it predicts the held-out passes better
+// (tribo-fit --dither).
+enum class DitherTerm { off, on, choose };
+
+// The evidence for the unresolved-dither term (DitherTerm::choose): the base
+// fitted without and with it, each judged on the held-out samples.
+struct DitherChoice {
+  double heldout_rms_without = 0, heldout_rms_with = 0;  // force units
+  // The held-out mean squared error without the dither above that with it,
+  // in standard errors of the difference over the held-out blocks.
+  double excess_se_without = 0;
+  std::string objection;  // the dithered base's values past a bound, if any
+  double dither_speed_m_per_s = 0, dither_speed_se = 0;
+  bool chosen = false;
+};
+
 struct DiagnosisOptions {
   ModelStructure base;                                   // load scaling, mass, Stribeck exponent
+  DitherTerm dither = DitherTerm::off;
   std::vector<Effect> candidates{kAllEffects.begin(), kAllEffects.end()};
   SegmentationOptions segmentation;
   LugreFitOptions lugre;
@@ -162,6 +180,7 @@ struct Diagnosis {
   LugreFit base;
   std::optional<PassStartChoice> pass_start;
   std::optional<BaseContactChoice> base_contact;
+  std::optional<DitherChoice> dither;  // DitherTerm::choose
   std::optional<DriftKnotChoice> drift_knots;  // when drift is a candidate
   // Drift as a creep under a stuck contact, assessed on records with holds
   // of minutes (analysis/effects/creep_in_holds.h); accepted, drift is accepted with it.

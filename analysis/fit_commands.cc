@@ -117,6 +117,8 @@ DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r)
   options.choose_state_from_rest = !r.tribo_run;
   options.candidates = r.candidates;
   options.choose_base_contact = r.choose_base_contact;
+  options.dither = r.dither;
+  options.base.unresolved_dither = r.dither == DitherTerm::on;
   options.min_confusion_z = r.min_confusion_z;
   const auto t0 = std::chrono::steady_clock::now();
   try {

@@ -38,6 +38,7 @@ struct DiagnoseRequest {
   // each pass starts from the force measured at rest (the loop's dither
   // relaxes the contact in holds in a way the record cannot show).
   bool tribo_run = false;
+  DitherTerm dither = DitherTerm::off;  // --dither (DiagnosisOptions::dither)
   bool choose_base_contact = false;  // --base-model choose (DiagnosisOptions::choose_base_contact)
   double min_confusion_z = 0;        // --min-confusion-z (DiagnosisOptions::min_confusion_z)
   std::string command_line;       // recorded in the report

@@ -84,6 +84,7 @@ struct DiagnoseArgs {
   bool fit_mass = false, no_load_scaling = false, json = false;
   double stribeck_exponent = 1, smooth = 0;
   std::string base_model = "lugre";
+  std::string dither = "off";
   double min_confusion_z = 0;
   std::string motion_estimator = "rts";
   std::string effects;
@@ -173,6 +174,7 @@ int diagnose_command(const DiagnoseArgs& a) {
   request.motion_by_heldout_force = a.motion_estimator == "auto";
   request.tribo_run = std::filesystem::is_directory(input);
   request.choose_base_contact = a.base_model == "choose";
+  request.dither = a.dither == "on" ? DitherTerm::on : (a.dither == "choose" ? DitherTerm::choose : DitherTerm::off);
   request.min_confusion_z = a.min_confusion_z;
   request.command_line = a.command_line;
   const DiagnoseOutcome outcome = diagnose_series(std::move(*series), request);
@@ -345,6 +347,12 @@ int main(int argc, char** argv) {
                    "lugre: the LuGre base (default); choose: LuGre, + elasto-plastic presliding, + rate-and-state, "
                    "kept on held-out data")
       ->check(CLI::IsMember({"lugre", "choose"}))->capture_default_str();
+  diag->add_option("--dither", d.dither,
+                   "off: the base model's bristle relaxes at the resolved speed (default); on: at E|v + d|, d the "
+                   "tip's unresolved dither of fitted RMS dither_speed (a closed loop that feeds its sensor noise "
+                   "back); choose: fitted both ways, the dither kept where it predicts the held-out passes better "
+                   "(JSON base_model.dither_choice)")
+      ->check(CLI::IsMember({"off", "on", "choose"}))->capture_default_str();
   diag->add_option("--min-confusion-z", d.min_confusion_z,
                    "refuse an accepted effect whose nearest rival leaves less than Z of it (the confusion check; 0: "
                    "reported only, the default)")

@@ -56,7 +56,7 @@ struct Index {
   int dwell_dfs = -1, dwell_time = -1, dwell_memory = -1, lag = -1, logv = -1, load_exponent = -1;
   int per_cos = -1, per_sin = -1, per_length = -1, asym_levels = -1, asym_viscous = -1;
   int tilt = -1, breakaway = -1, gap = -1;
-  int rs_a = -1, rs_b = -1, rs_dc = -1, slip_trend = -1;
+  int rs_a = -1, rs_b = -1, rs_dc = -1, slip_trend = -1, dither = -1;
   std::vector<int> drift;
 };
 
@@ -90,6 +90,7 @@ Index index_of(const ModelParams& p) {
   k.rs_b = p.index("rs_b");
   k.rs_dc = p.index("rs_dc");
   k.slip_trend = p.index("slip_trend");
+  k.dither = p.index("dither_speed");
   if (k.fc < 0 || k.fs < 0 || k.vs < 0 || k.sigma0 < 0 || k.sigma1 < 0 || k.fv < 0 || k.offset < 0) {
     throw std::logic_error("friction model: base parameters missing");
   }
@@ -120,6 +121,36 @@ T bristle_step(const T& z, double v, const H& h, const T& alpha_over_g) {
   if (value_of(u) < 1e-9) return z + v * h;
   const T e = exp(-u);
   return z * e + v * (1.0 - e) / a;
+}
+
+// z after h at constant v when the bristle relaxes at a speed other than
+// |v| (the unresolved dither's E|v + d|): dz/dt = v - a z, a = speed alpha / g.
+template <class T>
+T bristle_step_at_speed(const T& z, double v, double h, const T& speed, const T& alpha_over_g) {
+  using std::exp;
+  const T a = speed * alpha_over_g;
+  const T u = a * h;
+  if (value_of(u) < 1e-9) return z + v * h;
+  const T e = exp(-u);
+  return z * e + v * (1.0 - e) / a;
+}
+
+template <class T>
+T erf_of(const T& x) {
+  if constexpr (std::is_same_v<T, double>) {
+    return std::erf(x);
+  } else {
+    const double xv = x.value();
+    return T(std::erf(xv), typename T::DerType(x.derivatives() * (2.0 / std::sqrt(std::numbers::pi) * std::exp(-xv * xv))));
+  }
+}
+
+// E|v + d| for d ~ N(0, rms^2): rms sqrt(2/pi) exp(-v^2 / 2 rms^2) + v erf(v / (rms sqrt 2)).
+template <class T>
+T dithered_speed(double v, const T& rms) {
+  using std::exp;
+  const T r = v / (std::numbers::sqrt2 * rms);
+  return std::sqrt(2.0 / std::numbers::pi) * rms * exp(-(r * r)) + v * erf_of(r);
 }
 
 }  // namespace
@@ -353,6 +384,10 @@ ModelParams base_params(const ModelData& d, const ModelStructure& st) {
       {"offset", fu, Transform::kLinear, 0.1 * d.force_scale, false, {}},
   };
   p.theta = {0, 0, 0, 0, std::log(0.01), 0, 0};
+  if (st.unresolved_dither) {
+    p.specs.push_back({"dither_speed", "m/s", Transform::kLog, 0.1 * d.speed_ref, false, {}});
+    p.theta.push_back(0.0);
+  }
   if (st.fit_mass) {
     p.specs.push_back({"mass", fu == "N" ? "kg" : fu + " s^2/m", Transform::kLinear, d.mass_scale, false, {}});
     p.theta.push_back(0.0);
@@ -543,6 +578,14 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
   const bool slip_law = st.rate_state_slip_law;
   const bool trend = k.slip_trend >= 0;
   const T slip_trend = trend ? val(k.slip_trend) : T(0.0);
+  const bool dither = k.dither >= 0;
+  const T dither_rms = dither ? val(k.dither) : T(0.0);
+  // The bristle's relaxation over a step at velocity vk: |vk| alpha / g, or
+  // with the dither E|vk + d| alpha / g.
+  auto relax = [&](const T& z, double vk, double h, const T& alpha_over_g) -> T {
+    if (!dither) return bristle_step(z, vk, h, alpha_over_g);
+    return bristle_step_at_speed(z, vk, h, dithered_speed(vk, dither_rms), alpha_over_g);
+  };
   T rs_state = !rate_state ? T(0.0) : (slip_law ? slip_law_start(d, rs_dc) : contact_age_start(d, rs_dc));
   std::vector<T> drift_c;
   if (drift) {
@@ -623,7 +666,8 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
     const double h = s.time_s[i] - s.time_s[i - 1];
     const double va = v[i - 1], vb = v[i], mean = d.step_velocity[i];
     const double g_min = std::min(value_of(level_prev), value_of(level_now)) / value_of(sigma0);
-    const double rate = std::max(std::fabs(va), std::fabs(vb)) / std::max(g_min, 1e-300);
+    const double relaxing_speed = std::max({std::fabs(va), std::fabs(vb), value_of(dither_rms)});
+    const double rate = relaxing_speed / std::max(g_min, 1e-300);
     // A relaxed bristle follows a steady velocity exactly in one step; it is
     // a velocity that changes sign or by a quarter within the interval that
     // needs sub-steps.
@@ -633,9 +677,9 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
       const double vm = mean;
       const T g = 0.5 * (level_prev + level_now) / sigma0;
       // Without plasticity alpha is one: 1 / g, not a quotient of a constant.
-      if (!ep) return bristle_step(z, vm, h, T(1.0 / g));
+      if (!ep) return relax(z, vm, h, T(1.0 / g));
       const T alpha = plasticity(breakaway, vm, z, g);
-      return bristle_step(z, vm, h, T(alpha / g));
+      return relax(z, vm, h, T(alpha / g));
     }
     for (int k = 0; k < m; ++k) {
       const double u = (k + 0.5) / m;
@@ -645,11 +689,11 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
       if (value_of(level_k) <= tiny) return T(0.0 * sigma0);
       const T g = level_k / sigma0;
       if (!ep) {
-        z = bristle_step(z, vk, h / m, T(1.0 / g));
+        z = relax(z, vk, h / m, T(1.0 / g));
         continue;
       }
       const T alpha = plasticity(breakaway, vk, z, g);
-      z = bristle_step(z, vk, h / m, T(alpha / g));
+      z = relax(z, vk, h / m, T(alpha / g));
     }
     return z;
   };
@@ -768,7 +812,13 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
     double rate = 0.0;
     if (!(backlash && in_gap)) {
       const double vi = v[i];
-      const T dz_dt = ep ? T(vi - std::fabs(vi) * plasticity(breakaway, vi, z, g) * z / g) : T(vi - std::fabs(vi) * z / g);
+      T dz_dt;
+      if (dither) {
+        const T speed = dithered_speed(vi, dither_rms);
+        dz_dt = ep ? T(vi - speed * plasticity(breakaway, vi, z, g) * z / g) : T(vi - speed * z / g);
+      } else {
+        dz_dt = ep ? T(vi - std::fabs(vi) * plasticity(breakaway, vi, z, g) * z / g) : T(vi - std::fabs(vi) * z / g);
+      }
       const T viscous = asym ? T(fv * (1.0 + asym_viscous * sign_of(vi))) : fv;
       friction = sigma0 * z + sigma1 * dz_dt + viscous * vi;
       rate = value_of(dz_dt);
@@ -872,6 +922,8 @@ double steady_state_friction(const ModelParams& p, double velocity, double norma
   const double shape = p.structure.stribeck_exponent == 1.0 ? ratio : std::pow(ratio, p.structure.stribeck_exponent);
   double level = fc + (fs - fc) * std::exp(-shape);
   if (mu) level *= normal;
+  // With the unresolved dither the bristle settles at v g / E|v + d|.
+  if (p.index("dither_speed") >= 0 && velocity != 0) level *= std::fabs(velocity) / dithered_speed(velocity, p.value("dither_speed"));
   return (velocity > 0 ? level : (velocity < 0 ? -level : 0.0)) + p.value("Fv") * velocity;
 }
 

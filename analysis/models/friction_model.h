@@ -63,6 +63,16 @@ struct ModelStructure {
   // Dieterich's ageing law (false); the diagnosis fits both and keeps the one
   // the data favour.
   bool rate_state_slip_law = false;
+  // The tip's unresolved dither: a closed position loop feeds its sensor's
+  // noise back into the drive, so the tip jitters about the motion the
+  // record resolves, faster than the samples show it. LuGre's bristle
+  // relaxes at the rate |v| sigma0 / S(v) of the velocity the contact sees,
+  // v + d, not of the resolved v: with d zero-mean Gaussian of RMS
+  // dither_speed (a base parameter, m/s), the relaxation takes E|v + d|, so
+  // the bristle drains below g(v) at low speed and at rest. Without it the
+  // fit bends the Stribeck curve to mimic the drain (docs/identification.md,
+  // "The unresolved dither"). The level S is kept at the resolved speed.
+  bool unresolved_dither = false;
   std::vector<Effect> effects;     // extensions, in the order they were accepted
 
   bool has(Effect e) const;
@@ -279,7 +289,8 @@ std::vector<double> simulate(const ModelData& data, const ModelParams& params,
                              std::vector<double>* friction = nullptr);
 
 // The LuGre steady-state friction of the base model at velocity v and load N
-// (N ignored unless load-scaled), without offset and effects.
+// (N ignored unless load-scaled), without offset and effects; with the
+// unresolved dither, the level times |v| / E|v + d|.
 double steady_state_friction(const ModelParams& params, double velocity, double normal);
 
 }  // namespace tribo::analysis

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <numbers>
 
 #include <Eigen/Dense>
 
@@ -200,12 +201,17 @@ LugreFit fit_lugre(const ModelData& d, const ModelStructure& st, const std::vect
     if (!both_directions) start.specs[static_cast<std::size_t>(start.index("offset"))].fixed = true;
     if (st.fit_mass) start.set_value("mass", lin.mass);
     const double force_level = load ? l.fc * d.normal_ref : l.fc;
+    // The unresolved dither from a tenth and from the median sliding speed.
+    const std::vector<double> dithers = st.unresolved_dither ? std::vector<double>{0.1, 1.0} : std::vector<double>{0.0};
     for (double g_fraction : {1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 1e-1, 3e-1, 1.0}) {
       for (double damping : {1e-3, 1e-1}) {
-        ModelParams p = start;
-        p.set_value("sigma0", force_level / (g_fraction * length));
-        p.set_value("sigma1", damping * force_level / d.speed_ref);
-        starts.push_back({p, 0.0});
+        for (double dither : dithers) {
+          ModelParams p = start;
+          p.set_value("sigma0", force_level / (g_fraction * length));
+          p.set_value("sigma1", damping * force_level / d.speed_ref);
+          if (st.unresolved_dither) p.set_value("dither_speed", dither * d.speed_ref);
+          starts.push_back({p, 0.0});
+        }
       }
     }
   }
@@ -262,6 +268,19 @@ std::vector<std::string> base_out_of_bounds(const ModelData& data, const FitResu
   }
   if (fs > 5 * fc) out.push_back(fmt::sprintf("base model out of bounds: static level %.3g is more than 5 times the Coulomb level %.3g", fs, fc));
   if (fs < 0.2 * fc) out.push_back(fmt::sprintf("base model out of bounds: static level %.3g is below a fifth of the Coulomb level %.3g", fs, fc));
+  if (p.index("dither_speed") >= 0) {
+    // A dither the record would resolve is not the unresolved one: its
+    // position excursion at the Nyquist frequency, speed / (pi rate), must
+    // stay under the position noise floor.
+    const MeasuredSeries& s = data.series;
+    const double rate_hz = s.size() > 1 ? (s.size() - 1) / std::max(s.time_s.back() - s.time_s.front(), 1e-300) : 0.0;
+    const double resolved = std::numbers::pi * rate_hz * s.position_noise_m;
+    if (p.value("dither_speed") > resolved) {
+      out.push_back(fmt::sprintf("base model out of bounds: unresolved dither %.3g m/s RMS exceeds pi x %.4g Hz x the "
+                                 "position noise %.3g m = %.3g m/s, a dither the record would resolve",
+                                 p.value("dither_speed"), rate_hz, s.position_noise_m, resolved));
+    }
+  }
   const double fv = p.value("Fv");
   const double level = mu ? fc * data.normal_ref : fc;
   if (fv < 0 && std::fabs(fv) * data.speed_ref > 0.05 * level) {

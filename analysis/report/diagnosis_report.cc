@@ -183,6 +183,19 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
     j["base_model"]["contact_choice"] = {{"chosen", d.base_contact->chosen}, {"options", std::move(options)}};
     if (!d.base_contact->not_tried.empty()) j["base_model"]["contact_choice"]["not_tried"] = d.base_contact->not_tried;
   }
+  if (d.dither) {
+    const DitherChoice& c = *d.dither;
+    j["base_model"]["dither_choice"] = {
+        {"chosen", c.chosen},
+        {"criterion", "kept when within its bounds and it lowers the held-out RMS by 2 % and by 1 standard error "
+                      "of the difference over the held-out blocks"},
+        {"heldout_rms_without", c.heldout_rms_without},
+        {"heldout_rms_with", c.heldout_rms_with},
+        {"excess_se_without", std::isfinite(c.excess_se_without) ? Json(c.excess_se_without) : Json(nullptr)},
+        {"dither_speed_m_per_s", c.dither_speed_m_per_s},
+        {"dither_speed_std_error", std::isfinite(c.dither_speed_se) ? Json(c.dither_speed_se) : Json(nullptr)}};
+    if (!c.objection.empty()) j["base_model"]["dither_choice"]["not_physical"] = c.objection;
+  }
   if (d.pass_start) {
     j["base_model"]["pass_start_state"] = {
         {"chosen", d.pass_start->state_from_rest ? "from the force at rest" : "modelled through the holds"},
@@ -381,6 +394,12 @@ std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
          d.pass_start->final_heldout_rms_modelled_holds, d.pass_start->final_heldout_rms_state_from_rest,
          d.pass_start->heldout_rms_modelled_holds, d.pass_start->heldout_rms_state_from_rest);
     if (!d.pass_start->objection.empty()) line("    the other start's final base is not physical: %s", d.pass_start->objection.c_str());
+  }
+  if (d.dither) {
+    const DitherChoice& c = *d.dither;
+    line("  unresolved dither %s: held-out RMS %.4g without, %.4g with (%.2g standard errors), dither_speed %.3g m/s%s%s",
+         c.chosen ? "kept" : "not kept", c.heldout_rms_without, c.heldout_rms_with, c.excess_se_without, c.dither_speed_m_per_s,
+         c.objection.empty() ? "" : "; not physical: ", c.objection.c_str());
   }
   if (d.base_contact) {
     line("  contact law chosen on held-out data: %s%s%s", d.base_contact->chosen.c_str(),

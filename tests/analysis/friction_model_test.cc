@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -50,6 +51,36 @@ std::vector<Dual> seeded_duals(const std::vector<double>& values) {
   return out;
 }
 
+// Every parameter's Jacobian column from the dual numbers against central
+// finite differences; each column must move the force somewhere. Switching
+// points (the sub-step count, backlash contact, elasto-plastic zones, the
+// lag's interpolation interval) make a few samples non-differentiable for
+// finite differences: 99 % of them must agree.
+void expect_jacobian_matches_finite_differences(const ModelData& data, const ModelParams& p) {
+  const auto n = static_cast<int>(p.theta.size());
+  ASSERT_LE(n, kMaxFreeParams);
+  std::vector<Dual> ad;
+  simulate_generic<Dual>(data, p, seeded_duals(p.theta), ad);
+  for (int k = 0; k < n; ++k) {
+    ModelParams up = p, down = p;
+    const double h = 1e-6;
+    up.theta[static_cast<std::size_t>(k)] += h;
+    down.theta[static_cast<std::size_t>(k)] -= h;
+    const auto fu = simulate(data, up), fd = simulate(data, down);
+    double scale = 0;
+    for (std::size_t i = 0; i < fu.size(); ++i) scale = std::max(scale, std::fabs(fu[i] - fd[i]) / (2 * h));
+    std::size_t agree = 0;
+    for (std::size_t i = 0; i < fu.size(); ++i) {
+      const double numeric = (fu[i] - fd[i]) / (2 * h);
+      const double exact = ad[i].derivatives().size() > k ? ad[i].derivatives()[k] : 0.0;
+      if (std::fabs(numeric - exact) <= 1e-4 * scale + 1e-6 * std::fabs(exact) + 1e-15) ++agree;
+    }
+    const std::string& name = p.specs[static_cast<std::size_t>(k)].name;
+    EXPECT_GT(scale, 0.0) << name;
+    EXPECT_GE(static_cast<double>(agree), 0.99 * static_cast<double>(fu.size())) << name;
+  }
+}
+
 TEST(FrictionModel, SlidingSettlesOnTheLugreSteadyState) {
   Fixture f;
   const ModelParams p = f.base();
@@ -64,6 +95,70 @@ TEST(FrictionModel, SlidingSettlesOnTheLugreSteadyState) {
     ++checked;
   }
   EXPECT_GE(checked, 4);
+}
+
+// E|v + d| for d ~ N(0, rms^2), by quadrature over d (not the model's closed form).
+double mean_dithered_speed(double v, double rms) {
+  double sum = 0, weight = 0;
+  for (int k = -4000; k <= 4000; ++k) {
+    const double d = rms * k / 500.0, w = std::exp(-0.5 * (d / rms) * (d / rms));
+    sum += w * std::fabs(v + d);
+    weight += w;
+  }
+  return sum / weight;
+}
+
+// The unresolved dither drains the bristle: in steady sliding the friction
+// is the level times |v| / E|v + d| (plus the viscous term), and a dither
+// far below the sliding speed leaves the model as it was.
+TEST(FrictionModel, TheUnresolvedDitherSettlesSlidingOnTheLevelOverTheDitheredMeanSpeed) {
+  Fixture f;
+  const ModelParams plain = f.base();
+  // Mid-pass samples at plateau speed; the dither set to the fastest of them.
+  std::vector<std::size_t> plateau;
+  double fastest = 0;
+  for (const Pass& pass : f.motion.passes) {
+    const std::size_t i = (pass.first + pass.last) / 2;
+    const double v = f.series.velocity_m_per_s[i];
+    if (std::fabs(v - pass.direction * pass.median_speed_m_per_s) > 0.01 * pass.median_speed_m_per_s) continue;
+    plateau.push_back(i);
+    fastest = std::max(fastest, std::fabs(v));
+  }
+  ASSERT_GE(plateau.size(), 4u);
+  ModelStructure st = plain.structure;
+  st.unresolved_dither = true;
+  ModelParams p = base_params(f.data, st);
+  for (const ParamSpec& spec : plain.specs) p.set_value(spec.name, plain.value(spec.name));
+  p.set_value("dither_speed", fastest);
+  const auto force = simulate(f.data, p);
+  double lowest_share = 1;
+  for (std::size_t i : plateau) {
+    const double v = f.series.velocity_m_per_s[i], normal = f.series.normal_force_n[i];
+    const double fv = p.value("Fv") * v;
+    const double share = std::fabs(v) / mean_dithered_speed(v, fastest);
+    const double expected = (steady_state_friction(plain, v, normal) - fv) * share + fv + 1e-6;
+    EXPECT_NEAR(force[i], expected, 0.01 * std::fabs(expected)) << "t = " << f.series.time_s[i] << ", v = " << v;
+    EXPECT_NEAR(steady_state_friction(p, v, normal) + 1e-6, expected, 1e-6 * std::fabs(expected));
+    lowest_share = std::min(lowest_share, share);
+  }
+  EXPECT_LT(lowest_share, 0.7);  // the passes reach speeds where the drain shows
+
+  p.set_value("dither_speed", 1e-6 * f.data.speed_ref);
+  const auto faint = simulate(f.data, p), none = simulate(f.data, plain);
+  for (std::size_t i = 0; i < none.size(); ++i) ASSERT_NEAR(faint[i], none[i], 1e-4 * f.data.force_scale) << i;
+}
+
+// The dither's column of the Jacobian from the dual numbers is the finite
+// difference's, and so are the base parameters' beside it.
+TEST(FrictionModel, TheUnresolvedDithersJacobianMatchesFiniteDifferences) {
+  Fixture f;
+  const ModelParams plain = f.base();
+  ModelStructure st = plain.structure;
+  st.unresolved_dither = true;
+  ModelParams p = base_params(f.data, st);
+  for (const ParamSpec& spec : plain.specs) p.set_value(spec.name, plain.value(spec.name));
+  p.set_value("dither_speed", 0.3 * f.data.speed_ref);
+  expect_jacobian_matches_finite_differences(f.data, p);
 }
 
 TEST(FrictionModel, ExtensionsAtTheirNeutralValuesLeaveTheModelUnchanged) {
@@ -92,30 +187,7 @@ TEST(FrictionModel, AutodiffJacobianMatchesFiniteDifferencesForEveryEffect) {
   for (std::size_t k = 0; k < p.theta.size(); ++k) {
     if (p.specs[k].name.rfind("drift_", 0) == 0) p.theta[k] = 0.3;
   }
-  const auto n = static_cast<int>(p.theta.size());
-  ASSERT_LE(n, kMaxFreeParams);
-  const std::vector<Dual> theta = seeded_duals(p.theta);
-  std::vector<Dual> ad;
-  simulate_generic<Dual>(f.data, p, theta, ad);
-  for (int k = 0; k < n; ++k) {
-    ModelParams up = p, down = p;
-    const double h = 1e-6;
-    up.theta[static_cast<std::size_t>(k)] += h;
-    down.theta[static_cast<std::size_t>(k)] -= h;
-    const auto fu = simulate(f.data, up), fd = simulate(f.data, down);
-    // Switching points (the sub-step count, backlash contact, elasto-plastic
-    // zones, the lag's interpolation interval) make a few samples
-    // non-differentiable for finite differences: 99 % of them must agree.
-    double scale = 0;
-    for (std::size_t i = 0; i < fu.size(); ++i) scale = std::max(scale, std::fabs(fu[i] - fd[i]) / (2 * h));
-    std::size_t agree = 0;
-    for (std::size_t i = 0; i < fu.size(); ++i) {
-      const double numeric = (fu[i] - fd[i]) / (2 * h);
-      const double exact = ad[i].derivatives().size() > k ? ad[i].derivatives()[k] : 0.0;
-      if (std::fabs(numeric - exact) <= 1e-4 * scale + 1e-6 * std::fabs(exact) + 1e-15) ++agree;
-    }
-    EXPECT_GE(static_cast<double>(agree), 0.99 * static_cast<double>(fu.size())) << p.specs[static_cast<std::size_t>(k)].name;
-  }
+  expect_jacobian_matches_finite_differences(f.data, p);
 }
 
 // The fit evaluates its trial points with their Jacobian (analysis/models/model_fit.cc,
