@@ -820,7 +820,7 @@ DitherChoice choose_dither(const ModelData& data, const ModelStructure& structur
   out.heldout_rms_with = rms_over(data.series.force_n, dithered_model, heldout);
   out.excess_se_without = excess_in_standard_errors(heldout_block_sse(data, plain_model, heldout),
                                                     heldout_block_sse(data, dithered_model, heldout));
-  for (const std::string& w : base_out_of_bounds(data, dithered.result)) out.objection += (out.objection.empty() ? "" : "; ") + w;
+  out.objection = base_objection(data, dithered.result);
   out.dither_speed_m_per_s = dithered.result.params.value("dither_speed");
   for (const ParamEstimate& e : dithered.result.estimates) {
     if (e.name == "dither_speed") out.dither_speed_se = e.std_error;
