@@ -7,7 +7,7 @@ the record, run the README's contract command (no velocity column)
       --normal normal_N --reference x_ref_m --json
 
 and tabulate, per family:
-  clean        clean files that accept nothing (a family's base effects, which
+  clean        clean files that name nothing (a family's base effects, which
                its clean plant holds in every record, are not counted);
   named first  each in-vocabulary effect named first, over the files where the
                report calls it identifiable (a miss whose report gives a minimum
@@ -16,7 +16,7 @@ and tabulate, per family:
   false first  files whose first named effect was not injected (share of all files);
                with --base-model choose the contact laws chosen into the base are
                named first (lugre+elasto_plastic names presliding_hysteresis);
-  oov          out-of-vocabulary files reported unexplained with nothing accepted;
+  oov          out-of-vocabulary files reported unexplained with nothing named;
   coverage     the 95 % intervals (value +- 1.96 std_error) of the base parameters
                that hold the truth, on clean files whose plant has the base's form;
   impossible   files whose final model holds a physically impossible value
@@ -149,11 +149,11 @@ def named_effects(report):
     (`base_model.contact_choice.chosen`, e.g. `lugre+elasto_plastic` names presliding
     hysteresis), then the accepted effects. A report whose model does not describe the record
     names no effect, so its contact laws are not counted either."""
+    accepted = [a["name"] for a in report["accepted_effects"]]
+    if not describes_record(report):
+        return accepted
     chosen = report.get("base_model", {}).get("contact_choice", {}).get("chosen") or ""
     laws = [CONTACT_LAW_EFFECTS[p] for p in chosen.split("+") if p in CONTACT_LAW_EFFECTS]
-    if not describes_record(report):
-        laws = []
-    accepted = [a["name"] for a in report["accepted_effects"]]
     return list(dict.fromkeys(laws + accepted))
 
 
@@ -187,10 +187,10 @@ def score_file(family, module, base_effects, tribo_fit, out_dir, effect, seed, e
     if report is None:
         row.update(status="failed", error=error.strip()[:300])
         return row
-    accepted = [name for name in named_effects(report) if name not in base_effects]
-    first = accepted[0] if accepted else None
+    named = [name for name in named_effects(report) if name not in base_effects]
+    first = named[0] if named else None
     describes = describes_record(report)
-    row.update(status="ok", accepted=accepted, first=first, describes_record=describes,
+    row.update(status="ok", named=named, first=first, describes_record=describes,
                unexplained=report.get("unexplained") is not None,
                heldout_nrmse=[report["error_before"]["heldout"]["nrmse"], report["error_after"]["heldout"]["nrmse"]],
                elapsed_s=report.get("elapsed_s"))
@@ -261,7 +261,7 @@ def _frac(pair):
 
 
 def table(split, summaries):
-    lines = [f"| {split} family | clean: nothing accepted | effects named first (identifiable) | below detection "
+    lines = [f"| {split} family | clean: nothing named | effects named first (identifiable) | below detection "
              "| false first (all files) | out-of-vocabulary unexplained | base 95 % coverage (clean) "
              "| impossible values | base said not to describe | failed | median wall s |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
@@ -305,7 +305,7 @@ def file_line(r):
     if not r.get("describes_record", True):
         extra += " [base said not to describe the record]"
     return (f"{r['family']:16s} {r['effect']:24s} seed {r['seed']:3d}: {'RIGHT' if r['right'] else 'wrong'} "
-            f"accepted {r['accepted']} held-out NRMSE {r['heldout_nrmse'][0]:.3f}->{r['heldout_nrmse'][1]:.3f} "
+            f"named {r['named']} held-out NRMSE {r['heldout_nrmse'][0]:.3f}->{r['heldout_nrmse'][1]:.3f} "
             f"wall {r['wall_s'] or 0:.1f} s{extra}")
 
 
