@@ -439,7 +439,23 @@ struct RoundInputs {
   const DiagnosisOptions& options;
   const std::vector<char>& in_fit;
   const std::vector<char>& heldout;
+  const ModelParams& lugre;  // the base LuGre fit, before any contact law
 };
+
+// A candidate's fit with a contact law taken out: the law's parameters
+// dropped, and what the law held fixed in the base freed again from the
+// LuGre fit's values (the rate-and-state contact holds the Stribeck curve
+// flat, the viscous term and the bristle damping at zero).
+ModelParams without_contact_law(const ModelParams& fit, Effect law, const ModelParams& lugre, const ModelData& data) {
+  ModelParams p = without_effect(fit, law, data);
+  for (ParamSpec& spec : p.specs) {
+    const int k = lugre.index(spec.name);
+    if (!spec.fixed || spec.effect || k < 0 || lugre.specs[static_cast<std::size_t>(k)].fixed) continue;
+    spec.fixed = false;
+    p.set_value(spec.name, lugre.value(spec.name));
+  }
+  return p;
+}
 
 // The round's candidates: the signature and score test of each effect not yet
 // in the model (one job per candidate), screened and ranked by the score test
@@ -476,6 +492,7 @@ std::vector<std::pair<Signature, Effect>> screen_candidates(const RoundInputs& i
     const Effect e = open[j];
     Signature& sig = signatures[j];
     RejectedEffect& st = status[e];
+    st.effect = e;  // a contact law that left the model has no entry before
     st.signature_strength = sig.applicable ? std::max(sig.strength, sig.score_t / options.score_t_threshold) : 0.0;
     if (!sig.applicable) {
       st.reason = "not applicable to these data: " + sig.summary;
@@ -527,6 +544,17 @@ std::optional<std::size_t> fit_round(const RoundInputs& in, const EvaluatedFit& 
     bool passed = false;
   };
   std::vector<Judgement> judged(screened.size());
+  struct LawLeft {
+    std::optional<Effect> law;
+    std::string note;
+  };
+  std::vector<LawLeft> left(screened.size());
+  // A fit without a contact law is kept only within the base bounds the
+  // current fit keeps: on tribo's instrument the LuGre base can run its
+  // static level to 1e7-1e16 (the contact choice kept a law for that), and
+  // the law's going would take it back there.
+  const bool current_base_physical = base_objection(data, current.fit).empty();
+  const auto base_kept_physical = [&](const FitResult& fit) { return !current_base_physical || base_objection(data, fit).empty(); };
   // The costliest fits start first, so that the round does not end on one
   // long fit while the other cores idle (each job still fills its own slot).
   std::vector<std::size_t> order(screened.size());
@@ -550,6 +578,21 @@ std::optional<std::size_t> fit_round(const RoundInputs& in, const EvaluatedFit& 
     };
     fits[j] = fit_extension(data, current.fit.params, e, screened[j].first, in_fit, options.candidate_fit);
     judged[j] = judge(fits[j]);
+    // A contact law that the candidate refits past its bound is a law the
+    // record with the candidate does not hold (tribod's 198 s record: a
+    // 1.5 deg tilt took the chosen elasto-plastic law's breakaway ratio to
+    // 1, a LuGre contact): the candidate is fitted again without the law and
+    // judged against the same current model, with it.
+    if (const std::optional<Effect> law = judged[j].passed ? std::nullopt : contact_law_past_bound(data, fits[j], e)) {
+      const std::string past = out_of_bounds(data, fits[j], *law);
+      FitResult without = fit_model(data, without_contact_law(fits[j].params, *law, in.lugre, data), in_fit, options.candidate_fit);
+      Judgement v = judge(without);
+      if (v.passed && base_kept_physical(without)) {
+        left[j] = {*law, "fitted without the contact's " + std::string(effect_name(*law)) + ", which it refits past its bound (" + past + ")"};
+        fits[j] = std::move(without);
+        judged[j] = std::move(v);
+      }
+    }
     if (!judged[j].passed) return;
     // A candidate that passes at the candidate fit's iteration cap is
     // polished to convergence in its own job and judged, and ranked, as
@@ -559,6 +602,7 @@ std::optional<std::size_t> fit_round(const RoundInputs& in, const EvaluatedFit& 
     // converged; direction_asymmetry, -43 %, had been taken first).
     FitResult polished = fit_model(data, fits[j].params, in_fit, options.lugre.fit);
     if (polished.rss > fits[j].rss || !contact_law_objection(data, polished, e).empty()) return;
+    if (left[j].law && !base_kept_physical(polished)) return;
     fits[j] = std::move(polished);
     judged[j] = judge(fits[j]);
   });
@@ -584,6 +628,8 @@ std::optional<std::size_t> fit_round(const RoundInputs& in, const EvaluatedFit& 
     trial.verdict = fmt("held-out RMS %+.2f %%, %.0f %% of its held-out change in improved passes, dAICc = %.1f (%.1f with n_eff)",
                         -100 * trial.heldout_gain, 100 * trial.block_agreement, trial.delta_aicc, trial.delta_aicc_effective);
     if (!objection.empty()) trial.verdict += "; " + objection;
+    trial.law_left = left[j].law;
+    if (left[j].law) trial.verdict += "; " + left[j].note;
     if (e == Effect::kRateState) trial.verdict += fit.params.structure.rate_state_slip_law ? "; slip law (Ruina)" : "; ageing law (Dieterich)";
     if (trial.passed && (!best || trial.heldout_gain > out.trials[*best].heldout_gain)) best = out.trials.size();
     out.trials.push_back(trial);
@@ -623,6 +669,22 @@ std::optional<BaseValley> base_valley_of_winner(const RoundInputs& in, const Eva
   valley.heldout_rms = rms_over(data.series.force_n, valley.fit.model, in.heldout);
   if (valley.heldout_rms > 0 && 1.0 - winner_heldout_rms / valley.heldout_rms >= in.options.min_heldout_gain) return std::nullopt;
   return valley;
+}
+
+// The contact law a round's winner was accepted without
+// (CandidateTrial::law_left) leaves the model: an accepted law is withdrawn,
+// a law of the contact choice is said to have left the base.
+void take_out_contact_law(const CandidateTrial& winner, std::map<Effect, RejectedEffect>& status, Diagnosis& out) {
+  const Effect law = *winner.law_left;
+  const std::string why = fmt::sprintf("round %d's %s was accepted without it: %s", winner.round + 1, effect_name(winner.effect),
+                                       winner.verdict);
+  const auto accepted = std::find_if(out.accepted.begin(), out.accepted.end(), [law](const AcceptedEffect& a) { return a.effect == law; });
+  if (accepted != out.accepted.end()) {
+    status[law] = {law, "withdrawn: " + why, accepted->trial, 0.0, std::nullopt};
+    out.accepted.erase(accepted);
+  } else if (out.base_contact) {
+    out.base_contact->left_model = std::string(effect_name(law)) + " left the model: " + why;
+  }
 }
 
 // Each fitted candidate's reason after its round: refused with its verdict,
@@ -877,7 +939,7 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
     if (!current.fit.params.structure.has(e)) status[e] = {e, "not examined", std::nullopt, 0.0, std::nullopt};
   }
 
-  const RoundInputs in{data, options, in_fit, heldout};
+  const RoundInputs in{data, options, in_fit, heldout, out.base.result.params};
   std::vector<std::string> refits_in_place_of_effects;
   for (int round = 0; round < options.max_rounds; ++round) {
     const std::vector<std::pair<Signature, Effect>> screened = screen_candidates(in, current, status);
@@ -905,6 +967,7 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
     current = evaluate_fit(data, std::move(winner_fit));
     out.accepted.push_back({winner.effect, {}, winner, std::nullopt});
     status.erase(winner.effect);
+    if (winner.law_left) take_out_contact_law(winner, status, out);
   }
 
   out.final_fit = current.fit;

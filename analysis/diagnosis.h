@@ -156,6 +156,10 @@ struct CandidateTrial {
   double block_agreement = 0;    // share of the held-out change (sum of squares) in blocks that improved
   bool passed = false;
   std::string verdict;
+  // A contact law of the model that the candidate's fit took past its bound,
+  // the candidate then fitted and judged without it: accepted, the law
+  // leaves the model.
+  std::optional<Effect> law_left;
   std::vector<ParamEstimate> parameters;  // the effect's, from the trial fit
   std::vector<std::string> warnings;
 };

@@ -34,6 +34,9 @@ struct BaseContactChoice {
   std::string chosen;
   std::string not_tried;      // why a richer law was not tried, if so ("; "-separated)
   std::string warning;        // when no contact tried was physical
+  // Why the chosen law is no longer in the final model, if so: an effect
+  // accepted later was fitted without it (CandidateTrial::law_left).
+  std::string left_model;
 };
 
 struct ContactChoiceOptions {

@@ -397,14 +397,21 @@ std::string undetermined_strength(const ModelData& data, const FitResult& fit, E
 // The contact laws already in the model are refitted with a candidate: past
 // their bounds, the candidate has bought its gain with an impossible contact
 // (sepiolite velstep3: drift took the kept rate-and-state law's direct effect
-// to a = -0.049). Empty when they stay within them.
-std::string contact_law_objection(const ModelData& data, const FitResult& fit, Effect effect) {
+// to a = -0.049), or the record with the candidate does not hold the law (the
+// diagnosis then fits the candidate without it). None (the objection:
+// empty) when they stay within them.
+std::optional<Effect> contact_law_past_bound(const ModelData& data, const FitResult& fit, Effect effect) {
   for (Effect law : fit.params.structure.effects) {
     if (law == effect || (law != Effect::kRateState && law != Effect::kPreslidingHysteresis)) continue;
-    const std::string contact = out_of_bounds(data, fit, law);
-    if (!contact.empty()) return "with it the contact's " + std::string(effect_name(law)) + " is refitted past its bound: " + contact;
+    if (!out_of_bounds(data, fit, law).empty()) return law;
   }
-  return {};
+  return std::nullopt;
+}
+
+std::string contact_law_objection(const ModelData& data, const FitResult& fit, Effect effect) {
+  const std::optional<Effect> law = contact_law_past_bound(data, fit, effect);
+  if (!law) return {};
+  return "with it the contact's " + std::string(effect_name(*law)) + " is refitted past its bound: " + out_of_bounds(data, fit, *law);
 }
 
 // Why a candidate's fit cannot be accepted whatever its held-out gain: its

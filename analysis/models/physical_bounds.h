@@ -48,6 +48,10 @@ std::optional<std::string> dwell_growth_objection(const ModelData& data, const F
 // they stay within them.
 std::string contact_law_objection(const ModelData& data, const FitResult& fit, Effect effect);
 
+// The first contact law already in the model that a candidate's fit refits
+// past its bound (contact_law_objection's), if any.
+std::optional<Effect> contact_law_past_bound(const ModelData& data, const FitResult& fit, Effect effect);
+
 // Why a candidate's fit cannot be accepted whatever its held-out gain
 // (out_of_bounds, contact_law_objection, undetermined_strength, and for a
 // tilt the rest force), or empty; model is the fit's model force.

@@ -182,6 +182,7 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
     }
     j["base_model"]["contact_choice"] = {{"chosen", d.base_contact->chosen}, {"options", std::move(options)}};
     if (!d.base_contact->not_tried.empty()) j["base_model"]["contact_choice"]["not_tried"] = d.base_contact->not_tried;
+    if (!d.base_contact->left_model.empty()) j["base_model"]["contact_choice"]["left_model"] = d.base_contact->left_model;
   }
   if (d.dither) {
     const DitherChoice& c = *d.dither;
@@ -418,6 +419,7 @@ std::string diagnosis_text(const MeasuredSeries& s, const Diagnosis& d) {
       }
       if (!laws.empty()) line("      %s", laws.substr(0, laws.size() - 2).c_str());
     }
+    if (!d.base_contact->left_model.empty()) line("    %s", d.base_contact->left_model.c_str());
   }
   for (const auto& p : d.base.result.estimates) {
     line("  %-20s %12.5g +- %-10.3g %s%s", p.name.c_str(), p.value, p.std_error, p.unit.c_str(), p.determined ? "" : "  (not determined)");

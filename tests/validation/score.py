@@ -147,13 +147,17 @@ CONTACT_LAW_EFFECTS = {"elasto_plastic": "presliding_hysteresis", "rate_state": 
 def named_effects(report):
     """What the report names, in its order: the laws the contact choice put in the base
     (`base_model.contact_choice.chosen`, e.g. `lugre+elasto_plastic` names presliding
-    hysteresis), then the accepted effects. A report whose model does not describe the record
+    hysteresis) and still in `final_model.effects`, then the accepted effects. A report whose model does not describe the record
     names no effect, so its contact laws are not counted either."""
     accepted = [a["name"] for a in report["accepted_effects"]]
     if not describes_record(report):
         return accepted
     chosen = report.get("base_model", {}).get("contact_choice", {}).get("chosen") or ""
+    in_final_model = report.get("final_model", {}).get("effects", [])
     laws = [CONTACT_LAW_EFFECTS[p] for p in chosen.split("+") if p in CONTACT_LAW_EFFECTS]
+    # A law an accepted effect was fitted without has left the model
+    # (`contact_choice.left_model`): it is no longer named.
+    laws = [law for law in laws if law in in_final_model]
     return list(dict.fromkeys(laws + accepted))
 
 
