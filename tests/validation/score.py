@@ -147,8 +147,9 @@ CONTACT_LAW_EFFECTS = {"elasto_plastic": "presliding_hysteresis", "rate_state": 
 def named_effects(report):
     """What the report names, in its order: the laws the contact choice put in the base
     (`base_model.contact_choice.chosen`, e.g. `lugre+elasto_plastic` names presliding
-    hysteresis) and still in `final_model.effects`, then the accepted effects. A report whose model does not describe the record
-    names no effect, so its contact laws are not counted either."""
+    hysteresis) and still in `final_model.effects`, then the accepted effects. A report
+    whose model does not describe the record names no effect, so its contact laws are not
+    counted either."""
     accepted = [a["name"] for a in report["accepted_effects"]]
     if not describes_record(report):
         return accepted
