@@ -351,6 +351,19 @@ void check_by_rediagnosis(const ModelData& data, const EvaluatedFit& current, co
 
 }  // namespace
 
+void take_out_contact_law(const CandidateTrial& winner, std::map<Effect, RejectedEffect>& status, Diagnosis& out) {
+  const Effect law = *winner.law_left;
+  const std::string why = fmt::sprintf("round %d's %s was accepted without it: %s", winner.round + 1, effect_name(winner.effect),
+                                       winner.verdict);
+  const auto accepted = std::find_if(out.accepted.begin(), out.accepted.end(), [law](const AcceptedEffect& a) { return a.effect == law; });
+  if (accepted != out.accepted.end()) {
+    status[law] = {law, "withdrawn: " + why, accepted->trial, 0.0, std::nullopt};
+    out.accepted.erase(accepted);
+  } else if (out.base_contact) {
+    out.base_contact->left_model = std::string(effect_name(law)) + " left the model: " + why;
+  }
+}
+
 namespace {
 
 // Drift as the holds named it (creep_in_holds), in an accepted effect's
@@ -669,22 +682,6 @@ std::optional<BaseValley> base_valley_of_winner(const RoundInputs& in, const Eva
   valley.heldout_rms = rms_over(data.series.force_n, valley.fit.model, in.heldout);
   if (valley.heldout_rms > 0 && 1.0 - winner_heldout_rms / valley.heldout_rms >= in.options.min_heldout_gain) return std::nullopt;
   return valley;
-}
-
-// The contact law a round's winner was accepted without
-// (CandidateTrial::law_left) leaves the model: an accepted law is withdrawn,
-// a law of the contact choice is said to have left the base.
-void take_out_contact_law(const CandidateTrial& winner, std::map<Effect, RejectedEffect>& status, Diagnosis& out) {
-  const Effect law = *winner.law_left;
-  const std::string why = fmt::sprintf("round %d's %s was accepted without it: %s", winner.round + 1, effect_name(winner.effect),
-                                       winner.verdict);
-  const auto accepted = std::find_if(out.accepted.begin(), out.accepted.end(), [law](const AcceptedEffect& a) { return a.effect == law; });
-  if (accepted != out.accepted.end()) {
-    status[law] = {law, "withdrawn: " + why, accepted->trial, 0.0, std::nullopt};
-    out.accepted.erase(accepted);
-  } else if (out.base_contact) {
-    out.base_contact->left_model = std::string(effect_name(law)) + " left the model: " + why;
-  }
 }
 
 // Each fitted candidate's reason after its round: refused with its verdict,

@@ -28,6 +28,7 @@
 // labelled with an effect that did not pass.
 #pragma once
 
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -40,7 +41,6 @@
 #include "analysis/effects/effect.h"
 #include "analysis/models/evaluated_fit.h"
 #include "analysis/models/friction_model.h"
-#include "analysis/models/model_adequacy.h"
 #include "analysis/models/lugre_fit.h"
 #include "analysis/input/measured_series.h"
 #include "analysis/models/model_adequacy.h"
@@ -204,6 +204,13 @@ struct Diagnosis {
   std::vector<double> model_before, model_after;  // model force per sample
   double noise_floor = 0;                         // white-noise RMS of the final residual
 };
+
+// The contact law a round's winner was accepted without
+// (CandidateTrial::law_left) leaves the model: a law accepted in an earlier
+// round is withdrawn (status says why; it is a candidate again in the rounds
+// that follow), a law of the contact choice is said to have left the base
+// (BaseContactChoice::left_model).
+void take_out_contact_law(const CandidateTrial& winner, std::map<Effect, RejectedEffect>& status, Diagnosis& out);
 
 // series must have velocity and acceleration (derive_motion()).
 Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options = {});
