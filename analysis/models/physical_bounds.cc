@@ -219,37 +219,6 @@ std::optional<std::string> rate_state_evolution_objection(const FitResult& fit, 
 
 }  // namespace
 
-// Dwell stiction is the onset peak's growth with rest (contact ageing). A
-// term saturated over the record's holds adds the same peak after each, an
-// onset transient of another kind: on the independent generator's lag file
-// of seed 1 it was accepted with dwell_time 18 +- 14 ms beside holds of
-// 0.25-8 s (the peak after the shortest hold 93 % of that after the
-// longest), where a first-order frictional lag of 30 ms was injected. Its
-// rise from the shortest hold before a pass to the longest must stand min_z
-// errors clear of none.
-std::optional<std::string> dwell_growth_objection(const ModelData& data, const FitResult& fit, double min_z) {
-  double shortest = HUGE_VAL, longest = 0;
-  for (const Pass& p : data.motion.passes) {
-    if (!p.after_hold) continue;
-    shortest = std::min(shortest, p.dwell_before_s);
-    longest = std::max(longest, p.dwell_before_s);
-  }
-  if (longest == 0) return std::nullopt;  // no onset after a hold: not applicable, said elsewhere
-  if (!(longest > shortest)) {
-    return std::string("the holds before the passes all last the same: the growth of the onset peak with rest, which makes it "
-                       "dwell stiction, cannot be seen");
-  }
-  const auto rise = dwell_rise(fit, shortest, longest);
-  if (!rise) return std::nullopt;
-  const double z = rise->error > 0 ? std::fabs(rise->value) / rise->error : 0.0;
-  if (!std::isfinite(z)) return std::nullopt;
-  if (z >= min_z) return std::string();
-  return fmt::sprintf("the fitted onset peak grows by %.3g +- %.2g from the shortest hold before a pass (%.3g s) to the longest (%.3g s), "
-                      "%.1f standard errors from no growth (below %.0f): a peak not shown to grow with rest is not told from "
-                      "some other onset transient, and dwell stiction (contact ageing) is one that grows",
-                      rise->value, rise->error, shortest, longest, z, min_z);
-}
-
 // Why a fitted extension's strength is not told from no effect, or empty:
 // every parameter that sets how strong the effect is (its value with the
 // effect off: 0, or 1 for the breakaway ratio) stands fewer than min_z of
@@ -258,16 +227,11 @@ std::optional<std::string> dwell_growth_objection(const ModelData& data, const F
 // (on clean files of the independent generator: dwell stiction at 1.8-2.2
 // standard errors); a real effect stands clear of zero (there: 5-1600).
 // Dwell stiction is judged by its peak after the longest hold instead
-// (dwell_peak_objection), and by that peak's growth with rest
-// (dwell_growth_objection), when the fit has the covariance of its two
+// (dwell_peak_objection), when the fit has the covariance of its two
 // parameters.
 std::string undetermined_strength(const ModelData& data, const FitResult& fit, Effect effect, double min_z) {
   if (effect == Effect::kDwellStiction) {
-    if (auto o = dwell_peak_objection(fit, longest_hold_s(data), min_z)) {
-      if (!o->empty()) return *o;
-      if (auto g = dwell_growth_objection(data, fit, min_z)) return *g;
-      return {};
-    }
+    if (auto o = dwell_peak_objection(fit, longest_hold_s(data), min_z)) return *o;
   }
   if (effect == Effect::kRateState) {
     if (auto o = rate_state_evolution_objection(fit, min_z)) return *o;

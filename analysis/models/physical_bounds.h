@@ -37,12 +37,6 @@ std::string rate_state_sign_objection(double a, double b);
 // several), with the reason; empty when the strength is determined.
 std::string undetermined_strength(const ModelData& data, const FitResult& fit, Effect effect, double min_z);
 
-// Dwell stiction whose onset peak does not grow with rest over the record's
-// holds (shortest to longest before a pass, min_z standard errors), with the
-// reason; empty when it grows; nullopt when the fit has no covariance for
-// dwell_dFs and dwell_time or no pass follows a hold.
-std::optional<std::string> dwell_growth_objection(const ModelData& data, const FitResult& fit, double min_z);
-
 // The contact laws already in the model (rate_state, presliding_hysteresis)
 // refitted past their bounds with a candidate, with the reason; empty when
 // they stay within them.

@@ -84,37 +84,5 @@ TEST(PhysicalBounds, BaseModelValuesPastTheirBoundsAreWarned) {
   EXPECT_NE(all.find("negative viscous friction"), std::string::npos) << all;
 }
 
-// Dwell stiction is a peak that grows with rest. The synthetic run's holds
-// before its passes last 0.25 to 8 s. A term saturated at the shortest
-// (dwell_time 18 +- 14 ms, as fitted to the independent generator's lag file
-// of seed 1, where no dwell was injected) adds the same peak after each
-// hold: refused. A term that rises over them (dwell_time 2 +- 0.6 s) is not.
-TEST(PhysicalBounds, ADwellPeakThatDoesNotGrowWithRestIsRefused) {
-  const Fixture f;
-  const ModelData data(f.series, f.motion);
-  double shortest = HUGE_VAL, longest = 0;
-  for (const Pass& p : f.motion.passes) {
-    if (!p.after_hold) continue;
-    shortest = std::min(shortest, p.dwell_before_s);
-    longest = std::max(longest, p.dwell_before_s);
-  }
-  ASSERT_LT(shortest, 0.3);
-  ASSERT_GT(longest, 7.0);
-  const auto dwell = [&](double dfs, double dfs_error, double tau, double tau_error) {
-    FitResult fit = with(data, Effect::kDwellStiction, {dfs, tau, 1e-6});
-    fit.covariance_row.assign(fit.params.specs.size(), -1);
-    fit.covariance_row[static_cast<std::size_t>(fit.params.index("dwell_dFs"))] = 0;
-    fit.covariance_row[static_cast<std::size_t>(fit.params.index("dwell_time"))] = 1;
-    fit.covariance = Eigen::Matrix2d{{dfs_error * dfs_error, 0}, {0, tau_error * tau_error}};
-    return fit;
-  };
-  const auto saturated = dwell_growth_objection(data, dwell(0.03, 0.002, 0.018, 0.014), 3.0);
-  ASSERT_TRUE(saturated.has_value());
-  EXPECT_NE(saturated->find("not shown to grow with rest"), std::string::npos) << *saturated;
-  const auto rising = dwell_growth_objection(data, dwell(0.03, 0.004, 2.0, 0.6), 3.0);
-  ASSERT_TRUE(rising.has_value());
-  EXPECT_EQ(*rising, "");
-}
-
 }  // namespace
 }  // namespace tribo::analysis
