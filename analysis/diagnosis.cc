@@ -324,7 +324,7 @@ bool accepted_when_injected(const ModelData& data, const EvaluatedFit& current, 
   const double n = static_cast<double>(refit.fit.n);
   return passes_round_gates(gain, block_agreement(data.motion, heldout, injected, refit.model, model),
                             aicc(fit.rss, fit.n, n, fit.k) - aicc(refit.fit.rss, refit.fit.n, n, refit.fit.k),
-                            candidate_objection(record, fit, effect, options.min_strength_z), options);
+                            candidate_objection(record, fit, effect, model, options.min_strength_z), options);
 }
 
 // The minimum detectable strength checked by rediagnosis
@@ -584,7 +584,7 @@ std::optional<std::size_t> fit_round(const RoundInputs& in, const EvaluatedFit& 
     const auto judge = [&](const FitResult& fit) {
       const std::vector<double> model = simulate(data, fit.params);
       Judgement v{rms_over(series.force_n, model, heldout), block_agreement(out.motion, heldout, series.force_n, current.model, model),
-                  candidate_objection(data, fit, e, options.min_strength_z)};
+                  candidate_objection(data, fit, e, model, options.min_strength_z)};
       const double gain = heldout_before > 0 ? 1.0 - v.heldout_rms / heldout_before : 0.0;
       v.passed = passes_round_gates(gain, v.block_agreement, aicc(fit.rss, fit.n, n, fit.k) - aicc_current, v.objection, options);
       return v;

@@ -1,9 +1,9 @@
 // Physical bounds on a fitted model ("honest numbers"): why a
 // candidate's fit cannot be accepted whatever its held-out gain (a parameter
 // at or past its bound or below what the record resolves, a strength its
-// error does not determine, a contact law it moves past its bounds), and the
-// base model's impossible values, which are warnings since the base cannot
-// be refused.
+// error does not determine, a contact law it moves past its bounds, a tilt
+// the rest force contradicts), and the base model's impossible values, which
+// are warnings since the base cannot be refused.
 #pragma once
 
 #include <optional>
@@ -47,8 +47,10 @@ std::string contact_law_objection(const ModelData& data, const FitResult& fit, E
 std::optional<Effect> contact_law_past_bound(const ModelData& data, const FitResult& fit, Effect effect);
 
 // Why a candidate's fit cannot be accepted whatever its held-out gain
-// (out_of_bounds, contact_law_objection, undetermined_strength), or empty.
-std::string candidate_objection(const ModelData& data, const FitResult& fit, Effect effect, double min_strength_z);
+// (out_of_bounds, contact_law_objection, undetermined_strength, and for a
+// tilt the rest force), or empty; model is the fit's model force.
+std::string candidate_objection(const ModelData& data, const FitResult& fit, Effect effect,
+                                const std::vector<double>& model, double min_strength_z);
 
 // The base model's values past physical bounds (base_out_of_bounds,
 // analysis/models/lugre_fit.h) and an unresolved presliding deflection, as warnings.
