@@ -285,19 +285,6 @@ bool rediagnosed(Effect effect) {
   return effect == Effect::kVelocityStrengthening || effect == Effect::kFrictionalLag || effect == Effect::kBacklash;
 }
 
-// The backlash bound refuses every gap fitted below three resolved lengths,
-// so no figure lies below them. The linearised figure sees the force
-// residual only, driven by the estimated motion, not the position noise that
-// sets the bound: on the full reliability map it gave 4-7 nm where plays of
-// 10 and 20 nm were refused at 9.9 nm of noise per sample, the fitted gaps
-// (14-18 nm for 20 nm) below the bound (30 nm).
-void raise_to_resolution(const ModelData& data, Effect effect, DetectableStrength& figure) {
-  if (effect != Effect::kBacklash || !std::isfinite(figure.value)) return;
-  const double floor = kBacklashResolvedLengths * resolved_length_m(data.series);
-  if (figure.value >= floor) return;
-  figure.value = floor;
-  figure.from_resolution = true;
-}
 
 // Whether a round would accept the effect had the record held it at
 // strength s along the figure's axis: the effect added to the record in the
@@ -698,8 +685,8 @@ void record_round_status(const Diagnosis& out, std::size_t first_trial, std::opt
 }
 
 // The minimum detectable strength of each effect not accepted, on the final
-// model (analysis/effects/detectability.h), raised to the record's resolution and to
-// the candidate's own fitted error, checked by injection, or withheld.
+// model (analysis/effects/detectability.h), raised to the candidate's own
+// fitted error, checked by injection, or withheld.
 void add_minimum_detectable(const RoundInputs& in, const EvaluatedFit& current, Diagnosis& out) {
   const ModelData& data = in.data;
   const DiagnosisOptions& options = in.options;
@@ -719,7 +706,6 @@ void add_minimum_detectable(const RoundInputs& in, const EvaluatedFit& current, 
   parallel_for(out.rejected.size(), options.threads, [&](std::size_t j) {
     RejectedEffect& r = out.rejected[j];
     r.minimum_detectable = basis.minimum_detectable_strength(r.effect, criteria);
-    if (r.minimum_detectable) raise_to_resolution(data, r.effect, *r.minimum_detectable);
     if (r.minimum_detectable && past_bounds && repartitions_with_stribeck(r.effect)) {
       r.minimum_detectable->value = std::numeric_limits<double>::infinity();
       r.minimum_detectable->withheld = "the final model is past its physical bounds (see the warnings): a velocity dependence "

@@ -78,9 +78,6 @@ struct DetectableStrength {
   // gates), in order; the figure is the first found. Empty: not checked.
   std::vector<double> rediagnosed_at;
   bool from_rediagnosis = false;  // the figure was raised (or, none found, set to +inf) by it
-  // Raised to the length below which a fitted value is refused as not
-  // resolved by the record (backlash: three resolved lengths; diagnosis.cc).
-  bool from_resolution = false;
 };
 
 struct DetectabilityCriteria {

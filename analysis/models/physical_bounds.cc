@@ -194,10 +194,6 @@ std::string out_of_bounds(const ModelData& data, const FitResult& fit, Effect ef
     }
     case Effect::kBacklash: {
       const double gap = p.value("backlash_gap");
-      if (gap < kBacklashResolvedLengths * resolved) {
-        return fmt("fitted backlash_gap %.3g m is below three resolved lengths (%.3g m): not resolved by these data", gap,
-                   kBacklashResolvedLengths * resolved);
-      }
       if (longest > 0 && gap > 0.5 * longest) return fmt("fitted backlash_gap %.3g m is more than half the longest pass (%.3g m)", gap, longest);
       return {};
     }

@@ -14,10 +14,6 @@
 
 namespace tribo::analysis {
 
-// A backlash gap fitted below this many resolved lengths is refused
-// (out_of_bounds): a dead zone of a few samples' noise is not told from it.
-constexpr double kBacklashResolvedLengths = 3.0;
-
 // The smallest length these data resolve: the position's resolution or its
 // noise floor, whichever is larger (never zero).
 double resolved_length_m(const MeasuredSeries& s);

@@ -287,7 +287,6 @@ std::string diagnosis_json(const MeasuredSeries& s, const Diagnosis& d, const Re
                                       {"bound_by", m->from_rediagnosis    ? "injection and rediagnosis"
                                                    : m->from_injection    ? "injection and recovery"
                                                    : m->from_fitted_error ? "the candidate's fitted standard error"
-                                                   : m->from_resolution   ? "the record's resolution"
                                                                           : "the linearised gates"},
                                       {"injected_strength", std::isfinite(m->injected_strength) ? Json(m->injected_strength) : Json(nullptr)},
                                       {"recovered_share", std::isfinite(m->recovered_share) ? Json(m->recovered_share) : Json(nullptr)},
@@ -353,8 +352,7 @@ std::string minimum_detectable_text(const DetectableStrength& m) {
                       "with %.0f %% probability there; %s%s%s%s)",
                       m.parameter, m.value, m.unit, 100 * m.detection_probability, m.axis,
                       m.from_fitted_error && !m.from_injection && !m.from_rediagnosis ? "; from the candidate's fitted standard error"
-                      : m.from_resolution && !m.from_rediagnosis ? "; three resolved lengths, below which a fitted gap is refused"
-                                                                 : "",
+                                                                                      : "",
                       m.from_rediagnosis ? "" : recovered, rediagnosed);
 }
 

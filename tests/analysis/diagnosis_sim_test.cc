@@ -545,13 +545,14 @@ TEST(DiagnosisSim, AMissedVelocityStrengtheningIsNotCalledIdentifiableBelowItsSt
   EXPECT_TRUE(!std::isfinite(figure) || figure > 0.005) << "called identifiable at " << figure << ", yet 0.005 was missed";
 }
 
-// A backlash play the position noise hides is not called identifiable below
-// it. Play 20 nm under 9.9 nm of position noise per recorded sample (70 nm
-// per loop sample), seed 1 of the full reliability map: backlash lowered the
-// held-out error by 16 % but its fitted gap (16 nm) lay below three resolved
-// lengths (30 nm), and the linearised figure, which sees the force residual
-// only, called 5 nm identifiable.
-TEST(DiagnosisSim, ABacklashUnderThePositionNoiseIsNotCalledIdentifiableBelowIt) {
+// A backlash play near the position noise is found from the force. Play
+// 20 nm under 9.9 nm of position noise per recorded sample (70 nm per loop
+// sample), seed 1 of the full reliability map: backlash lowers the held-out
+// error by 16 % and its fitted gap (16 +- 3 nm) stands clear of none, below
+// three resolved lengths (30 nm). A bound that refused gaps below those
+// lengths refused it; scored on the validation split without that bound, no
+// row changed.
+TEST(DiagnosisSim, ABacklashNearThePositionNoiseIsFoundFromTheForce) {
   const MeasuredSeries s = testing::simulated_identification_record(testing::identification_config([](v1::DaemonConfig& c) {
     auto& b = *c.mutable_sim()->mutable_tip()->mutable_backlash();
     b.set_enabled(true);
@@ -564,10 +565,13 @@ TEST(DiagnosisSim, ABacklashUnderThePositionNoiseIsNotCalledIdentifiableBelowIt)
   ASSERT_TRUE(outcome.error.empty()) << outcome.error;
   const Diagnosis& d = outcome.diagnosis;
   report("backlash 20 nm, record position noise 70 nm per loop sample, seed 1", d);
-  ASSERT_FALSE(accepted(d, Effect::kBacklash)) << accepted_names(d);
-  const double figure = minimum_detectable(d, Effect::kBacklash);
-  EXPECT_GE(figure, 3 * s.position_noise_m);
-  EXPECT_GT(figure, 20e-9) << "called identifiable at " << figure << " m, yet a 20 nm play was missed";
+  ASSERT_FALSE(d.accepted.empty());
+  ASSERT_EQ(d.accepted.front().effect, Effect::kBacklash) << accepted_names(d);
+  const auto gap = std::find_if(d.accepted.front().parameters.begin(), d.accepted.front().parameters.end(),
+                                [](const auto& p) { return p.name == "backlash_gap"; });
+  ASSERT_NE(gap, d.accepted.front().parameters.end());
+  ASSERT_TRUE(std::isfinite(gap->std_error));
+  EXPECT_LT(std::fabs(gap->value - 20e-9), 3 * gap->std_error) << gap->value << " +- " << gap->std_error << " m";
 }
 
 TEST(DiagnosisSim, ACleanRunAcceptsNothing) {
