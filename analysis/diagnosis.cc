@@ -285,7 +285,6 @@ bool rediagnosed(Effect effect) {
   return effect == Effect::kVelocityStrengthening || effect == Effect::kFrictionalLag || effect == Effect::kBacklash;
 }
 
-
 // Whether a round would accept the effect had the record held it at
 // strength s along the figure's axis: the effect added to the record in the
 // model's own form on the final model, the final model (without it) refitted

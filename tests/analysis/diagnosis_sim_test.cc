@@ -377,16 +377,12 @@ TEST(DiagnosisSim, ACandidateWhoseGainIsTheContactsOwnIsNotAccepted) {
 // changes at rest and the asymmetry is named.
 TEST(DiagnosisSim, ATiltTheLoadChangesAtRestContradictIsNotAccepted) {
   const MeasuredSeries s = testing::simulated_identification_record(
-      testing::shipped_config("/config/tribod.textproto",
-                              [](v1::DaemonConfig& c) {
-                                c.mutable_controller()->mutable_lateral_displacement()->set_setpoint_weight_p(1.0);
-                                c.mutable_sim()->mutable_tip()->mutable_tilt_offset()->set_enabled(false);
-                                c.mutable_sim()->mutable_friction()->mutable_dwell_stiction()->set_enabled(false);
-                                c.mutable_sim()->mutable_sensors()->set_lateral_force_noise_n(5e-6);
-                                auto* asymmetry = c.mutable_sim()->mutable_friction()->mutable_direction_asymmetry();
-                                asymmetry->set_enabled(true);
-                                asymmetry->set_ratio(0.05);
-                              }),
+      testing::default_instrument_identification_config([](v1::DaemonConfig& c) {
+        c.mutable_sim()->mutable_sensors()->set_lateral_force_noise_n(5e-6);
+        auto* asymmetry = c.mutable_sim()->mutable_friction()->mutable_direction_asymmetry();
+        asymmetry->set_enabled(true);
+        asymmetry->set_ratio(0.05);
+      }),
       5);
   DiagnoseRequest request;
   request.tribo_run = true;

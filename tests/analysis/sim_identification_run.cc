@@ -32,6 +32,13 @@ v1::DaemonConfig fitted_contact_identification_config(const ConfigEdit& edit) {
   });
 }
 
+v1::DaemonConfig default_instrument_identification_config(const ConfigEdit& edit) {
+  return identification_config_from("/config/tribod.textproto", [&](v1::DaemonConfig& c) {
+    c.mutable_sim()->mutable_friction()->mutable_dwell_stiction()->set_enabled(false);
+    if (edit) edit(c);
+  });
+}
+
 v1::DaemonConfig shipped_config(const std::string& file, const ConfigEdit& edit) {
   v1::DaemonConfig config;
   if (auto error = daemon::load_daemon_config(std::string(TRIBO_SOURCE_DIR) + file, config)) {

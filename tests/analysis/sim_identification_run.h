@@ -32,6 +32,11 @@ v1::DaemonConfig identification_config(const ConfigEdit& edit = {});
 // law alone. The contact-choice tests and their figures were written on it.
 v1::DaemonConfig fitted_contact_identification_config(const ConfigEdit& edit = {});
 
+// The same two changes on the default instrument (config/tribod.textproto),
+// with its dwell term off: the runs of the reliability maps
+// (config/campaigns/identification_reliability*.toml).
+v1::DaemonConfig default_instrument_identification_config(const ConfigEdit& edit = {});
+
 // The identification protocol on the simulated instrument with this config:
 // lateral position, lateral force (the sensor's: friction plus the plate's
 // inertia m a, the tilt, and the sensor noise), normal force, setpoint, from

@@ -23,10 +23,10 @@ without a velocity column. Each case is a file of the generator
   rest chosen on the lower final held-out error, presliding named first;
 - drift, seed 5: drift named first and tilt_offset refused by the held-out
   gates (a drift in time with loads that rise with time fits like a tilt in
-  sliding); drift, seed 2: the final model is past its bounds, so the report says it does not
-  describe the record, names nothing and gives no minimum detectable figure;
-  tilt_offset seed 2 and drift seed 8 (the spline's knot count chosen by the
-  record) named first;
+  sliding); drift, seed 2: the final model is past its bounds, so the report
+  says it does not describe the record, names nothing and gives no minimum
+  detectable figure; tilt_offset seed 2 and drift seed 8 (the spline's knot
+  count chosen by the record) named first;
 - frictional_lag, seed 2: named first (each held-out pass votes with the
   candidate's change there);
 - velocity_strengthening at three times the default: seed 7 not accepted with
