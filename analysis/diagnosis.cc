@@ -637,39 +637,6 @@ std::optional<std::size_t> fit_round(const RoundInputs& in, const EvaluatedFit& 
   return best;
 }
 
-// The current model refitted from the round winner's values of the
-// parameters the two share, without the winner's effect, when that is a
-// better valley of the current model and not an effect: a lower in-fit
-// residual than the current fit, within the bounds the current fit keeps,
-// and held-out passes predicted within the round's gate of the winner's. A
-// candidate's refit moves the base's parameters too. On the contact-choice
-// map (frictional lag 20 ms, seed 4) drift was accepted at -50 % held out
-// (8.7 -> 4.3 uN), its spline near zero between the record's ends: its refit
-// had moved the nested contact to where a held-out reversal turns with the
-// measured force. Refitted without drift from there, the contact predicts
-// 2.7 uN.
-struct BaseValley {
-  EvaluatedFit fit;
-  double heldout_rms = 0;  // the refitted current model's
-};
-
-// winner_heldout_rms: the round's own figure for the winner (CandidateTrial).
-std::optional<BaseValley> base_valley_of_winner(const RoundInputs& in, const EvaluatedFit& current, const FitResult& winner,
-                                                double winner_heldout_rms) {
-  const ModelData& data = in.data;
-  ModelParams start = current.fit.params;
-  for (const ParamSpec& spec : start.specs) {
-    if (winner.params.index(spec.name) >= 0) start.set_value(spec.name, winner.params.value(spec.name));
-  }
-  FitResult refit = fit_model(data, start, in.in_fit, in.options.lugre.fit);
-  if (!(refit.rss < current.fit.rss)) return std::nullopt;
-  if (!contact_objection(data, refit).empty() && contact_objection(data, current.fit).empty()) return std::nullopt;
-  BaseValley valley{evaluate_fit(data, std::move(refit))};
-  valley.heldout_rms = rms_over(data.series.force_n, valley.fit.model, in.heldout);
-  if (valley.heldout_rms > 0 && 1.0 - winner_heldout_rms / valley.heldout_rms >= in.options.min_heldout_gain) return std::nullopt;
-  return valley;
-}
-
 // Each fitted candidate's reason after its round: refused with its verdict,
 // or helped less than the round's winner.
 void record_round_status(const Diagnosis& out, std::size_t first_trial, std::optional<std::size_t> best,
@@ -922,7 +889,6 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
   }
 
   const RoundInputs in{data, options, in_fit, heldout, out.base.result.params};
-  std::vector<std::string> refits_in_place_of_effects;
   for (int round = 0; round < options.max_rounds; ++round) {
     const std::vector<std::pair<Signature, Effect>> screened = screen_candidates(in, current, status);
     const std::size_t first_trial = out.trials.size();
@@ -930,18 +896,6 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
     const std::optional<std::size_t> best = fit_round(in, current, screened, round, out, winner_fit);
     record_round_status(out, first_trial, best, status);
     if (!best) break;
-    if (std::optional<BaseValley> valley = base_valley_of_winner(in, current, winner_fit, out.trials[*best].heldout_rms_after)) {
-      const CandidateTrial& trial = out.trials[*best];
-      const std::string note = fmt::sprintf(
-          "%s's held-out gain was the model's own: refitted from its values without it, the model predicts the held-out "
-          "passes at %.4g against %.4g with it, a gain below %.0f %% (in-fit residual sum of squares %.4g -> %.4g)",
-          effect_name(trial.effect), valley->heldout_rms, trial.heldout_rms_after, 100 * options.min_heldout_gain,
-          current.fit.rss, valley->fit.fit.rss);
-      status[trial.effect].reason = "refused: " + note;
-      refits_in_place_of_effects.push_back(fmt::sprintf("round %d: %s; the model goes on from that refit", round + 1, note));
-      current = std::move(valley->fit);
-      continue;
-    }
     const CandidateTrial& winner = out.trials[*best];
     // The accepted model as polished to convergence (in its job), so that the
     // next round's candidates are not credited with what more iterations
@@ -995,7 +949,6 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
   add_creep_in_holds(series, current.fit, options, out);
 
   add_residual_and_warnings(in, current, velocity_steps_on_lugre, out);
-  for (std::string& w : refits_in_place_of_effects) out.warnings.push_back(std::move(w));
   // Moved, not copied, once nothing reads the current model any more (the
   // checks above each hold a refit of it).
   out.model_after = std::move(current.model);

@@ -343,30 +343,6 @@ TEST(DiagnosisSim, AContactThatPredictsWorseThanLugreIsNotChosen) {
   EXPECT_LT(d.after.heldout.rms, d.before.heldout.rms);
 }
 
-// A candidate's refit moves the contact's parameters too, and can find a
-// better valley of the contact rather than an effect. On the fitted
-// contact's frictional lag run (20 ms, seed 4, 5 uN; the lag itself is not
-// identifiable on this protocol) drift was accepted at -50 % held out
-// (8.7 -> 4.3 uN) with its spline near zero between the record's ends: its
-// refit had moved the nested contact to where a held-out reversal turns with
-// the measured force.
-// Refitted from drift's values without it, the contact predicts the held-out
-// passes at 2.7 uN, and drift is then refused.
-TEST(DiagnosisSim, ACandidateWhoseGainIsTheContactsOwnIsNotAccepted) {
-  const DiagnoseOutcome outcome = diagnose_default_run_with_contact_choice(4, [](v1::DaemonConfig& c) {
-    auto* lag = c.mutable_sim()->mutable_friction()->mutable_frictional_lag();
-    lag->set_enabled(true);
-    lag->set_time_constant_s(0.02);
-  });
-  ASSERT_TRUE(outcome.error.empty()) << outcome.error;
-  const Diagnosis& d = outcome.diagnosis;
-  report("fitted contact, frictional lag 20 ms, seed 4, contact chosen", d);
-  ASSERT_TRUE(d.base_contact);
-  EXPECT_EQ(d.base_contact->chosen, "lugre+elasto_plastic+rate_state");
-  for (const auto& a : d.accepted) EXPECT_NE(a.effect, Effect::kDrift);
-  EXPECT_LT(d.after.heldout.rms, 3.5e-6);
-}
-
 // A direction asymmetry and a tilt both shift the sliding friction by an
 // offset proportional to the load; only a tilt reads at rest too. On the
 // default instrument (config/tribod.textproto, diagnosed as the
