@@ -75,8 +75,7 @@ std::size_t best_start(const ModelData& data, const std::vector<const FitResult*
 // b = 0.039 over D_c = 2.5 mm, more than the record's slip; from the softer
 // start, a = 0.013, b = 0.012 over D_c = 0.33 mm and a loading over 1.8 um,
 // and it predicts the held-out chunks 23 % better than LuGre
-// (docs/identification.md, "The rate-and-state contact's stiffness from two
-// starts").
+// (docs/identification.md, "The contact law as a choice").
 std::optional<EvaluatedFit> fit_rate_state_contact(const ModelData& data, const ContactChoiceOptions& options,
                                               const std::vector<char>& in_fit, const EvaluatedFit& lugre, bool slip_trend) {
   const SignatureInput lugre_input{data, lugre.fit.params, lugre.model, lugre.friction, in_fit};
@@ -133,7 +132,7 @@ ModelParams with_flat_stribeck(ModelParams p) {
 // contact that cannot slip while slow: a static level of 1e16 over a Stribeck
 // velocity of nm/s, and the breakaway ratio at 1; the rate-and-state law on
 // top then fits a and b of 1e-4 (the sim's 0.022 and 0.019;
-// docs/identification.md, "The nested contact fit restarted"). So when the
+// docs/identification.md, "The contact law as a choice"). So when the
 // last fit is past a bound, the law is also fitted from a second start, the
 // Stribeck curve back at the base model's default and a breakaway ratio at
 // its neutral start, and the better is kept (best_start). The two starts are
