@@ -56,9 +56,9 @@ struct ModelStructure {
   // left out of the fit and of the held-out error (analysis/diagnosis.h):
   // for records whose holds carry a relaxation the sampled motion cannot
   // show (tribo's closed loop: the 10 kHz position dither drains LuGre's
-  // bristle, docs/identification.md "Tests on tribo's simulated instrument
-  // and on synthetic runs"). Each pass is then predicted from the force it
-  // starts at, not from a model of the hold.
+  // bristle, docs/identification.md "Holds, passes and held-out data"). Each
+  // pass is then predicted from the force it starts at, not from a model of
+  // the hold.
   bool state_from_rest = false;
   // rate_state: the state's evolution law, Ruina's slip law (true) or
   // Dieterich's ageing law (false); the diagnosis fits both and keeps the one
