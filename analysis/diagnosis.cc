@@ -842,7 +842,17 @@ DitherChoice choose_dither(const ModelData& data, const ModelStructure& structur
   return out;
 }
 
-Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& options, MotionSegmentation motion) {
+// Effects one diagnosis accepted and then refused: the rounds after their
+// acceptance were taken in their presence, so the record is diagnosed again
+// without them (diagnose_until_kept). A refusal by the confusion check keeps
+// the refused effects as rivals of the rest.
+struct Refusal {
+  std::vector<RejectedEffect> effects;
+  bool as_rivals = false;
+};
+
+Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& options, MotionSegmentation motion,
+                       Refusal& refusal) {
   Diagnosis out;
   out.motion = std::move(motion);
   ModelData data(series, out.motion);
@@ -911,15 +921,10 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
     add_motion_systematic(data, *options.alternative_motion, out.motion, in_fit, heldout,
                           rms_over(series.force_n, current.model, heldout), options, out.final_fit);
     // The rounds after a refused effect's acceptance were taken in its
-    // presence: the record is diagnosed again without it as a candidate.
-    std::vector<RejectedEffect> not_clear = motion_model_refusals(data, out.accepted, out.final_fit, options);
-    if (!not_clear.empty()) {
-      DiagnosisOptions again = options;
-      for (const RejectedEffect& r : not_clear) std::erase(again.candidates, r.effect);
-      Diagnosis redo = diagnose_one(series, again, out.motion);
-      for (RejectedEffect& r : not_clear) redo.rejected.push_back(std::move(r));
-      return redo;
-    }
+    // presence: the record is diagnosed again without it as a candidate
+    // (diagnose_until_kept).
+    refusal.effects = motion_model_refusals(data, out.accepted, out.final_fit, options);
+    if (!refusal.effects.empty()) return out;
   }
   out.adequacy = judge_model_adequacy(data, out.final_fit);
   if (!out.adequacy.describes_record) withdraw_effects(out);
@@ -929,15 +934,9 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
   out.heldout_by_condition = by_condition(series, out.motion, out.model_before, current.model);
   if (out.adequacy.describes_record && !out.accepted.empty()) {
     add_confusion(in, current, status, out);
-    std::vector<RejectedEffect> confused = confusion_refusals(out, options);
-    if (!confused.empty()) {
-      DiagnosisOptions again = options;
-      if (again.rivals.empty()) again.rivals = options.candidates;
-      for (const RejectedEffect& r : confused) std::erase(again.candidates, r.effect);
-      Diagnosis redo = diagnose_one(series, again, out.motion);
-      for (RejectedEffect& r : confused) redo.rejected.push_back(std::move(r));
-      return redo;
-    }
+    refusal.effects = confusion_refusals(out, options);
+    refusal.as_rivals = true;
+    if (!refusal.effects.empty()) return out;
   }
   for (auto& [e, st] : status) out.rejected.push_back(st);
   if (options.minimum_detectable && out.adequacy.describes_record) {
@@ -953,6 +952,28 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
   // checks above each hold a refit of it).
   out.model_after = std::move(current.model);
   return out;
+}
+
+// The record diagnosed until it keeps every effect it accepts. Each
+// diagnosis is released before the next starts, so a refusal costs time, not
+// a second copy of the model data. The refused effects follow the kept
+// diagnosis's rejections, the last refused first.
+Diagnosis diagnose_until_kept(const MeasuredSeries& series, DiagnosisOptions options, MotionSegmentation motion) {
+  std::vector<std::vector<RejectedEffect>> refused;
+  for (;;) {
+    Refusal refusal;
+    Diagnosis out = diagnose_one(series, options, std::move(motion), refusal);
+    if (refusal.effects.empty()) {
+      for (auto r = refused.rbegin(); r != refused.rend(); ++r) {
+        out.rejected.insert(out.rejected.end(), r->begin(), r->end());
+      }
+      return out;
+    }
+    motion = std::move(out.motion);
+    if (refusal.as_rivals && options.rivals.empty()) options.rivals = options.candidates;
+    for (const RejectedEffect& r : refusal.effects) std::erase(options.candidates, r.effect);
+    refused.push_back(std::move(refusal.effects));
+  }
 }
 
 // Whether a pass starts from the bristle state the model carries through the
@@ -971,7 +992,7 @@ Diagnosis diagnose_both_pass_starts(const MeasuredSeries& series, const Diagnosi
     DiagnosisOptions one = options;
     one.choose_state_from_rest = false;
     one.base.state_from_rest = k == 1;
-    runs[k] = diagnose_one(series, one, motion);
+    runs[k] = diagnose_until_kept(series, one, motion);
   }
   const ModelData data(series, motion);
   const std::vector<char> passes = without_holds(data, std::vector<char>(motion.heldout.begin(), motion.heldout.end()));
@@ -993,7 +1014,7 @@ Diagnosis diagnose_both_pass_starts(const MeasuredSeries& series, const Diagnosi
 Diagnosis diagnose(const MeasuredSeries& series, const DiagnosisOptions& options) {
   MotionSegmentation motion = segment_motion(series, options.segmentation);
   if (options.choose_state_from_rest && !motion.holds.empty()) return diagnose_both_pass_starts(series, options, motion);
-  return diagnose_one(series, options, std::move(motion));
+  return diagnose_until_kept(series, options, std::move(motion));
 }
 
 // A held-out difference smaller than its own standard error is no evidence
