@@ -4,8 +4,9 @@
 // forward model is tests/analysis/synthetic_run.h, written apart from the
 // analysis's own candidate models (its own integrator and effect forms).
 // tests/analysis/diagnosis_sim_test.cc runs the same checks on tribo's
-// simulated instrument; kept until every effect is identified there (three
-// of ten so far, docs/identification.md "Simulated tests").
+// simulated instrument, where the lag and the sample's creep lie below what
+// its protocol reveals (docs/identification.md, "Tests on tribo's simulated
+// instrument and on synthetic runs").
 #include <cmath>
 #include <optional>
 

@@ -23,7 +23,9 @@ is stopped at the end of the page. A block that fails fails the test.
 The link check reads every Markdown file of the source tree: each relative
 link and image must name a file that exists and, with #anchor, a heading of
 that file; each repository path a page quotes (`config/x.textproto`, or
-docs/x.md in the text) must exist.
+docs/x.md in the text) must exist; each section a file of the tree names by
+page and title (docs/x.md, "Title") must be a heading or a paragraph label
+(**Title.**) of that page.
 
     run_doc_commands.py --build-dir BUILD --source-dir SRC [--keep] [--links-only|--no-links] [PAGE.md ...]
 """
@@ -312,6 +314,69 @@ def check_links(source_dir):
     return problems
 
 
+# A section named by its page, in the docs or in a comment: `page.md, "Heading"`,
+# `(page.md) ("Heading")`, `page.md's "Heading"`, `page.md "A" and "B"`.
+SECTION_REF = re.compile(r'((?:[\w.-]+/)*[\w.-]+\.md)\)?(?:\'s)?,?\s*\(?"([^"\n]{3,100})"(?:\s+and\s+"([^"\n]{3,100})")?')
+PARAGRAPH_LABEL = re.compile(r"^\*\*([^*]+?)\*\*")
+TEXT_SUFFIXES = (".md", ".cc", ".h", ".py", ".textproto", ".toml", ".proto", ".sh", ".txt", ".cmake")
+
+
+def section_names(path, cache={}):
+    """A page's headings and paragraph labels (`**Label.**` opening a line),
+    compared without case or markup; a heading also by its text before a
+    closing parenthesis ("Cost (measured ...)" answers to "Cost")."""
+    if path not in cache:
+        def plain(text):
+            return re.sub(r"[`*_]", "", text).strip().rstrip(".:").strip().lower()
+        names = set()
+        for _, line in prose_lines(path):
+            m = HEADING.match(line)
+            if m:
+                names.add(plain(m.group(2)))
+                names.add(plain(re.sub(r"\s*\([^()]*\)$", "", m.group(2))))
+            m = PARAGRAPH_LABEL.match(line)
+            if m:
+                names.add(plain(m.group(1)))
+        cache[path] = (names, plain)
+    return cache[path]
+
+
+def source_files(source_dir):
+    for root, dirs, files in os.walk(source_dir):
+        dirs[:] = [d for d in dirs if not d.startswith(".") and d != "build"
+                   and not d.startswith("build-") and d != "node_modules"]
+        for name in files:
+            if name.endswith(TEXT_SUFFIXES) or name == "CMakeLists.txt":
+                yield os.path.join(root, name)
+
+
+def check_section_names(source_dir):
+    """Each section a file names by its page and quoted title is a heading or
+    a paragraph label of that page (a page is looked for beside the file, at
+    the top of the tree, then in docs/)."""
+    problems = []
+    for path in sorted(source_files(source_dir)):
+        rel = os.path.relpath(path, source_dir)
+        try:
+            lines = open(path, encoding="utf-8").read().splitlines()
+        except UnicodeDecodeError:
+            continue
+        for n, line in enumerate(lines, 1):
+            for m in SECTION_REF.finditer(line):
+                page = m.group(1)
+                places = [os.path.join(os.path.dirname(path), page), os.path.join(source_dir, page),
+                          os.path.join(source_dir, "docs", os.path.basename(page))]
+                target = next((os.path.normpath(p) for p in places if os.path.isfile(p)), None)
+                if target is None:
+                    continue                                   # not a page of the tree: the link check's
+                names, plain = section_names(target)
+                for title in filter(None, (m.group(2), m.group(3))):
+                    if plain(title) not in names:
+                        problems.append(f'{rel}:{n}: names section "{title}": no such heading in '
+                                        f"{os.path.relpath(target, source_dir)}")
+    return problems
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--build-dir", required=True)
@@ -324,14 +389,14 @@ def main():
     source_dir = os.path.realpath(args.source_dir)
     build_dir = os.path.realpath(args.build_dir)
 
-    problems = [] if args.no_links else check_links(source_dir)
+    problems = [] if args.no_links else check_links(source_dir) + check_section_names(source_dir)
     for p in problems:
         print(p)
     if problems:
-        print(f"FAILED: {len(problems)} broken links or paths in the docs")
+        print(f"FAILED: {len(problems)} broken links, paths or section names in the docs")
         return 1
     if not args.no_links:
-        print("links: every link and quoted path of the docs resolves")
+        print("links: every link, quoted path and named section of the docs resolves")
     if args.links_only:
         return 0
 

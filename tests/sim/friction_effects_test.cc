@@ -374,8 +374,9 @@ TEST(FrictionEffects, UnloadingReleasesAHeldForceWithTheLoadMaxwellSlip) { unloa
 // position wander (3 nm RMS, 0.3 Hz) and plain LuGre's bristle slips on every
 // nanometre of it: the held force drains, and creep cannot build up. The
 // elasto-plastic contact (breakaway_ratio, sim/lugre_friction.h) is elastic
-// there and shows the creep. Why the diagnosis cannot see drift on a run of
-// the default (plain) sim: docs/identification.md, "Simulated tests".
+// there and shows the creep. Why the diagnosis does not see the sample's
+// creep on a run of the plain sim: docs/identification.md, "Tests on tribo's
+// simulated instrument and on synthetic runs".
 struct HeldForce {
   double start_n = 0, end_n = 0, creep_m = 0;  // force means over 2-3 s and 102-103 s
 };
