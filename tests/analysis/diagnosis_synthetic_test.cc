@@ -7,6 +7,7 @@
 // simulated instrument, where the lag and the sample's creep lie below what
 // its protocol reveals (docs/identification.md, "Tests on tribo's simulated
 // instrument and on synthetic runs").
+#include <algorithm>
 #include <cmath>
 #include <optional>
 
@@ -153,6 +154,45 @@ TEST(DiagnosisSynthetic, IsDeterministic) {
   ASSERT_EQ(a.accepted.size(), 1u);
   ASSERT_EQ(a.model_after.size(), b.model_after.size());
   for (std::size_t i = 0; i < a.model_after.size(); ++i) ASSERT_EQ(a.model_after[i], b.model_after[i]);
+}
+
+// Each effect the confusion check refuses sends the record back to be
+// diagnosed without it, the refused effects kept as rivals of the rest. A
+// confusion z no rival can leave refuses every effect that has one: on a
+// tilted tip's record with direction asymmetry as the other candidate (in
+// sliding both add the same offset), the one accepted first is refused, then
+// the other, and the final diagnosis names nothing and lists the refusals
+// after its own rejections, the last refused first.
+TEST(DiagnosisSynthetic, EffectsRefusedInTurnAreEachDiagnosedAwayAndListedLastFirst) {
+  testing::SyntheticEffects tilted;
+  tilted.tilt_tan = 0.026;
+  MeasuredSeries s = testing::synthetic_run(tilted, 1);
+  derive_motion(s, 0);
+  DiagnosisOptions options;
+  options.base.load_scaled = true;
+  options.candidates = {Effect::kTiltOffset, Effect::kDirectionAsymmetry};
+  const Diagnosis kept = diagnose(s, options);
+  ASSERT_FALSE(kept.accepted.empty());
+  const Effect first = kept.accepted.front().effect;
+  const Effect second = first == Effect::kTiltOffset ? Effect::kDirectionAsymmetry : Effect::kTiltOffset;
+
+  options.min_confusion_z = 1e9;
+  const Diagnosis refused = diagnose(s, options);
+  EXPECT_TRUE(refused.accepted.empty()) << "accepted: " << accepted_names(refused);
+  ASSERT_GE(refused.rejected.size(), 2u);
+  const RejectedEffect& last = refused.rejected.back();
+  const RejectedEffect& before_last = refused.rejected[refused.rejected.size() - 2];
+  EXPECT_EQ(effect_name(last.effect), effect_name(first)) << last.reason;
+  EXPECT_EQ(effect_name(before_last.effect), effect_name(second)) << before_last.reason;
+  for (const RejectedEffect* r : {&last, &before_last}) {
+    EXPECT_NE(r->reason.find("diagnosed again without it"), std::string::npos) << r->reason;
+  }
+  for (Effect e : {first, second}) {
+    EXPECT_EQ(std::count_if(refused.rejected.begin(), refused.rejected.end(),
+                            [e](const RejectedEffect& r) { return r.effect == e; }),
+              1)
+        << effect_name(e) << " listed more than once";
+  }
 }
 
 }  // namespace
