@@ -240,13 +240,19 @@ BARE_PATH = re.compile(r"(?<![\w/.`-])((?:%s)/[A-Za-z0-9_/-]+\.(?:md|textproto|t
                        % "|".join(TOP_DIRS))
 
 
-def markdown_files(source_dir):
+def tree_files(source_dir, suffixes):
+    """The source tree's files whose names end in one of `suffixes`, build
+    trees and hidden directories left out."""
     for root, dirs, files in os.walk(source_dir):
         dirs[:] = [d for d in dirs if not d.startswith(".") and d != "build"
                    and not d.startswith("build-") and d != "node_modules"]
         for name in files:
-            if name.endswith(".md"):
+            if name.endswith(suffixes):
                 yield os.path.join(root, name)
+
+
+def markdown_files(source_dir):
+    return tree_files(source_dir, (".md",))
 
 
 def prose_lines(path):
@@ -321,33 +327,27 @@ PARAGRAPH_LABEL = re.compile(r"^\*\*([^*]+?)\*\*")
 TEXT_SUFFIXES = (".md", ".cc", ".h", ".py", ".textproto", ".toml", ".proto", ".sh", ".txt", ".cmake")
 
 
+def section_key(title):
+    """A section title compared without case, markup or a closing stop."""
+    return re.sub(r"[`*_]", "", title).strip().rstrip(".:").strip().lower()
+
+
 def section_names(path, cache={}):
-    """A page's headings and paragraph labels (`**Label.**` opening a line),
-    compared without case or markup; a heading also by its text before a
-    closing parenthesis ("Cost (measured ...)" answers to "Cost")."""
+    """A page's headings and paragraph labels (`**Label.**` opening a line);
+    a heading also by its text before a closing parenthesis ("Cost (measured
+    ...)" answers to "Cost")."""
     if path not in cache:
-        def plain(text):
-            return re.sub(r"[`*_]", "", text).strip().rstrip(".:").strip().lower()
         names = set()
         for _, line in prose_lines(path):
             m = HEADING.match(line)
             if m:
-                names.add(plain(m.group(2)))
-                names.add(plain(re.sub(r"\s*\([^()]*\)$", "", m.group(2))))
+                names.add(section_key(m.group(2)))
+                names.add(section_key(re.sub(r"\s*\([^()]*\)$", "", m.group(2))))
             m = PARAGRAPH_LABEL.match(line)
             if m:
-                names.add(plain(m.group(1)))
-        cache[path] = (names, plain)
+                names.add(section_key(m.group(1)))
+        cache[path] = names
     return cache[path]
-
-
-def source_files(source_dir):
-    for root, dirs, files in os.walk(source_dir):
-        dirs[:] = [d for d in dirs if not d.startswith(".") and d != "build"
-                   and not d.startswith("build-") and d != "node_modules"]
-        for name in files:
-            if name.endswith(TEXT_SUFFIXES) or name == "CMakeLists.txt":
-                yield os.path.join(root, name)
 
 
 def check_section_names(source_dir):
@@ -355,7 +355,7 @@ def check_section_names(source_dir):
     a paragraph label of that page (a page is looked for beside the file, at
     the top of the tree, then in docs/)."""
     problems = []
-    for path in sorted(source_files(source_dir)):
+    for path in sorted(tree_files(source_dir, TEXT_SUFFIXES)):
         rel = os.path.relpath(path, source_dir)
         try:
             lines = open(path, encoding="utf-8").read().splitlines()
@@ -368,10 +368,10 @@ def check_section_names(source_dir):
                           os.path.join(source_dir, "docs", os.path.basename(page))]
                 target = next((os.path.normpath(p) for p in places if os.path.isfile(p)), None)
                 if target is None:
-                    continue                                   # not a page of the tree: the link check's
-                names, plain = section_names(target)
+                    continue                                   # another project's page
+                names = section_names(target)
                 for title in filter(None, (m.group(2), m.group(3))):
-                    if plain(title) not in names:
+                    if section_key(title) not in names:
                         problems.append(f'{rel}:{n}: names section "{title}": no such heading in '
                                         f"{os.path.relpath(target, source_dir)}")
     return problems
