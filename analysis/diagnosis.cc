@@ -938,6 +938,7 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
     refusal.as_rivals = true;
     if (!refusal.effects.empty()) return out;
   }
+  if (options.alternative_motion_done) options.alternative_motion_done();
   for (auto& [e, st] : status) out.rejected.push_back(st);
   if (options.minimum_detectable && out.adequacy.describes_record) {
     add_minimum_detectable(in, current, out);
@@ -992,6 +993,7 @@ Diagnosis diagnose_both_pass_starts(const MeasuredSeries& series, const Diagnosi
     DiagnosisOptions one = options;
     one.choose_state_from_rest = false;
     one.base.state_from_rest = k == 1;
+    if (k + 1 < runs.size()) one.alternative_motion_done = nullptr;  // the next run reads it
     runs[k] = diagnose_until_kept(series, one, motion);
   }
   const ModelData data(series, motion);

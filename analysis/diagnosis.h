@@ -28,6 +28,7 @@
 // labelled with an effect that did not pass.
 #pragma once
 
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -112,6 +113,10 @@ struct DiagnosisOptions {
   // quadrature. Decisions are taken before, on the errors without it. Only
   // its motion columns are read (keep_motion_only(), analysis/input/measured_series.h).
   const MeasuredSeries* alternative_motion = nullptr;
+  // Called once the diagnosis no longer reads alternative_motion: when it
+  // keeps what it accepted, before the minimum detectable strengths, its
+  // costliest phase in memory, so that the caller can free it for them.
+  std::function<void()> alternative_motion_done;
   // The confusion check (analysis/effects/confusion.h): each accepted effect
   // against every other effect of `rivals` (empty: the candidates) that
   // applies to the record. With min_confusion_z > 0 an effect whose nearest

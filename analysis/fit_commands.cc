@@ -126,7 +126,10 @@ DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r)
       keep_motion_by_heldout_force(series, *stretches, options);
       stretches.reset();
     }
-    if (alternative && series.loop_taps > 0) options.alternative_motion = &*alternative;
+    if (alternative && series.loop_taps > 0) {
+      options.alternative_motion = &*alternative;
+      options.alternative_motion_done = [&alternative] { alternative.reset(); };
+    }
     out.diagnosis = diagnose(series, options);
   } catch (const std::exception& e) {
     out.error = std::string("the analysis failed: ") + e.what();
