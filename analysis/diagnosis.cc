@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <optional>
 #include <utility>
 
 #include "analysis/models/autodiff.h"
@@ -127,19 +128,23 @@ std::vector<char> without_holds(const ModelData& data, std::vector<char> mask) {
 // held-out passes for its shifts to count as the motion's uncertainty.
 constexpr double kMaxAlternativeMotionRatio = 1.5;
 
-// The final model refitted, from its own values, on the record with the other
-// motion estimate: a parameter that the choice of motion model moves by more
-// than its statistical error is known no better than that move (on the
-// independent generator the contact stiffness moves 2-9 % between the loop
-// models with and without the servo's yield, against errors of 1-2 %).
-void add_motion_systematic(const ModelData& primary, const MeasuredSeries& alternative_motion, const MotionSegmentation& motion,
-                           const std::vector<char>& in_fit, const std::vector<char>& heldout, double heldout_rms,
-                           const DiagnosisOptions& options, FitResult& fit) {
+// The final model refitted, from its own values, on the record with another
+// motion estimate: each parameter's shift, or nothing (with a warning) when
+// that estimate is not a defensible motion model for this record. A parameter
+// that the choice of motion model moves by more than its statistical error is
+// known no better than that move (on the independent generator the contact
+// stiffness moves 2-9 % between the loop models with and without the servo's
+// yield, against errors of 1-2 %).
+std::optional<std::vector<double>> motion_shifts(const ModelData& primary, const MeasuredSeries& alternative_motion,
+                                                 const MotionSegmentation& motion, const std::vector<char>& in_fit,
+                                                 const std::vector<char>& heldout, double heldout_rms,
+                                                 const DiagnosisOptions& options, FitResult& fit) {
   const MeasuredSeries alternative = with_motion_of(primary.series, alternative_motion);
   ModelData data(alternative, motion);
   data.set_drift_intervals(primary.drift_intervals());
   const FitResult refit = fit_model(data, fit.params, in_fit, options.lugre.fit);
-  if (!std::isfinite(refit.rss) || refit.estimates.size() != fit.estimates.size()) return;
+  if (!std::isfinite(refit.rss) || refit.estimates.size() != fit.estimates.size()) return std::nullopt;
+  const std::string which = alternative_motion.motion_estimator;
   // A motion model under which the model predicts the held-out passes much
   // worse is not a defensible one for this record, and its shifts are misfit,
   // not the motion's uncertainty. On the independent generator the two loop
@@ -149,21 +154,43 @@ void add_motion_systematic(const ModelData& primary, const MeasuredSeries& alter
   // it in 5 of 5 runs at 5 uN of force noise.
   const double alternative_rms = rms_over(alternative.force_n, simulate(data, refit.params), heldout);
   if (!(alternative_rms <= kMaxAlternativeMotionRatio * heldout_rms)) {
-    fit.warnings.push_back(fmt("the motion model's systematic error is not assessed: refitted on the other motion estimate, "
-                               "the model predicts the held-out passes %.2g times worse (held-out RMS %.3g against %.3g)",
-                               alternative_rms / heldout_rms, alternative_rms, heldout_rms));
-    return;
+    fit.warnings.push_back(fmt::sprintf("the motion model's systematic error is not assessed on %s: refitted on it, "
+                                        "the model predicts the held-out passes %.2g times worse (held-out RMS %.3g "
+                                        "against %.3g)",
+                                        which, alternative_rms / heldout_rms, alternative_rms, heldout_rms));
+    return std::nullopt;
   }
   // A refit that leaves the base model's physical bounds where the fit kept
   // them has found another valley, not the same model on other motion.
   if (const std::string o = base_objection(data, refit); !o.empty() && base_objection(primary, fit).empty()) {
-    fit.warnings.push_back("the motion model's systematic error is not assessed: refitted on the other motion estimate, " + o);
-    return;
+    fit.warnings.push_back("the motion model's systematic error is not assessed on " + which + ": refitted on it, " + o);
+    return std::nullopt;
   }
+  std::vector<double> shifts(fit.estimates.size(), 0.0);
+  for (std::size_t k = 0; k < fit.estimates.size(); ++k) shifts[k] = std::fabs(refit.estimates[k].value - fit.estimates[k].value);
+  return shifts;
+}
+
+// Each parameter's motion-model systematic error: its largest shift over the
+// defensible alternative motion estimates, added to its standard error in
+// quadrature.
+void add_motion_systematic(const ModelData& primary, const std::vector<const MeasuredSeries*>& alternatives,
+                           const MotionSegmentation& motion, const std::vector<char>& in_fit,
+                           const std::vector<char>& heldout, double heldout_rms, const DiagnosisOptions& options,
+                           FitResult& fit) {
+  std::optional<std::vector<double>> largest;
+  for (const MeasuredSeries* alternative : alternatives) {
+    const auto shifts = motion_shifts(primary, *alternative, motion, in_fit, heldout, heldout_rms, options, fit);
+    if (!shifts) continue;
+    if (!largest) largest = shifts;
+    else
+      for (std::size_t k = 0; k < shifts->size(); ++k) (*largest)[k] = std::max((*largest)[k], (*shifts)[k]);
+  }
+  if (!largest) return;
   for (std::size_t k = 0; k < fit.estimates.size(); ++k) {
     ParamEstimate& e = fit.estimates[k];
     if (e.fixed) continue;
-    e.motion_systematic = std::fabs(refit.estimates[k].value - e.value);
+    e.motion_systematic = (*largest)[k];
     if (std::isfinite(e.std_error)) e.std_error = std::hypot(e.std_error, e.motion_systematic);
     const int row = k < fit.covariance_row.size() ? fit.covariance_row[k] : -1;
     if (row >= 0 && row < fit.covariance.rows()) fit.covariance(row, row) += e.motion_systematic * e.motion_systematic;
@@ -917,8 +944,8 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
   }
 
   out.final_fit = current.fit;
-  if (options.alternative_motion) {
-    add_motion_systematic(data, *options.alternative_motion, out.motion, in_fit, heldout,
+  if (!options.alternative_motions.empty()) {
+    add_motion_systematic(data, options.alternative_motions, out.motion, in_fit, heldout,
                           rms_over(series.force_n, current.model, heldout), options, out.final_fit);
     // The rounds after a refused effect's acceptance were taken in its
     // presence: the record is diagnosed again without it as a candidate
@@ -938,7 +965,7 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
     refusal.as_rivals = true;
     if (!refusal.effects.empty()) return out;
   }
-  if (options.alternative_motion_done) options.alternative_motion_done();
+  if (options.alternative_motions_done) options.alternative_motions_done();
   for (auto& [e, st] : status) out.rejected.push_back(st);
   if (options.minimum_detectable && out.adequacy.describes_record) {
     add_minimum_detectable(in, current, out);
@@ -993,7 +1020,7 @@ Diagnosis diagnose_both_pass_starts(const MeasuredSeries& series, const Diagnosi
     DiagnosisOptions one = options;
     one.choose_state_from_rest = false;
     one.base.state_from_rest = k == 1;
-    if (k + 1 < runs.size()) one.alternative_motion_done = nullptr;  // the next run reads it
+    if (k + 1 < runs.size()) one.alternative_motions_done = nullptr;  // the next run reads them
     runs[k] = diagnose_until_kept(series, one, motion);
   }
   const ModelData data(series, motion);

@@ -106,17 +106,19 @@ struct DiagnosisOptions {
   // part of the base, not accepted effects. Off by default (tribo-fit
   // --base-model choose).
   bool choose_base_contact = false;
-  // The same record with its motion estimated by another defensible motion
-  // model (same samples): the final model is refitted on it, and each
-  // parameter's shift is its motion-model systematic error
-  // (ParamEstimate::motion_systematic), added to its standard error in
-  // quadrature. Decisions are taken before, on the errors without it. Only
-  // its motion columns are read (keep_motion_only(), analysis/input/measured_series.h).
-  const MeasuredSeries* alternative_motion = nullptr;
-  // Called once the diagnosis no longer reads alternative_motion: when it
+  // The same record with its motion estimated by other motion models (same
+  // samples): the final model is refitted on each, and each parameter's
+  // largest shift over those under which the model still predicts the
+  // held-out passes (within kMaxAlternativeMotionRatio) is its motion-model
+  // systematic error (ParamEstimate::motion_systematic), added to its standard
+  // error in quadrature. Decisions are taken before, on the errors without
+  // it. Only their motion columns are read (keep_motion_only(),
+  // analysis/input/measured_series.h).
+  std::vector<const MeasuredSeries*> alternative_motions;
+  // Called once the diagnosis no longer reads alternative_motions: when it
   // keeps what it accepted, before the minimum detectable strengths, its
-  // costliest phase in memory, so that the caller can free it for them.
-  std::function<void()> alternative_motion_done;
+  // costliest phase in memory, so that the caller can free them.
+  std::function<void()> alternative_motions_done;
   // The confusion check (analysis/effects/confusion.h): each accepted effect
   // against every other effect of `rivals` (empty: the candidates) that
   // applies to the record. With min_confusion_z > 0 an effect whose nearest

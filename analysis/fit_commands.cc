@@ -82,10 +82,11 @@ DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r)
   std::optional<MeasuredSeries> alternative;
   const bool smoothed = !(r.smooth_s > 0 || r.central_differences);
   if (smoothed && !series.reference_m.empty() && series.velocity_m_per_s.empty()) alternative = series;
-  // --motion-estimator auto: the setpoint's stretches beside the loop model
-  // without the force, one of the two kept below.
+  // The setpoint's stretches: with --motion-estimator auto beside the loop
+  // model without the force, one of the two kept below; otherwise a further
+  // alternative for the motion-model systematic error.
   std::optional<MeasuredSeries> stretches;
-  if (alternative && r.motion_by_heldout_force) stretches = series;
+  if (alternative) stretches = series;
   const bool loop_force = r.loop_force && !r.motion_by_heldout_force;
   const ReferenceMotion reference_motion = r.motion_by_heldout_force ? ReferenceMotion::loop_model : r.reference_motion;
   if (!smoothed) {
@@ -104,6 +105,8 @@ DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r)
   }
   if (alternative && alternative->loop_taps == 0) alternative.reset();
   if (alternative) keep_motion_only(*alternative);
+  if (!alternative) stretches.reset();
+  if (stretches && !r.motion_by_heldout_force) keep_motion_only(*stretches);
 
   DiagnosisOptions options;
   options.base.fit_mass = r.fit_mass;
@@ -122,13 +125,17 @@ DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r)
   options.min_confusion_z = r.min_confusion_z;
   const auto t0 = std::chrono::steady_clock::now();
   try {
-    if (stretches) {
+    if (stretches && r.motion_by_heldout_force) {
       keep_motion_by_heldout_force(series, *stretches, options);
       stretches.reset();
     }
     if (alternative && series.loop_taps > 0) {
-      options.alternative_motion = &*alternative;
-      options.alternative_motion_done = [&alternative] { alternative.reset(); };
+      options.alternative_motions.push_back(&*alternative);
+      if (stretches) options.alternative_motions.push_back(&*stretches);
+      options.alternative_motions_done = [&] {
+        alternative.reset();
+        stretches.reset();
+      };
     }
     out.diagnosis = diagnose(series, options);
   } catch (const std::exception& e) {

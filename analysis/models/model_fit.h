@@ -37,7 +37,7 @@ struct ParamEstimate {
   bool determined = true;
   std::optional<Effect> effect;
   // The part of std_error from the motion model (DiagnosisOptions::
-  // alternative_motion): NaN when not assessed.
+  // alternative_motions): NaN when not assessed.
   double motion_systematic = std::numeric_limits<double>::quiet_NaN();
 };
 
