@@ -78,7 +78,8 @@ DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r)
   }
   // With a reference and the force, the loop model with and without the
   // servo's yield to the force are both defensible motion models: the other
-  // one serves the parameters' motion-model systematic error.
+  // one (and the setpoint's stretches, below) serves the parameters'
+  // motion-model systematic error.
   std::optional<MeasuredSeries> alternative;
   const bool smoothed = !(r.smooth_s > 0 || r.central_differences);
   if (smoothed && !series.reference_m.empty() && series.velocity_m_per_s.empty()) alternative = series;
