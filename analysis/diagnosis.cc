@@ -167,34 +167,61 @@ std::optional<std::vector<double>> motion_shifts(const ModelData& primary, const
     return std::nullopt;
   }
   std::vector<double> shifts(fit.estimates.size(), 0.0);
-  for (std::size_t k = 0; k < fit.estimates.size(); ++k) shifts[k] = std::fabs(refit.estimates[k].value - fit.estimates[k].value);
+  for (std::size_t k = 0; k < fit.estimates.size(); ++k) shifts[k] = refit.estimates[k].value - fit.estimates[k].value;
   return shifts;
 }
 
 // Each parameter's motion-model systematic error: its largest shift over the
 // defensible alternative motion estimates, added to its standard error in
-// quadrature.
+// quadrature; each estimate's shifts are kept for the joint tests.
 void add_motion_systematic(const ModelData& primary, const std::vector<const MeasuredSeries*>& alternatives,
                            const MotionSegmentation& motion, const std::vector<char>& in_fit,
                            const std::vector<char>& heldout, double heldout_rms, const DiagnosisOptions& options,
                            FitResult& fit) {
-  std::optional<std::vector<double>> largest;
   for (const MeasuredSeries* alternative : alternatives) {
-    const auto shifts = motion_shifts(primary, *alternative, motion, in_fit, heldout, heldout_rms, options, fit);
-    if (!shifts) continue;
-    if (!largest) largest = shifts;
-    else
-      for (std::size_t k = 0; k < shifts->size(); ++k) (*largest)[k] = std::max((*largest)[k], (*shifts)[k]);
+    auto shifts = motion_shifts(primary, *alternative, motion, in_fit, heldout, heldout_rms, options, fit);
+    if (shifts) fit.motion_shifts.push_back(std::move(*shifts));
   }
-  if (!largest) return;
+  if (fit.motion_shifts.empty()) return;
   for (std::size_t k = 0; k < fit.estimates.size(); ++k) {
     ParamEstimate& e = fit.estimates[k];
     if (e.fixed) continue;
-    e.motion_systematic = (*largest)[k];
+    e.motion_systematic = 0;
+    for (const auto& shifts : fit.motion_shifts) e.motion_systematic = std::max(e.motion_systematic, std::fabs(shifts[k]));
     if (std::isfinite(e.std_error)) e.std_error = std::hypot(e.std_error, e.motion_systematic);
-    const int row = k < fit.covariance_row.size() ? fit.covariance_row[k] : -1;
-    if (row >= 0 && row < fit.covariance.rows()) fit.covariance(row, row) += e.motion_systematic * e.motion_systematic;
   }
+}
+
+// The final fit as one alternative motion estimate leaves it known: each
+// error with that estimate's shift alone, and the covariance with the shift
+// as one direction, since another motion model moves the parameters together
+// (a drift spline's knots, a sine and a cosine), not each on its own.
+FitResult under_motion_shift(const FitResult& fit, const std::vector<double>& shifts) {
+  FitResult out = fit;
+  Eigen::VectorXd d = Eigen::VectorXd::Zero(fit.covariance.rows());
+  for (std::size_t k = 0; k < out.estimates.size(); ++k) {
+    ParamEstimate& e = out.estimates[k];
+    if (e.fixed) continue;
+    if (std::isfinite(e.std_error) && std::isfinite(e.motion_systematic)) {
+      const double statistical = std::sqrt(std::max(e.std_error * e.std_error - e.motion_systematic * e.motion_systematic, 0.0));
+      e.std_error = std::hypot(statistical, shifts[k]);
+    }
+    const int row = k < fit.covariance_row.size() ? fit.covariance_row[k] : -1;
+    if (row >= 0 && row < d.size()) d[row] = shifts[k];
+  }
+  out.covariance += d * d.transpose();
+  return out;
+}
+
+// Why an accepted effect's strength is not clear of none under some
+// defensible motion estimate, or empty.
+std::string motion_model_objection(const ModelData& data, const FitResult& final_fit, Effect effect, double min_z) {
+  if (final_fit.motion_shifts.empty()) return undetermined_strength(data, final_fit, effect, min_z);
+  for (const auto& shifts : final_fit.motion_shifts) {
+    std::string o = undetermined_strength(data, under_motion_shift(final_fit, shifts), effect, min_z);
+    if (!o.empty()) return o;
+  }
+  return {};
 }
 
 // The accepted effects whose strength does not stand clear of none once the
@@ -204,7 +231,7 @@ std::vector<RejectedEffect> motion_model_refusals(const ModelData& data, const s
                                                   const FitResult& final_fit, const DiagnosisOptions& options) {
   std::vector<RejectedEffect> out;
   for (const AcceptedEffect& a : accepted) {
-    const std::string objection = undetermined_strength(data, final_fit, a.effect, options.min_strength_z);
+    const std::string objection = motion_model_objection(data, final_fit, a.effect, options.min_strength_z);
     if (objection.empty()) continue;
     RejectedEffect r;
     r.effect = a.effect;

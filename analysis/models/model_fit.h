@@ -56,6 +56,10 @@ struct FitResult {
   // joint tests; covariance_row[k] is spec k's row, -1 when fixed.
   Eigen::MatrixXd covariance;
   std::vector<int> covariance_row;
+  // Refitted on each defensible alternative motion estimate, each estimate's
+  // shift (refit - fit, by estimates index): the motion-model systematic
+  // error as a direction. The covariance above stays the statistical one.
+  std::vector<std::vector<double>> motion_shifts;
 };
 
 // in_fit[i] != 0 marks the samples of the objective.
