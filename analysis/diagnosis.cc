@@ -20,6 +20,7 @@
 #include "analysis/models/physical_bounds.h"
 #include "analysis/effects/residual_structure.h"
 #include "analysis/effects/regression.h"
+#include "analysis/round_log.h"
 
 namespace tribo::analysis {
 
@@ -516,7 +517,7 @@ ModelParams without_contact_law(const ModelParams& fit, Effect law, const ModelP
 // go to status. The current model's friction part served the signatures
 // only, and is released here.
 std::vector<std::pair<Signature, Effect>> screen_candidates(const RoundInputs& in, EvaluatedFit& current,
-                                                            std::map<Effect, RejectedEffect>& status) {
+                                                            std::map<Effect, RejectedEffect>& status, bool& cut) {
   const ModelData& data = in.data;
   const DiagnosisOptions& options = in.options;
   const std::vector<char>& in_fit = in.in_fit;
@@ -557,7 +558,8 @@ std::vector<std::pair<Signature, Effect>> screen_candidates(const RoundInputs& i
   }
   // Rank by the score test, the one statistic comparable across effects.
   std::sort(screened.begin(), screened.end(), [](const auto& a, const auto& b) { return a.first.score_t > b.first.score_t; });
-  if (static_cast<int>(screened.size()) > options.max_candidates_per_round) {
+  cut = static_cast<int>(screened.size()) > options.max_candidates_per_round;
+  if (cut) {
     for (std::size_t k = static_cast<std::size_t>(options.max_candidates_per_round); k < screened.size(); ++k) {
       status[screened[k].second].reason = "signature present but weaker than the candidates fitted this round: " + screened[k].first.summary;
     }
@@ -569,10 +571,11 @@ std::vector<std::pair<Signature, Effect>> screen_candidates(const RoundInputs& i
 // Fits and judges the screened candidates against the current model (one job
 // each, the costliest first) and appends their trials to out.trials. Returns
 // the index in out.trials of the passing trial with the largest held-out
-// gain, and moves its fit (polished to convergence) to winner.
+// gain, and moves each passing trial's fit (polished to convergence) to
+// passing, by its index in out.trials.
 std::optional<std::size_t> fit_round(const RoundInputs& in, const EvaluatedFit& current,
                                      const std::vector<std::pair<Signature, Effect>>& screened, int round, Diagnosis& out,
-                                     FitResult& winner) {
+                                     std::map<std::size_t, FitResult>& passing) {
   const ModelData& data = in.data;
   const MeasuredSeries& series = in.data.series;
   const DiagnosisOptions& options = in.options;
@@ -659,7 +662,6 @@ std::optional<std::size_t> fit_round(const RoundInputs& in, const EvaluatedFit& 
     fits[j] = std::move(polished);
     judged[j] = judge(fits[j]);
   });
-  const std::size_t first_trial = out.trials.size();
   for (std::size_t j = 0; j < screened.size(); ++j) {
     const auto& [sig, e] = screened[j];
     const FitResult& fit = fits[j];
@@ -685,23 +687,10 @@ std::optional<std::size_t> fit_round(const RoundInputs& in, const EvaluatedFit& 
     if (left[j].law) trial.verdict += "; " + left[j].note;
     if (e == Effect::kRateState) trial.verdict += fit.params.structure.rate_state_slip_law ? "; slip law (Ruina)" : "; ageing law (Dieterich)";
     if (trial.passed && (!best || trial.heldout_gain > out.trials[*best].heldout_gain)) best = out.trials.size();
+    if (trial.passed) passing.emplace(out.trials.size(), std::move(fits[j]));
     out.trials.push_back(trial);
   }
-  if (best) winner = std::move(fits[*best - first_trial]);
   return best;
-}
-
-// Each fitted candidate's reason after its round: refused with its verdict,
-// or helped less than the round's winner.
-void record_round_status(const Diagnosis& out, std::size_t first_trial, std::optional<std::size_t> best,
-                         std::map<Effect, RejectedEffect>& status) {
-  for (std::size_t k = first_trial; k < out.trials.size(); ++k) {
-    const CandidateTrial& t = out.trials[k];
-    RejectedEffect& st = status[t.effect];
-    st.last_trial = t;
-    if (!t.passed) st.reason = "fitted but did not clearly help on held-out data: " + t.verdict;
-    else if (best && k != *best) st.reason = "helped, but less than " + std::string(effect_name(out.trials[*best].effect)) + " this round: " + t.verdict;
-  }
 }
 
 // The minimum detectable strength of each effect not accepted, on the final
@@ -898,33 +887,34 @@ DitherChoice choose_dither(const ModelData& data, const ModelStructure& structur
 
 // Effects one diagnosis accepted and then refused: the rounds after their
 // acceptance were taken in their presence, so the record is diagnosed again
-// without them (diagnose_until_kept). A refusal by the confusion check keeps
-// the refused effects as rivals of the rest.
+// without them (diagnose_until_kept), taken up from the round that accepted
+// the first of them where that gives the same diagnosis (round_log.h). A
+// refusal by the confusion check keeps the refused effects as rivals of the
+// rest.
 struct Refusal {
   std::vector<RejectedEffect> effects;
   bool as_rivals = false;
+  std::optional<ResumedRounds> resumed;
 };
 
-Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& options, MotionSegmentation motion,
-                       Refusal& refusal) {
-  Diagnosis out;
-  out.motion = std::move(motion);
-  ModelData data(series, out.motion);
-  std::vector<char> in_fit = invert(out.motion.heldout);
-  std::vector<char> heldout(out.motion.heldout.begin(), out.motion.heldout.end());
+// The base fit and what is chosen with it, before the rounds: out's base,
+// dither, model_before, before, base_contact and drift_knots, the current
+// model and each candidate's status. Returns whether the record is velocity
+// steps diagnosed on LuGre alone.
+bool start_diagnosis(ModelData& data, const DiagnosisOptions& options, const std::vector<char>& in_fit,
+                     const std::vector<char>& heldout, Diagnosis& out, EvaluatedFit& current,
+                     std::map<Effect, RejectedEffect>& status) {
+  const MeasuredSeries& series = data.series;
   const std::vector<char> everything(series.size(), 1);
   const ModelStructure base = options.base;
   LugreFitOptions lugre = options.lugre;
   lugre.threads = options.threads;
-  out.base = fit_lugre(data, base, base.state_from_rest ? without_holds(data, in_fit) : in_fit, lugre);
-  if (base.state_from_rest) {
-    // The holds only set each pass's initial state (ModelStructure::state_from_rest).
-    in_fit = without_holds(data, in_fit);
-    heldout = without_holds(data, heldout);
-  }
+  // With the state from rest the holds only set each pass's initial state
+  // (ModelStructure::state_from_rest): in_fit has none of them.
+  out.base = fit_lugre(data, base, in_fit, lugre);
   if (options.dither == DitherTerm::choose) out.dither = choose_dither(data, base, in_fit, heldout, lugre, options.min_heldout_gain, out.base);
   for (auto& w : base_bound_warnings(data, out.base.result)) out.base.result.warnings.push_back(w);
-  EvaluatedFit current = evaluate_fit(data, out.base.result);
+  current = evaluate_fit(data, out.base.result);
   out.model_before = current.model;
   out.before = {error_stats(series.force_n, current.model, in_fit), error_stats(series.force_n, current.model, heldout),
                 error_stats(series.force_n, current.model, everything)};
@@ -946,21 +936,61 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
     for (std::size_t i = 0; i < series.size(); ++i) residual[i] = series.force_n[i] - current.model[i];
     out.drift_knots = choose_drift_intervals(data, residual, in_fit);
   }
-
-  std::map<Effect, RejectedEffect> status;
   for (Effect e : options.candidates) {
     if (!current.fit.params.structure.has(e)) status[e] = {e, "not examined", std::nullopt, 0.0, std::nullopt};
   }
+  return velocity_steps_on_lugre;
+}
+
+Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& options, MotionSegmentation motion,
+                       std::optional<ResumedRounds> resumed, Refusal& refusal) {
+  Diagnosis out;
+  std::map<Effect, RejectedEffect> status;
+  std::vector<RoundLog> rounds;
+  int first_round = 0;
+  bool velocity_steps_on_lugre = false;
+  if (resumed) {
+    out = std::move(resumed->out);
+    status = std::move(resumed->status);
+    rounds = std::move(resumed->rounds);
+    first_round = resumed->next_round;
+    velocity_steps_on_lugre = resumed->velocity_steps_on_lugre;
+  }
+  out.motion = std::move(motion);
+  ModelData data(series, out.motion);
+  std::vector<char> in_fit = invert(out.motion.heldout);
+  std::vector<char> heldout(out.motion.heldout.begin(), out.motion.heldout.end());
+  const std::vector<char> everything(series.size(), 1);
+  if (options.base.state_from_rest) {
+    in_fit = without_holds(data, in_fit);
+    heldout = without_holds(data, heldout);
+  }
+  EvaluatedFit current;
+  // The drift knots chosen at the start live in the model data.
+  if (resumed && out.drift_knots) data.set_drift_intervals(out.drift_knots->intervals);
+  if (resumed) current = evaluate_fit(data, std::move(resumed->current));
+  else velocity_steps_on_lugre = start_diagnosis(data, options, in_fit, heldout, out, current, status);
+  resumed.reset();
 
   const RoundInputs in{data, options, in_fit, heldout, out.base.result.params};
-  for (int round = 0; round < options.max_rounds; ++round) {
-    const std::vector<std::pair<Signature, Effect>> screened = screen_candidates(in, current, status);
-    const std::size_t first_trial = out.trials.size();
-    FitResult winner_fit;
-    const std::optional<std::size_t> best = fit_round(in, current, screened, round, out, winner_fit);
-    record_round_status(out, first_trial, best, status);
-    if (!best) break;
+  for (int round = first_round; round < options.max_rounds; ++round) {
+    RoundLog log{current.fit, out.trials.size(), 0, false, std::nullopt, {}, {}, std::nullopt, {}};
+    const std::vector<std::pair<Signature, Effect>> screened = screen_candidates(in, current, status, log.cut);
+    const std::optional<std::size_t> best = fit_round(in, current, screened, round, out, log.passing);
+    record_round_status(out, log.first_trial, best, status);
+    log.end_trial = out.trials.size();
+    log.status = status;
+    log.accepted = out.accepted;
+    log.base_contact = out.base_contact;
+    if (!best) {
+      rounds.push_back(std::move(log));
+      break;
+    }
     const CandidateTrial& winner = out.trials[*best];
+    log.winner = winner.effect;
+    FitResult winner_fit = std::move(log.passing.at(*best));
+    log.passing.erase(*best);
+    rounds.push_back(std::move(log));
     // The accepted model as polished to convergence (in its job), so that the
     // next round's candidates are not credited with what more iterations
     // alone give.
@@ -969,16 +999,26 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
     status.erase(winner.effect);
     if (winner.law_left) take_out_contact_law(winner, status, out);
   }
+  // The rounds after a refused effect's acceptance were taken in its
+  // presence: the record is diagnosed again without it as a candidate
+  // (diagnose_until_kept).
+  const auto refuse = [&](std::vector<RejectedEffect> effects, bool as_rivals) {
+    std::vector<Effect> refused;
+    for (const RejectedEffect& r : effects) refused.push_back(r.effect);
+    refusal = {std::move(effects), as_rivals, std::nullopt};
+    if (options.resume_at_refused_round) {
+      refusal.resumed = resume_without(out, rounds, refused, velocity_steps_on_lugre, options.max_rounds);
+    }
+  };
 
   out.final_fit = current.fit;
   if (!options.alternative_motions.empty()) {
     add_motion_systematic(data, options.alternative_motions, out.motion, in_fit, heldout,
                           rms_over(series.force_n, current.model, heldout), options, out.final_fit);
-    // The rounds after a refused effect's acceptance were taken in its
-    // presence: the record is diagnosed again without it as a candidate
-    // (diagnose_until_kept).
-    refusal.effects = motion_model_refusals(data, out.accepted, out.final_fit, options);
-    if (!refusal.effects.empty()) return out;
+    if (auto effects = motion_model_refusals(data, out.accepted, out.final_fit, options); !effects.empty()) {
+      refuse(std::move(effects), false);
+      return out;
+    }
   }
   out.adequacy = judge_model_adequacy(data, out.final_fit);
   if (!out.adequacy.describes_record) withdraw_effects(out);
@@ -988,11 +1028,13 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
   out.heldout_by_condition = by_condition(series, out.motion, out.model_before, current.model);
   if (out.adequacy.describes_record && !out.accepted.empty()) {
     add_confusion(in, current, status, out);
-    refusal.effects = confusion_refusals(out, options);
-    refusal.as_rivals = true;
-    if (!refusal.effects.empty()) return out;
+    if (auto effects = confusion_refusals(out, options); !effects.empty()) {
+      refuse(std::move(effects), true);
+      return out;
+    }
   }
   if (options.alternative_motions_done) options.alternative_motions_done();
+  rounds.clear();
   for (auto& [e, st] : status) out.rejected.push_back(st);
   if (options.minimum_detectable && out.adequacy.describes_record) {
     add_minimum_detectable(in, current, out);
@@ -1015,9 +1057,10 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
 // diagnosis's rejections, the last refused first.
 Diagnosis diagnose_until_kept(const MeasuredSeries& series, DiagnosisOptions options, MotionSegmentation motion) {
   std::vector<std::vector<RejectedEffect>> refused;
+  std::optional<ResumedRounds> resumed;
   for (;;) {
     Refusal refusal;
-    Diagnosis out = diagnose_one(series, options, std::move(motion), refusal);
+    Diagnosis out = diagnose_one(series, options, std::move(motion), std::move(resumed), refusal);
     if (refusal.effects.empty()) {
       for (auto r = refused.rbegin(); r != refused.rend(); ++r) {
         out.rejected.insert(out.rejected.end(), r->begin(), r->end());
@@ -1025,6 +1068,7 @@ Diagnosis diagnose_until_kept(const MeasuredSeries& series, DiagnosisOptions opt
       return out;
     }
     motion = std::move(out.motion);
+    resumed = std::move(refusal.resumed);
     if (refusal.as_rivals && options.rivals.empty()) options.rivals = options.candidates;
     for (const RejectedEffect& r : refusal.effects) std::erase(options.candidates, r.effect);
     refused.push_back(std::move(refusal.effects));

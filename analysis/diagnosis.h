@@ -126,6 +126,11 @@ struct DiagnosisOptions {
   // diagnosed again without it as a candidate; 0: reported only.
   double min_confusion_z = 0;
   std::vector<Effect> rivals;
+  // After a refusal, take the diagnosis without the refused effects up from
+  // the round that accepted the first of them (analysis/round_log.h); false:
+  // from the base fit. The same diagnosis either way; false is for the test
+  // that says so.
+  bool resume_at_refused_round = true;
 };
 
 // The evidence for the state each pass starts from, when it was chosen.
