@@ -10,8 +10,9 @@
 // passing fit is polished in its job, so it is at hand. The one exception is a
 // round that cut its candidates (max_candidates_per_round) with a refused one
 // among those fitted: without it the next in rank would have been fitted, so
-// that record is diagnosed again from the base fit. Test:
-// DiagnosisSynthetic.ARediagnosisTakenUpAtTheRefusedRoundIsTheOneWithoutTheEffect.
+// that record is diagnosed again from the base fit. Tests:
+// DiagnosisSynthetic.ARediagnosisTakenUpAtTheRefusedRoundIsTheOneWithoutTheEffect
+// (tests/analysis/diagnosis_synthetic_test.cc), RoundLog.* (round_log_test.cc).
 #pragma once
 
 #include <cstddef>

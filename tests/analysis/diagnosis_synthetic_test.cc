@@ -163,11 +163,17 @@ TEST(DiagnosisSynthetic, IsDeterministic) {
 // sliding both add the same offset), the one accepted first is refused, then
 // the other, and the final diagnosis names nothing and lists the refusals
 // after its own rejections, the last refused first.
-TEST(DiagnosisSynthetic, EffectsRefusedInTurnAreEachDiagnosedAwayAndListedLastFirst) {
+// A tilted tip's record (tan 0.026, seed 1), for the refusal tests.
+MeasuredSeries tilted_record() {
   testing::SyntheticEffects tilted;
   tilted.tilt_tan = 0.026;
   MeasuredSeries s = testing::synthetic_run(tilted, 1);
   derive_motion(s, 0);
+  return s;
+}
+
+TEST(DiagnosisSynthetic, EffectsRefusedInTurnAreEachDiagnosedAwayAndListedLastFirst) {
+  const MeasuredSeries s = tilted_record();
   DiagnosisOptions options;
   options.base.load_scaled = true;
   options.candidates = {Effect::kTiltOffset, Effect::kDirectionAsymmetry};
@@ -193,6 +199,40 @@ TEST(DiagnosisSynthetic, EffectsRefusedInTurnAreEachDiagnosedAwayAndListedLastFi
               1)
         << effect_name(e) << " listed more than once";
   }
+}
+
+// On a tilted tip's record with tilt, direction asymmetry and drift as
+// candidates and a confusion z no rival leaves, each accepted effect is
+// refused in turn: every rediagnosis is taken up from a round, and the final
+// diagnosis is the one diagnosing from the base fit each time gives, bit for
+// bit (analysis/round_log.h).
+TEST(DiagnosisSynthetic, ARediagnosisTakenUpAtTheRefusedRoundIsTheOneWithoutTheEffect) {
+  const MeasuredSeries s = tilted_record();
+  DiagnosisOptions options;
+  options.base.load_scaled = true;
+  options.candidates = {Effect::kTiltOffset, Effect::kDirectionAsymmetry, Effect::kDrift};
+  options.min_confusion_z = 1e9;
+  options.minimum_detectable = false;
+  const Diagnosis resumed = diagnose(s, options);
+  options.resume_at_refused_round = false;
+  const Diagnosis from_base = diagnose(s, options);
+
+  ASSERT_GE(resumed.rejected.size(), 2u);
+  EXPECT_NE(resumed.rejected.back().reason.find("diagnosed again without it"), std::string::npos);
+  ASSERT_EQ(resumed.trials.size(), from_base.trials.size());
+  for (std::size_t k = 0; k < resumed.trials.size(); ++k) {
+    EXPECT_EQ(resumed.trials[k].effect, from_base.trials[k].effect) << k;
+    EXPECT_EQ(resumed.trials[k].round, from_base.trials[k].round) << k;
+    EXPECT_EQ(resumed.trials[k].heldout_gain, from_base.trials[k].heldout_gain) << k;
+  }
+  EXPECT_EQ(accepted_names(resumed), accepted_names(from_base));
+  ASSERT_EQ(resumed.rejected.size(), from_base.rejected.size());
+  for (std::size_t k = 0; k < resumed.rejected.size(); ++k) {
+    EXPECT_EQ(resumed.rejected[k].effect, from_base.rejected[k].effect) << k;
+    EXPECT_EQ(resumed.rejected[k].reason, from_base.rejected[k].reason) << k;
+  }
+  EXPECT_EQ(resumed.final_fit.rss, from_base.final_fit.rss);
+  EXPECT_EQ(resumed.model_after, from_base.model_after);
 }
 
 }  // namespace
