@@ -942,6 +942,38 @@ bool start_diagnosis(ModelData& data, const DiagnosisOptions& options, const std
   return velocity_steps_on_lugre;
 }
 
+// One round: the candidates screened, fitted and judged against current;
+// the winner, if any, accepted and current moved to its fit. The round's log
+// goes to rounds (round_log.h). Returns whether an effect was accepted.
+bool take_round(const RoundInputs& in, int round, EvaluatedFit& current, std::map<Effect, RejectedEffect>& status,
+                std::vector<RoundLog>& rounds, Diagnosis& out) {
+  RoundLog log{current.fit, out.trials.size(), 0, false, std::nullopt, {}, {}, std::nullopt, {}};
+  const std::vector<std::pair<Signature, Effect>> screened = screen_candidates(in, current, status, log.cut);
+  const std::optional<std::size_t> best = fit_round(in, current, screened, round, out, log.passing);
+  record_round_status(out, log.first_trial, best, status);
+  log.end_trial = out.trials.size();
+  log.status = status;
+  log.accepted = out.accepted;
+  log.base_contact = out.base_contact;
+  if (!best) {
+    rounds.push_back(std::move(log));
+    return false;
+  }
+  const CandidateTrial& winner = out.trials[*best];
+  log.winner = winner.effect;
+  FitResult winner_fit = std::move(log.passing.at(*best));
+  log.passing.erase(*best);
+  rounds.push_back(std::move(log));
+  // The accepted model as polished to convergence (in its job), so that the
+  // next round's candidates are not credited with what more iterations
+  // alone give.
+  current = evaluate_fit(in.data, std::move(winner_fit));
+  out.accepted.push_back({winner.effect, {}, winner, std::nullopt});
+  status.erase(winner.effect);
+  if (winner.law_left) take_out_contact_law(winner, status, out);
+  return true;
+}
+
 Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& options, MotionSegmentation motion,
                        std::optional<ResumedRounds> resumed, Refusal& refusal) {
   Diagnosis out;
@@ -974,30 +1006,7 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
 
   const RoundInputs in{data, options, in_fit, heldout, out.base.result.params};
   for (int round = first_round; round < options.max_rounds; ++round) {
-    RoundLog log{current.fit, out.trials.size(), 0, false, std::nullopt, {}, {}, std::nullopt, {}};
-    const std::vector<std::pair<Signature, Effect>> screened = screen_candidates(in, current, status, log.cut);
-    const std::optional<std::size_t> best = fit_round(in, current, screened, round, out, log.passing);
-    record_round_status(out, log.first_trial, best, status);
-    log.end_trial = out.trials.size();
-    log.status = status;
-    log.accepted = out.accepted;
-    log.base_contact = out.base_contact;
-    if (!best) {
-      rounds.push_back(std::move(log));
-      break;
-    }
-    const CandidateTrial& winner = out.trials[*best];
-    log.winner = winner.effect;
-    FitResult winner_fit = std::move(log.passing.at(*best));
-    log.passing.erase(*best);
-    rounds.push_back(std::move(log));
-    // The accepted model as polished to convergence (in its job), so that the
-    // next round's candidates are not credited with what more iterations
-    // alone give.
-    current = evaluate_fit(data, std::move(winner_fit));
-    out.accepted.push_back({winner.effect, {}, winner, std::nullopt});
-    status.erase(winner.effect);
-    if (winner.law_left) take_out_contact_law(winner, status, out);
+    if (!take_round(in, round, current, status, rounds, out)) break;
   }
   // The rounds after a refused effect's acceptance were taken in its
   // presence: the record is diagnosed again without it as a candidate
