@@ -589,7 +589,6 @@ std::optional<std::size_t> fit_round(const RoundInputs& in, const EvaluatedFit& 
   const double aicc_current = aicc(current.fit.rss, current.fit.n, n, current.fit.k);
   const double aicc_current_eff = aicc(current.fit.rss, current.fit.n, n_eff, current.fit.k);
   const double heldout_before = rms_over(series.force_n, current.model, heldout);
-  std::optional<std::size_t> best;
   // Each job fits its candidate and checks it on the held-out passes; the
   // candidate's model force is dropped there (one array per sample and
   // candidate otherwise).
@@ -662,6 +661,7 @@ std::optional<std::size_t> fit_round(const RoundInputs& in, const EvaluatedFit& 
     fits[j] = std::move(polished);
     judged[j] = judge(fits[j]);
   });
+  const std::size_t first_trial = out.trials.size();
   for (std::size_t j = 0; j < screened.size(); ++j) {
     const auto& [sig, e] = screened[j];
     const FitResult& fit = fits[j];
@@ -686,11 +686,10 @@ std::optional<std::size_t> fit_round(const RoundInputs& in, const EvaluatedFit& 
     trial.law_left = left[j].law;
     if (left[j].law) trial.verdict += "; " + left[j].note;
     if (e == Effect::kRateState) trial.verdict += fit.params.structure.rate_state_slip_law ? "; slip law (Ruina)" : "; ageing law (Dieterich)";
-    if (trial.passed && (!best || trial.heldout_gain > out.trials[*best].heldout_gain)) best = out.trials.size();
     if (trial.passed) passing.emplace(out.trials.size(), std::move(fits[j]));
     out.trials.push_back(trial);
   }
-  return best;
+  return best_trial(out.trials, first_trial, out.trials.size());
 }
 
 // The minimum detectable strength of each effect not accepted, on the final
@@ -968,9 +967,7 @@ bool take_round(const RoundInputs& in, int round, EvaluatedFit& current, std::ma
   // next round's candidates are not credited with what more iterations
   // alone give.
   current = evaluate_fit(in.data, std::move(winner_fit));
-  out.accepted.push_back({winner.effect, {}, winner, std::nullopt});
-  status.erase(winner.effect);
-  if (winner.law_left) take_out_contact_law(winner, status, out);
+  accept_winner(winner, status, out);
   return true;
 }
 
@@ -998,11 +995,14 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
     heldout = without_holds(data, heldout);
   }
   EvaluatedFit current;
-  // The drift knots chosen at the start live in the model data.
-  if (resumed && out.drift_knots) data.set_drift_intervals(out.drift_knots->intervals);
-  if (resumed) current = evaluate_fit(data, std::move(resumed->current));
-  else velocity_steps_on_lugre = start_diagnosis(data, options, in_fit, heldout, out, current, status);
-  resumed.reset();
+  if (resumed) {
+    // The drift knots chosen at the start live in the model data.
+    if (out.drift_knots) data.set_drift_intervals(out.drift_knots->intervals);
+    current = evaluate_fit(data, std::move(resumed->current));
+    resumed.reset();
+  } else {
+    velocity_steps_on_lugre = start_diagnosis(data, options, in_fit, heldout, out, current, status);
+  }
 
   const RoundInputs in{data, options, in_fit, heldout, out.base.result.params};
   for (int round = first_round; round < options.max_rounds; ++round) {

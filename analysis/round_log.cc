@@ -17,10 +17,6 @@ void record_round_status(const Diagnosis& out, std::size_t first_trial, std::opt
   }
 }
 
-namespace {
-
-// The round's winner among trials [first, end): the passing trial of the
-// largest held-out gain, the first of equals (as fit_round takes it).
 std::optional<std::size_t> best_trial(const std::vector<CandidateTrial>& trials, std::size_t first, std::size_t end) {
   std::optional<std::size_t> best;
   for (std::size_t k = first; k < end; ++k) {
@@ -28,6 +24,14 @@ std::optional<std::size_t> best_trial(const std::vector<CandidateTrial>& trials,
   }
   return best;
 }
+
+void accept_winner(const CandidateTrial& winner, std::map<Effect, RejectedEffect>& status, Diagnosis& out) {
+  out.accepted.push_back({winner.effect, {}, winner, std::nullopt});
+  status.erase(winner.effect);
+  if (winner.law_left) take_out_contact_law(winner, status, out);
+}
+
+namespace {
 
 std::map<Effect, RejectedEffect> without(std::map<Effect, RejectedEffect> status, const std::vector<Effect>& refused) {
   for (Effect e : refused) status.erase(e);
@@ -83,9 +87,7 @@ std::optional<ResumedRounds> resume_without(Diagnosis& run, std::vector<RoundLog
     round.winner = winner.effect;
     next.current = std::move(round.passing.at(*best));
     round.passing.erase(*best);
-    next.out.accepted.push_back({winner.effect, {}, winner, std::nullopt});
-    next.status.erase(winner.effect);
-    if (winner.law_left) take_out_contact_law(winner, next.status, next.out);
+    accept_winner(winner, next.status, next.out);
     next.next_round = number + 1;
   } else {
     next.current = round.current;

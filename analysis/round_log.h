@@ -46,6 +46,14 @@ struct ResumedRounds {
   bool velocity_steps_on_lugre = false;
 };
 
+// The round's winner among trials [first, end): the passing trial of the
+// largest held-out gain, the first of equals.
+std::optional<std::size_t> best_trial(const std::vector<CandidateTrial>& trials, std::size_t first, std::size_t end);
+
+// The round's winner accepted into out: its status entry goes, and a contact
+// law it was fitted without leaves the model (take_out_contact_law).
+void accept_winner(const CandidateTrial& winner, std::map<Effect, RejectedEffect>& status, Diagnosis& out);
+
 // Each fitted candidate's reason after its round (trials from first_trial
 // on): refused with its verdict, or helped less than the round's winner.
 void record_round_status(const Diagnosis& out, std::size_t first_trial, std::optional<std::size_t> best,
