@@ -14,68 +14,11 @@
 #include <unsupported/Eigen/LevenbergMarquardt>
 
 #include "analysis/models/autodiff.h"
+#include "analysis/models/chunked_qr.h"
 
 namespace tribo::analysis {
 
 namespace {
-
-// Eigen's LevenbergMarquardt keeps the m x k Jacobian and, by default, three
-// more m x k matrices per step: the QR's copy of it, the R factor (stored
-// m x k) and lmpar2's working copy of R. This solver factorises the
-// Jacobian's own storage (moved in, given back when the step ends, holding
-// the last trial point's Jacobian: see below) and hands out only the k x k top of the
-// factor, the only rows the step reads (LMonestep.h, LMpar.h, LMqrsolv.h of
-// Eigen 3.4). The same QR on the same matrix type, bit for bit (a QR over an
-// Eigen::Ref instead, or a k x k factor, changes the last bits: other
-// alignments, other summation orders).
-//
-// Once the step has formed Q^T f (LMonestep.h: before its inner loop, the
-// only place the functor is called while a factorisation lives), nothing
-// reads the factorised storage again but rank(), kept here from the
-// factorisation: the storage is free for the trial points' Jacobians
-// (ModelFunctor::operator()), and the destructor hands the last one back as
-// the next step's Jacobian.
-class InPlaceQR : public Eigen::ColPivHouseholderQR<Eigen::MatrixXd> {
- public:
-  using MatrixType = Eigen::MatrixXd;
-
-  explicit InPlaceQR(Eigen::MatrixXd& jacobian) : jacobian_(jacobian), enclosing_(active_) {
-    m_qr.swap(jacobian_);
-    computeInPlace();
-    // The rows kept are congruent to m modulo 8 (at most 7 more than k): the
-    // factor's columns then start at the same alignment within a vector
-    // register as in the m-row matrix, and Eigen's vectorised dot products
-    // and triangular solves add in the same order.
-    const Eigen::Index m = m_qr.rows(), k = m_qr.cols();
-    r_ = m_qr.topRows(std::min(m, k + (m - k) % 8));
-    rank_ = Eigen::ColPivHouseholderQR<Eigen::MatrixXd>::rank();
-    active_ = this;
-  }
-  ~InPlaceQR() {
-    active_ = enclosing_;
-    m_qr.swap(jacobian_);
-  }
-  InPlaceQR(const InPlaceQR&) = delete;
-  InPlaceQR& operator=(const InPlaceQR&) = delete;
-
-  const Eigen::MatrixXd& matrixR() const { return r_; }
-  Eigen::Index rank() const { return rank_; }
-
-  // The storage factorised from jacobian on this thread, free for a trial
-  // point's Jacobian (see above); null when jacobian is not being factorised.
-  static Eigen::MatrixXd* storage_of(const Eigen::MatrixXd& jacobian) {
-    return active_ && &active_->jacobian_ == &jacobian ? &active_->m_qr : nullptr;
-  }
-
- private:
-  static thread_local InPlaceQR* active_;
-  Eigen::MatrixXd& jacobian_;
-  InPlaceQR* enclosing_;
-  Eigen::MatrixXd r_;
-  Eigen::Index rank_ = 0;
-};
-
-thread_local InPlaceQR* InPlaceQR::active_ = nullptr;
 
 // The samples that are rows of the Jacobian and the residual, in time
 // order: a list of indices, or a mask (the fit's: no index array per fit).
@@ -96,7 +39,7 @@ void jacobian_rows(const ModelData& data, const ModelParams& params, const std::
 //
 // A trial point is evaluated with its Jacobian whenever the solver holds m x k
 // storage no one reads at that moment (the first point, in minimizeInit; each
-// trial while the step's factorisation lives, see InPlaceQR): an accepted
+// trial of a step, whose factorisation has read J already): an accepted
 // trial is the next step's point, and its Jacobian is then already in place
 // (df). The autodiff simulation computes the same force values as the
 // double one, bit for bit (value_of() decides every branch), so the
@@ -105,7 +48,9 @@ void jacobian_rows(const ModelData& data, const ModelParams& params, const std::
 // every rejected one: diagnose() on the 200 s benchmark run, 12.8 -> 11.4 s
 // of CPU, the report bit for bit the same.
 struct ModelFunctor : Eigen::DenseFunctor<double> {
-  using QRSolver = InPlaceQR;
+  // Eigen's default QR would copy the m x k Jacobian each step and hand out
+  // an m x k R; this one reads J in chunks and keeps k x k (chunked_qr.h).
+  using QRSolver = ChunkedQR;
 
   ModelFunctor(const ModelData& d, const ModelParams& p, const std::vector<char>& in_fit, std::size_t count,
                std::vector<int> free)
@@ -143,7 +88,7 @@ struct ModelFunctor : Eigen::DenseFunctor<double> {
 
   int df(const Eigen::VectorXd& x, Eigen::MatrixXd& fjac) const {
     const auto m = static_cast<Eigen::Index>(rows.count), k = static_cast<Eigen::Index>(free.size());
-    // Taken once: the step factorises it in place.
+    // Taken once: a later trial point writes its own there.
     const bool computed = trial_jacobian && fjac.data() == trial_jacobian && fjac.rows() == m && fjac.cols() == k &&
                           trial_x.size() == x.size() && trial_x == x;
     trial_jacobian = nullptr;
@@ -156,11 +101,10 @@ struct ModelFunctor : Eigen::DenseFunctor<double> {
   // m x k storage of the solver's that no one reads now, or null.
   Eigen::MatrixXd* trial_storage() const {
     if (!solver_jacobian) return nullptr;
-    if (Eigen::MatrixXd* factorised = InPlaceQR::storage_of(*solver_jacobian)) return factorised;
     const bool allocated = solver_jacobian->rows() == static_cast<Eigen::Index>(rows.count) &&
                            solver_jacobian->cols() == static_cast<Eigen::Index>(free.size());
-    // Outside a step's factorisation the solver reads its Jacobian only
-    // right after df, never across a call of the functor.
+    // The solver reads its Jacobian only right after df (its column norms
+    // and the step's factorisation), never across a call of the functor.
     return allocated ? solver_jacobian : nullptr;
   }
 
@@ -397,6 +341,7 @@ FitResult fit_model(const ModelData& data, const ModelParams& initial, const std
   }
   Eigen::LevenbergMarquardt<ModelFunctor> lm(functor);
   functor.solver_jacobian = &lm.jacobian();
+  const ChunkedQR::ResidualScope residual_scope(lm.jacobian(), lm.fvec());
   lm.setMaxfev(options.max_iterations * 10);
   lm.setFtol(options.tolerance);
   lm.setXtol(options.tolerance);
