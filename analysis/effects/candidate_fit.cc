@@ -197,14 +197,7 @@ double score_test(const ModelData& data, const ModelParams& current, const std::
     }
     X.swap(Xk);
   }
-  // The regression factorises X in place and has the Jacobian computed again
-  // for its residual, rather than hold a copy: X is the widest array of this
-  // phase (drift: 15 columns), and two of them at once, one per core, set the
-  // diagnosis' peak heap. Each derivative is computed on its own,
-  // so the kept columns alone are the same values.
-  const Regression reg = regress_in_place(X, y, [&](Eigen::MatrixXd& out) {
-    model_jacobian_into(data, start, start.theta, kept, rows, 1.0, out);
-  });
+  const Regression reg = regress(X, y);
   if (!reg.ok) return 0.0;
   double best = 0;
   for (Eigen::Index j = 0; j < reg.coef.size(); ++j) best = std::max(best, std::fabs(reg.t(static_cast<int>(j))));

@@ -4,7 +4,6 @@
 // (n_eff from the lag-1 autocorrelation of the regression residual).
 #pragma once
 
-#include <functional>
 #include <string>
 #include <vector>
 
@@ -23,15 +22,9 @@ struct Regression {
 };
 
 // rows of X and y in time order; at least cols + 3 rows, else ok = false.
+// X is read, not copied (the score test's Jacobian is the widest array of
+// its phase).
 Regression regress(const Eigen::MatrixXd& X, const Eigen::VectorXd& y);
-
-// regress() without a copy of X: the QR factorises X's own storage, and
-// refill(X) writes X into it again for the residual (X is left as refill
-// wrote it, or overwritten when the regression fails). The same result, bit
-// for bit; for a design matrix that is cheaper to recompute than to hold
-// twice (the score test's Jacobian).
-Regression regress_in_place(Eigen::MatrixXd& X, const Eigen::VectorXd& y,
-                            const std::function<void(Eigen::MatrixXd&)>& refill);
 
 // Builds X and y from per-row callbacks over the selected sample indices.
 struct Design {
