@@ -49,14 +49,10 @@ void Design::reserve(std::size_t width, std::size_t rows) {
 
 Regression Design::fit() const {
   const auto n = static_cast<Eigen::Index>(y.size());
-  auto fill = [&](Eigen::MatrixXd& X) {
-    X.resize(n, static_cast<Eigen::Index>(columns.size()));
-    for (std::size_t j = 0; j < columns.size(); ++j) {
-      for (Eigen::Index i = 0; i < n; ++i) X(i, static_cast<Eigen::Index>(j)) = columns[j][static_cast<std::size_t>(i)];
-    }
-  };
-  Eigen::MatrixXd X;
-  fill(X);
+  Eigen::MatrixXd X(n, static_cast<Eigen::Index>(columns.size()));
+  for (std::size_t j = 0; j < columns.size(); ++j) {
+    for (Eigen::Index i = 0; i < n; ++i) X(i, static_cast<Eigen::Index>(j)) = columns[j][static_cast<std::size_t>(i)];
+  }
   return regress(X, Eigen::Map<const Eigen::VectorXd>(y.data(), n));
 }
 
