@@ -1002,11 +1002,14 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
     resumed.reset();
   } else {
     velocity_steps_on_lugre = start_diagnosis(data, options, in_fit, heldout, out, current, status);
+    mark_phase(options.timings, "base fit");
   }
 
   const RoundInputs in{data, options, in_fit, heldout, out.base.result.params};
   for (int round = first_round; round < options.max_rounds; ++round) {
-    if (!take_round(in, round, current, status, rounds, out)) break;
+    const bool accepted = take_round(in, round, current, status, rounds, out);
+    mark_phase(options.timings, "round", round + 1);
+    if (!accepted) break;
   }
   // The rounds after a refused effect's acceptance were taken in its
   // presence: the record is diagnosed again without it as a candidate
@@ -1024,6 +1027,7 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
   if (!options.alternative_motions.empty()) {
     add_motion_systematic(data, options.alternative_motions, out.motion, in_fit, heldout,
                           rms_over(series.force_n, current.model, heldout), options, out.final_fit);
+    mark_phase(options.timings, "refits under the other motion estimates");
     if (auto effects = motion_model_refusals(data, out.accepted, out.final_fit, options); !effects.empty()) {
       refuse(std::move(effects), false);
       return out;
@@ -1042,18 +1046,22 @@ Diagnosis diagnose_one(const MeasuredSeries& series, const DiagnosisOptions& opt
       return out;
     }
   }
+  mark_phase(options.timings, "adequacy and confusion checks");
   if (options.alternative_motions_done) options.alternative_motions_done();
   rounds.clear();
   for (auto& [e, st] : status) out.rejected.push_back(st);
   if (options.minimum_detectable && out.adequacy.describes_record) {
     add_minimum_detectable(in, current, out);
+    mark_phase(options.timings, "minimum detectable strengths");
     check_minimum_detectable_by_rediagnosis(in, current, out);
+    mark_phase(options.timings, "their checks by rediagnosis");
     withhold_velocity_strengthening_on_a_rising_curve(current, out);
   }
 
   add_creep_in_holds(series, current.fit, options, out);
 
   add_residual_and_warnings(in, current, velocity_steps_on_lugre, out);
+  mark_phase(options.timings, "creep in holds and the residual");
   // Moved, not copied, once nothing reads the current model any more (the
   // checks above each hold a refit of it).
   out.model_after = std::move(current.model);

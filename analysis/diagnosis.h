@@ -47,6 +47,7 @@
 #include "analysis/models/model_adequacy.h"
 #include "analysis/models/model_fit.h"
 #include "analysis/motion/motion_segmentation.h"
+#include "analysis/report/phase_timings.h"
 #include "analysis/effects/residual_signatures.h"
 
 namespace tribo::analysis {
@@ -87,6 +88,7 @@ struct DiagnosisOptions {
   int max_candidates_per_round = 10;
   int max_rounds = 6;
   unsigned threads = 0;  // candidates fitted at once (0: one per core); the result does not depend on it
+  PhaseTimings* timings = nullptr;  // each phase's time and work (tribo-fit diagnose --timings); none: null
   // Leave base.state_from_rest to the data: diagnose the record both ways and
   // keep the one whose final model has the lower held-out error over the
   // passes (the holds are not compared: with the state from the force they

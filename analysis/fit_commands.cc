@@ -104,6 +104,7 @@ DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r)
       else derive_motion_smoothed(*stretches, false, false, nullptr, ReferenceMotion::setpoint_stretches);
     });
   }
+  mark_phase(r.timings, "motion estimates");
   if (alternative && alternative->loop_taps == 0) alternative.reset();
   if (alternative) keep_motion_only(*alternative);
   if (!alternative) stretches.reset();
@@ -124,6 +125,7 @@ DiagnoseOutcome diagnose_series(MeasuredSeries series, const DiagnoseRequest& r)
   options.dither = r.dither;
   options.base.unresolved_dither = r.dither == DitherTerm::on;
   options.min_confusion_z = r.min_confusion_z;
+  options.timings = r.timings;
   const auto t0 = std::chrono::steady_clock::now();
   try {
     if (stretches && r.motion_by_heldout_force) {

@@ -42,6 +42,7 @@ struct DiagnoseRequest {
   bool choose_base_contact = false;  // --base-model choose (DiagnosisOptions::choose_base_contact)
   double min_confusion_z = 0;        // --min-confusion-z (DiagnosisOptions::min_confusion_z)
   std::string command_line;       // recorded in the report
+  PhaseTimings* timings = nullptr;   // --timings: each phase's time and work; none: null
 };
 
 struct DiagnoseOutcome {

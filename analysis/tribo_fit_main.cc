@@ -81,7 +81,7 @@ struct DiagnoseArgs {
   std::string time, position, force, motor_force, normal, velocity, acceleration, reference;
   double force_sign = 1;
   std::string force_unit = "N";
-  bool fit_mass = false, no_load_scaling = false, json = false;
+  bool fit_mass = false, no_load_scaling = false, json = false, timings = false;
   double stribeck_exponent = 1, smooth = 0;
   std::string base_model = "lugre";
   std::string dither = "off";
@@ -124,6 +124,9 @@ int diagnose_command(const DiagnoseArgs& a) {
     }
   }
 
+  std::optional<PhaseTimings> timings;
+  if (a.timings) timings.emplace(std::cerr);
+  PhaseTimings* const phases = timings ? &*timings : nullptr;
   std::optional<MeasuredSeries> series;
   bool fit_mass = a.fit_mass;
   if (std::filesystem::is_directory(input)) {
@@ -159,7 +162,9 @@ int diagnose_command(const DiagnoseArgs& a) {
     return 1;
   }
 
+  mark_phase(phases, "record read");
   DiagnoseRequest request;
+  request.timings = phases;
   request.candidates = candidates;
   request.begin_s = a.begin;
   request.end_s = a.end;
@@ -191,6 +196,8 @@ int diagnose_command(const DiagnoseArgs& a) {
     }
   }
   std::cout << (a.json ? json : diagnosis_text(outcome.series, d));
+  std::cout.flush();
+  mark_phase(phases, "report written");
   return 0;
 }
 
@@ -360,6 +367,9 @@ int main(int argc, char** argv) {
   diag->add_option("--begin", d.begin, "analyse only samples with t >= begin (s)");
   diag->add_option("--end", d.end, "analyse only samples with t <= end (s)");
   diag->add_flag("--json", d.json, "print one JSON object (fields: see README)");
+  diag->add_flag("--timings", d.timings,
+                 "write each phase's wall and CPU time, model work (Jacobian rows x columns) and peak memory to "
+                 "stderr, one 'timings:' line per phase");
   diag->add_option("--out", d.out, "also write DIR/diagnosis.json, traces.csv and signatures.csv (plots: analysis/plot_diagnosis.py DIR)");
 
   StribeckArgs s;

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
+#include <cstdint>
 #include <type_traits>
 #include <cmath>
 #include <map>
@@ -236,9 +238,12 @@ void jacobian_with(const ModelData& data, const ModelParams& params, const std::
   simulate_streamed<T>(data, params, dual, SampleSink<T>(row, model ? nullptr : rows.mask), plan.through_rest_state ? &rest : nullptr);
 }
 
+std::atomic<std::uint64_t> model_work{0};
+
 void jacobian_rows(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
                    const std::vector<int>& columns, const RowSelection& rows, double sign,
                    Eigen::Ref<Eigen::MatrixXd> out, std::vector<double>* model, Eigen::VectorXd* residual) {
+  model_work.fetch_add(static_cast<std::uint64_t>(rows.count) * columns.size(), std::memory_order_relaxed);
   const ColumnPlan plan = plan_columns(data, params, theta, columns);
   // The derivative vector's length sets the cost of every operation: the
   // next even width (whole SSE2 registers). Each derivative is computed on
@@ -285,6 +290,8 @@ Eigen::MatrixXd model_jacobian(const ModelData& data, const ModelParams& params,
   model_jacobian_into(data, params, theta, columns, rows, 1.0, jac, model);
   return jac;
 }
+
+std::uint64_t model_work_done() { return model_work.load(std::memory_order_relaxed); }
 
 double effective_sample_count(const double* r, std::size_t n) {
   if (n < 3) return static_cast<double>(n);

@@ -15,6 +15,7 @@
 #include <limits>
 #include <optional>
 #include <string>
+#include <cstdint>
 #include <vector>
 
 #include <Eigen/Core>
@@ -81,6 +82,11 @@ Eigen::MatrixXd model_jacobian(const ModelData& data, const ModelParams& params,
 void model_jacobian_into(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
                          const std::vector<int>& columns, const std::vector<std::size_t>& rows, double sign,
                          Eigen::Ref<Eigen::MatrixXd> out, std::vector<double>* model = nullptr);
+
+// The model work done so far by the process: every evaluation of a fit's
+// model with its Jacobian adds its rows times columns (the fits' cost, on any
+// thread; PhaseTimings, analysis/report/phase_timings.h, reports it).
+std::uint64_t model_work_done();
 
 // Sum of squared residuals of params over the marked samples (no fitting).
 double residual_sum_of_squares(const ModelData& data, const ModelParams& params, const std::vector<char>& in_fit);

@@ -22,9 +22,10 @@ struct Output {
   std::string text;
 };
 
-Output run(const std::string& args) {
+// The command's stdout and stderr together, unless redirect says otherwise.
+Output run(const std::string& args, const std::string& redirect = "2>&1") {
   Output out;
-  const std::string command = std::string(TRIBO_FIT_PATH) + " " + args + " 2>&1";
+  const std::string command = std::string(TRIBO_FIT_PATH) + " " + args + " " + redirect;
   FILE* pipe = popen(command.c_str(), "r");
   if (!pipe) return out;
   std::array<char, 4096> buf;
@@ -83,6 +84,40 @@ TEST(TriboFitCli, DiagnoseJsonCarriesTheContractFields) {
   EXPECT_NE(o.text.find("\"name\": \"direction_asymmetry\""), std::string::npos);
   EXPECT_NE(o.text.find("\"name\": \"backlash\""), std::string::npos);  // rejected, with its reason
   EXPECT_EQ(o.text.front(), '{');
+}
+
+// --timings: one line per phase on stderr, in the order the diagnosis runs
+// them, the rounds' fits counted as model work; stdout stays the report alone.
+TEST(TriboFitCli, TimingsGoToStderrPhaseByPhase) {
+  const std::string args = "diagnose " + testing::measured_data("emps_train_DATA_EMPS.csv") +
+                           " --time t_s --position x_m --motor-force force_motor_N --velocity v_derived_m_s"
+                           " --acceleration a_derived_m_s2 --effects direction_asymmetry --json --timings";
+  const Output errors = run(args, "2>&1 >/dev/null");
+  ASSERT_EQ(errors.exit_code, 0) << errors.text;
+  std::vector<std::string> phases;
+  double round_work = 0;
+  std::istringstream lines(errors.text);
+  for (std::string line; std::getline(lines, line);) {
+    ASSERT_EQ(line.rfind("timings: ", 0), 0u) << line;
+    const std::size_t wall = line.find(" wall ");
+    ASSERT_NE(wall, std::string::npos) << line;
+    std::string phase = line.substr(9, wall - 9);
+    phase.erase(phase.find_last_not_of(' ') + 1);
+    if (phase == "round 1") round_work = std::stod(line.substr(line.find("model work") + 10));
+    phases.push_back(phase);
+  }
+  const std::vector<std::string> in_order = {"record read", "motion estimates", "base fit", "round 1",
+                                             "minimum detectable strengths", "report written"};
+  std::size_t at = 0;
+  for (const std::string& phase : phases) {
+    if (at < in_order.size() && phase == in_order[at]) ++at;
+  }
+  EXPECT_EQ(at, in_order.size()) << errors.text;
+  EXPECT_GT(round_work, 0.0) << errors.text;
+  const Output report = run(args, "2>/dev/null");
+  ASSERT_EQ(report.exit_code, 0);
+  EXPECT_EQ(report.text.front(), '{');
+  EXPECT_EQ(report.text.find("timings:"), std::string::npos);
 }
 
 // --motion-estimator rts_jumps reaches the smoother: the basalt step is found
