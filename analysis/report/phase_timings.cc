@@ -34,9 +34,8 @@ void PhaseTimings::mark(std::string_view phase, int index) {
   const auto now = std::chrono::steady_clock::now();
   const ProcessUsage usage = process_usage();
   const std::uint64_t work = model_work_done();
-  // Formatted in buffers on the stack: a mark comes between the fits' large
-  // blocks in tribo-fit's single malloc arena, where a small block left on
-  // the heap can keep freed space from being reused.
+  // Formatted in buffers on the stack: a mark allocates nothing, so asking
+  // for the timings leaves the heap whose peak they report as it would be.
   fmt::memory_buffer name;
   fmt::format_to(std::back_inserter(name), "{}", phase);
   if (index >= 0) fmt::format_to(std::back_inserter(name), " {}", index);
