@@ -32,6 +32,15 @@ std::vector<char> invert(const std::vector<char>& mask) {
   return out;
 }
 
+// The base fit's options: the diagnosis's threads, and its candidates' AIC
+// gate for a restart inside the bounds (one gate, set in one place).
+LugreFitOptions lugre_options(const DiagnosisOptions& options) {
+  LugreFitOptions lugre = options.lugre;
+  lugre.threads = options.threads;
+  lugre.max_aic_loss = -options.max_delta_aicc;
+  return lugre;
+}
+
 // Per held-out block: did the candidate lower the block's squared error? Each
 // block votes with the candidate's squared change of the model force there:
 // where the candidate changes nothing its error moves at random, and an
@@ -906,8 +915,7 @@ bool start_diagnosis(ModelData& data, const DiagnosisOptions& options, const std
   const MeasuredSeries& series = data.series;
   const std::vector<char> everything(series.size(), 1);
   const ModelStructure base = options.base;
-  LugreFitOptions lugre = options.lugre;
-  lugre.threads = options.threads;
+  const LugreFitOptions lugre = lugre_options(options);
   // With the state from rest the holds only set each pass's initial state
   // (ModelStructure::state_from_rest): in_fit has none of them.
   out.base = fit_lugre(data, base, in_fit, lugre);
@@ -1145,8 +1153,7 @@ std::vector<MotionModelEvidence> weigh_motion_estimates(const std::vector<const 
   const MotionSegmentation motion = segment_motion(*estimates.front(), options.segmentation);
   std::vector<bool> starts{options.base.state_from_rest};
   if (options.choose_state_from_rest && !motion.holds.empty()) starts = {false, true};
-  LugreFitOptions lugre = options.lugre;
-  lugre.threads = options.threads;
+  const LugreFitOptions lugre = lugre_options(options);
   const std::vector<char> in_fit = invert(motion.heldout);
   for (std::size_t k = 0; k < estimates.size(); ++k) {
     const MeasuredSeries& series = *estimates[k];

@@ -26,6 +26,10 @@ struct LugreFitOptions {
   // The grid's simulations and the refined fits run on up to this many
   // threads (0: one per core); the result does not depend on it.
   unsigned threads = 1;
+  // A restart within the bounds replaces a best fit past them only when its
+  // AIC (n_eff ln of the residual ratio) is at most this much higher; a
+  // diagnosis sets it to its candidates' gate (-DiagnosisOptions::max_delta_aicc).
+  double max_aic_loss = 10.0;
 };
 
 struct LugreFit {
@@ -39,6 +43,26 @@ struct LugreFit {
 
 LugreFit fit_lugre(const ModelData& data, const ModelStructure& structure, const std::vector<char>& in_fit,
                    const LugreFitOptions& options = {});
+
+// A fit that ends past the base bounds is often a valley the starts fell
+// into, not the data's best: on a soft loop's records the static level runs
+// to zero at a Stribeck velocity of nm/s (the shape that mimics the
+// unresolved dither's drain, docs/identification.md). fit_lugre refits its
+// best fit, when that is past a bound, from its own values with the
+// Stribeck curve put back inside the bounds: the static level at 1.1 and 1.5 times the Coulomb level
+// (fallback_coulomb where that is past a bound), the Stribeck velocity at a
+// fifth of and at the median sliding speed, no negative viscous term, an
+// unresolved dither no faster than a tenth of that speed. The four fits,
+// whatever their bounds; fit_lugre keeps the best of those within the
+// bounds over its best fit past them when the data fit it no worse than
+// LugreFitOptions::max_aic_loss, and none past them.
+std::vector<FitResult> fits_restarted_inside_bounds(const ModelData& data, const ModelParams& from, double fallback_coulomb,
+                                                    const std::vector<char>& in_fit, const LugreFitOptions& options = {});
+
+// Whether a restart replaces the best fit past the bounds: it ends inside
+// them and its AIC (n_eff ln of the residual ratio, n_eff the fit past the
+// bounds') is at most max_aic_loss higher.
+bool restart_replaces(const ModelData& data, const FitResult& past_bounds, const FitResult& restart, double max_aic_loss);
 
 // The base model's values past physical bounds, one line each, every one
 // beginning "base model out of bounds": friction coefficients above 2, a

@@ -36,6 +36,56 @@ TEST(LugreFit, RecoversTheContactFromASyntheticScratchSeries) {
   for (const auto& e : fit.result.estimates) EXPECT_TRUE(e.determined) << e.name;
 }
 
+// A fit started in the valley a soft loop's records lead the starts into
+// (the static level near zero at a Stribeck velocity of nm/s) stays there;
+// restarted from its own values with the Stribeck curve inside the bounds,
+// it finds the contact, at a lower residual, and replaces it; a restart the
+// data fit worse by more than the AIC gate does not.
+TEST(LugreFit, AFitPastTheBoundsRestartedInsideThemFindsTheContact) {
+  testing::SyntheticOptions o;
+  o.three_loads = false;
+  MeasuredSeries s = testing::synthetic_run({}, 7, o);
+  derive_motion(s, 0);
+  const MotionSegmentation m = segment_motion(s);
+  const ModelData d(s, m);
+  ModelStructure st;
+  st.load_scaled = true;
+  const std::vector<char> in_fit = fit_mask(m);
+  ModelParams bent = base_params(d, st);
+  bent.set_value("mu_c", 0.10);
+  bent.set_value("mu_s", 1e-6);
+  bent.set_value("vs", 1e-8);
+  bent.set_value("sigma0", 3000);
+  bent.set_value("sigma1", 1.0);
+  bent.set_value("Fv", 0.0);
+  const FitResult stuck = fit_model(d, bent, in_fit);
+  ASSERT_FALSE(base_out_of_bounds(d, stuck).empty()) << "the bent start left its valley by itself: no test of the restart";
+  const std::vector<FitResult> restarts = fits_restarted_inside_bounds(d, stuck.params, 0.1, in_fit);
+  ASSERT_EQ(restarts.size(), 4u);
+  const FitResult* best = nullptr;
+  for (const FitResult& r : restarts) {
+    if (base_out_of_bounds(d, r).empty() && (!best || r.rss < best->rss)) best = &r;
+  }
+  ASSERT_NE(best, nullptr);
+  EXPECT_LT(best->rss, stuck.rss);
+  EXPECT_NEAR(best->params.value("mu_c"), 0.10, 0.003);
+  EXPECT_NEAR(best->params.value("mu_s"), 0.143, 0.005);
+  EXPECT_NEAR(best->params.value("sigma0"), 3414.6, 0.05 * 3414.6);
+
+  // It replaces the fit past the bounds: inside them, at a lower residual.
+  EXPECT_TRUE(restart_replaces(d, stuck, *best, 10.0));
+  // Not one the data fit clearly worse, nor one past the bounds however good.
+  ASSERT_GT(stuck.n_effective, 200.0);
+  FitResult worse = *best;
+  worse.rss = stuck.rss * std::exp(12.0 / stuck.n_effective);  // AIC 12 higher
+  EXPECT_FALSE(restart_replaces(d, stuck, worse, 10.0));
+  worse.rss = stuck.rss * std::exp(8.0 / stuck.n_effective);  // AIC 8 higher: within the gate
+  EXPECT_TRUE(restart_replaces(d, stuck, worse, 10.0));
+  FitResult past = stuck;
+  past.rss = 0.5 * stuck.rss;
+  EXPECT_FALSE(restart_replaces(d, stuck, past, 10.0));
+}
+
 TEST(LugreFit, WarnsThatSlidingDataAloneDoNotDetermineTheBristleDamping) {
   // EMPS-like drive data: fast back-and-forth sliding at two speeds (so that
   // Coulomb and viscous friction separate), no rest, no slow onsets.
