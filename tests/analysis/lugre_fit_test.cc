@@ -15,15 +15,33 @@ std::vector<char> fit_mask(const MotionSegmentation& m) {
   return mask;
 }
 
+// The synthetic scratch both base-fit tests fit: one load, seed 7, its
+// motion derived and segmented; the base structure scaled by the load.
+struct SyntheticScratch {
+  MeasuredSeries s = make_series();
+  MotionSegmentation m = segment_motion(s);
+  ModelData d{s, m};
+  ModelStructure st = load_scaled();
+
+  static MeasuredSeries make_series() {
+    testing::SyntheticOptions o;
+    o.three_loads = false;
+    MeasuredSeries s = testing::synthetic_run({}, 7, o);
+    derive_motion(s, 0);
+    return s;
+  }
+  static ModelStructure load_scaled() {
+    ModelStructure st;
+    st.load_scaled = true;
+    return st;
+  }
+};
+
 TEST(LugreFit, RecoversTheContactFromASyntheticScratchSeries) {
-  testing::SyntheticOptions o;
-  o.three_loads = false;
-  MeasuredSeries s = testing::synthetic_run({}, 7, o);
-  derive_motion(s, 0);
-  const MotionSegmentation m = segment_motion(s);
-  const ModelData d(s, m);
-  ModelStructure st;
-  st.load_scaled = true;
+  const SyntheticScratch scratch;
+  const ModelData& d = scratch.d;
+  const ModelStructure& st = scratch.st;
+  const MotionSegmentation& m = scratch.m;
   const LugreFit fit = fit_lugre(d, st, fit_mask(m));
   const ModelParams& p = fit.result.params;
   EXPECT_GE(fit.starts_evaluated, 8);
@@ -42,14 +60,10 @@ TEST(LugreFit, RecoversTheContactFromASyntheticScratchSeries) {
 // it finds the contact, at a lower residual, and replaces it; a restart the
 // data fit worse by more than the AIC gate does not.
 TEST(LugreFit, AFitPastTheBoundsRestartedInsideThemFindsTheContact) {
-  testing::SyntheticOptions o;
-  o.three_loads = false;
-  MeasuredSeries s = testing::synthetic_run({}, 7, o);
-  derive_motion(s, 0);
-  const MotionSegmentation m = segment_motion(s);
-  const ModelData d(s, m);
-  ModelStructure st;
-  st.load_scaled = true;
+  const SyntheticScratch scratch;
+  const ModelData& d = scratch.d;
+  const ModelStructure& st = scratch.st;
+  const MotionSegmentation& m = scratch.m;
   const std::vector<char> in_fit = fit_mask(m);
   ModelParams bent = base_params(d, st);
   bent.set_value("mu_c", 0.10);
