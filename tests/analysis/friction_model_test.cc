@@ -14,14 +14,7 @@ namespace tribo::analysis {
 namespace {
 
 struct Fixture {
-  Fixture() : series(make()), motion(segment_motion(series)), data(series, motion) {}
-  static MeasuredSeries make() {
-    testing::SyntheticOptions o;
-    o.three_loads = false;
-    MeasuredSeries s = testing::synthetic_run({}, 5, o);
-    derive_motion(s, 0);
-    return s;
-  }
+  Fixture() : series(testing::single_load_run(5)), motion(segment_motion(series)), data(series, motion) {}
   ModelParams base() const {
     ModelStructure st;
     st.load_scaled = true;

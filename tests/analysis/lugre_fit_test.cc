@@ -18,18 +18,11 @@ std::vector<char> fit_mask(const MotionSegmentation& m) {
 // The synthetic scratch both base-fit tests fit: one load, seed 7, its
 // motion derived and segmented; the base structure scaled by the load.
 struct SyntheticScratch {
-  MeasuredSeries s = make_series();
+  MeasuredSeries s = testing::single_load_run(7);
   MotionSegmentation m = segment_motion(s);
   ModelData d{s, m};
   ModelStructure st = load_scaled();
 
-  static MeasuredSeries make_series() {
-    testing::SyntheticOptions o;
-    o.three_loads = false;
-    MeasuredSeries s = testing::synthetic_run({}, 7, o);
-    derive_motion(s, 0);
-    return s;
-  }
   static ModelStructure load_scaled() {
     ModelStructure st;
     st.load_scaled = true;

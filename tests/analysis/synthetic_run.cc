@@ -237,4 +237,12 @@ analysis::MeasuredSeries synthetic_run(const SyntheticEffects& effects, std::uin
   return s;
 }
 
+analysis::MeasuredSeries single_load_run(std::uint64_t seed) {
+  SyntheticOptions options;
+  options.three_loads = false;
+  analysis::MeasuredSeries s = synthetic_run({}, seed, options);
+  analysis::derive_motion(s, 0);
+  return s;
+}
+
 }  // namespace tribo::testing

@@ -49,4 +49,8 @@ struct SyntheticOptions {
 analysis::MeasuredSeries synthetic_run(const SyntheticEffects& effects, std::uint64_t seed,
                                        const SyntheticOptions& options = {});
 
+// The clean contact at one load (1 mN), its motion derived without smoothing
+// as for measured data: the model's and the base fit's unit tests' scratch.
+analysis::MeasuredSeries single_load_run(std::uint64_t seed);
+
 }  // namespace tribo::testing
