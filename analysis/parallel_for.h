@@ -12,6 +12,21 @@
 
 namespace tribo::analysis {
 
+// The jobs running now on parallel_for's threads, over all its calls, and
+// whether this thread is one of them.
+inline std::atomic<unsigned> running_jobs{0};
+inline thread_local bool on_job_thread = false;
+
+// The cores that no parallel_for job but the caller's own is running on
+// now, at least 1 (the caller's): work whose result does not depend on how
+// it is split (the fits' simulation in pieces) takes the cores the others
+// leave idle.
+inline unsigned cores_free_for_caller() {
+  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+  const unsigned others = running_jobs.load(std::memory_order_relaxed) - (on_job_thread ? 1u : 0u);
+  return others + 1 >= cores ? 1u : cores - others;
+}
+
 // Calls fn(j) for j in [0, count) on up to `threads` threads (0: one per
 // core); returns when all are done. The first exception thrown is rethrown.
 template <class Fn>
@@ -28,12 +43,15 @@ void parallel_for(std::size_t count, unsigned threads, Fn fn) {
     std::vector<std::jthread> pool;
     for (std::size_t w = 0; w < workers; ++w) {
       pool.emplace_back([&] {
+        on_job_thread = true;
         for (std::size_t j = next++; j < count; j = next++) {
+          ++running_jobs;
           try {
             fn(j);
           } catch (...) {
             errors[j] = std::current_exception();
           }
+          --running_jobs;
         }
       });
     }

@@ -536,9 +536,37 @@ T slip_law_step(const ModelData& d, const T& memory_m, const T& previous, std::s
   return memory_m / speed * exp(phi * exp(-(speed * h) / memory_m));
 }
 
+namespace {
+
+// Whether a pass start from rest sets the bristle state afresh and all the
+// model carries from one pass to the next besides is the contact age and the
+// rate-and-state variable (each a function of the record's motion alone,
+// advanced to a start by a pass of its own): not so with backlash, whose side
+// in contact and gap carry over a hold.
+bool starts_each_pass_afresh(const ModelParams& p) {
+  return p.structure.state_from_rest && index_of(p).gap < 0;
+}
+
+bool is_pass_start_after_hold(const ModelData& d, std::size_t i) {
+  return i > 0 && i < d.at_rest.size() && d.at_rest[i - 1] && !d.at_rest[i];
+}
+
+}  // namespace
+
+std::size_t pass_start_near(const ModelData& d, const ModelParams& p, std::size_t near) {
+  if (!starts_each_pass_afresh(p)) return 0;
+  const std::size_t n = d.at_rest.size();
+  near = std::min(near, n);
+  for (std::size_t offset = 0; offset <= std::max(near, n - near); ++offset) {
+    if (offset <= near && is_pass_start_after_hold(d, near - offset)) return near - offset;
+    if (near + offset < n && is_pass_start_after_hold(d, near + offset)) return near + offset;
+  }
+  return 0;
+}
+
 template <class T>
 void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vector<T>& theta, SampleSink<T> sink,
-                       const RestStateLane* rest) {
+                       const RestStateLane* rest, std::size_t begin, std::size_t end) {
   using std::cos;
   using std::exp;
   using std::log;
@@ -720,10 +748,25 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
     return z_rest;
   };
 
-  // Initial state: steady sliding if moving, else relaxed.
-  T vlag = lag ? lagged_velocity(0) : T(v[0]);
-  T level = stribeck(0, absolute(vlag), sign_of(v[0]));
-  T z = (v[0] != 0 && value_of(level) > tiny) ? T(sign_of(v[0]) * level / sigma0) : T(0.0 * sigma0);
+  // Initial state: steady sliding if moving, else relaxed. Started at a
+  // pass start after a hold, the level at the hold's last sample, as the full
+  // simulation computes it there; the bristle state is set from rest at
+  // begin (or zero where the level is nil there).
+  if (begin > 0 && !(begin < n && starts_each_pass_afresh(p) && is_pass_start_after_hold(d, begin))) {
+    throw std::invalid_argument("simulate_streamed: a simulation may start afresh only at a pass start after a hold");
+  }
+  const std::size_t i0 = begin > 0 ? begin - 1 : 0;
+  // The contact age and the rate-and-state variable at i0, advanced as the
+  // loop below advances them (the same operations: the same bits).
+  for (std::size_t i = 1; i <= i0 && (dwell || rate_state); ++i) {
+    if (dwell) age = contact_age_step(d, dwell_memory, age, i);
+    if (rate_state) rs_state = slip_law ? slip_law_step(d, rs_dc, rs_state, i) : contact_age_step(d, rs_dc, rs_state, i);
+  }
+  T vlag = lag ? lagged_velocity(i0) : T(v[i0]);
+  // At i0 > 0 as the loop computes the level there.
+  T level = begin == 0 ? stribeck(0, absolute(vlag), sign_of(v[0]))
+                       : stribeck(i0, lag ? absolute(vlag) : T(std::fabs(v[i0])), sign_of(v[i0]));
+  T z = (begin == 0 && v[0] != 0 && value_of(level) > tiny) ? T(sign_of(v[0]) * level / sigma0) : T(0.0 * sigma0);
   int contact = v[0] >= 0 ? +1 : -1;  // backlash: side in contact
   bool in_gap = false;
   T x_open = T(x[0] + 0.0 * gap);
@@ -737,7 +780,7 @@ void simulate_streamed(const ModelData& d, const ModelParams& p, const std::vect
   // that last one: samples [i, skip_until).
   const bool skippable = st.state_from_rest && !backlash && sink.ignores_some();
   std::size_t next_taken = 0, hold_end = 0, skip_until = 0;
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t i = begin; i < std::min(n, end); ++i) {
     T friction = T(0.0 * sigma0);
     const T level_prev = level, vlag_prev = vlag;
     if (i > 0 && dwell) {
@@ -844,7 +887,7 @@ void simulate_generic(const ModelData& d, const ModelParams& p, const std::vecto
   template void simulate_generic<T>(const ModelData&, const ModelParams&, const std::vector<T>&, std::vector<T>&, \
                                     std::vector<T>*);                                                             \
   template void simulate_streamed<T>(const ModelData&, const ModelParams&, const std::vector<T>&, SampleSink<T>, \
-                                     const RestStateLane*);
+                                     const RestStateLane*, std::size_t, std::size_t);
 TRIBO_INSTANTIATE_SIMULATE(double)
 TRIBO_INSTANTIATE_SIMULATE(Dual)
 // Every even width up to 24 (kJacobianWidths, analysis/models/autodiff.h).

@@ -20,6 +20,7 @@
 #include <cstddef>
 #include <memory>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -248,9 +249,23 @@ struct RestStateLane {
 // starts from the force measured at rest, and reads only the contact age and
 // rate-and-state variable (advanced at every sample) and the hold's last
 // level.
+//
+// begin, end: the samples simulated, [begin, end). A begin past 0 must be a
+// pass start of a model that starts each pass afresh (pass_start_near()):
+// from there the values are the full simulation's, bit for bit.
 template <class T>
 void simulate_streamed(const ModelData& data, const ModelParams& params, const std::vector<T>& theta, SampleSink<T> sink,
-                       const RestStateLane* rest = nullptr);
+                       const RestStateLane* rest = nullptr, std::size_t begin = 0,
+                       std::size_t end = std::numeric_limits<std::size_t>::max());
+
+// With ModelStructure::state_from_rest each pass starts from the force
+// measured at rest, and all else the model carries from one pass to the next
+// is the contact age and the rate-and-state variable, functions of the
+// record's motion (a simulation that starts afresh advances them to its
+// start first), unless it has backlash (whose side in contact and gap carry
+// over a hold): the first sample of a pass after a hold nearest to `near`
+// (ties: the earlier), or 0 where there is none or the model has backlash.
+std::size_t pass_start_near(const ModelData& data, const ModelParams& params, std::size_t near);
 
 // A parameter the force depends on only through an added term, its value
 // times a regressor of the data (the offset, the moving mass, the tilt, the

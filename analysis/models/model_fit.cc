@@ -17,6 +17,7 @@
 
 #include "analysis/models/autodiff.h"
 #include "analysis/models/chunked_qr.h"
+#include "analysis/parallel_for.h"
 
 namespace tribo::analysis {
 
@@ -174,19 +175,20 @@ double derivative_of(const Eigen::AutoDiffScalar<Derivatives>& x, std::size_t j)
 }
 
 // d model / d theta streamed into out's rows (times sign), the model force
-// (optional) into model, the residual at the rows (optional) into residual;
-// the dual numbers (T: FixedDual, or double without dual columns) live one
-// sample at a time.
+// (optional) into model, the residual at the rows (optional) into residual,
+// over samples [begin, end) (simulate_streamed's range), whose first selected
+// row is first_row; the dual numbers (T: FixedDual, or double without dual
+// columns) live one sample at a time.
 template <class T>
-void jacobian_with(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
-                   const ColumnPlan& plan, const RowSelection& rows, double sign,
-                   Eigen::Ref<Eigen::MatrixXd> out, std::vector<double>* model, Eigen::VectorXd* residual) {
+void jacobian_range(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
+                    const ColumnPlan& plan, const RowSelection& rows, double sign, Eigen::Ref<Eigen::MatrixXd> out,
+                    std::vector<double>* model, Eigen::VectorXd* residual, std::size_t begin, std::size_t end,
+                    std::size_t first_row) {
   std::vector<T> dual(theta.size());
   for (std::size_t i = 0; i < theta.size(); ++i) dual[i] = T(theta[i]);
   if constexpr (!std::is_same_v<T, double>) {
     for (std::size_t j = 0; j < plan.dual.size(); ++j) dual[static_cast<std::size_t>(plan.dual[j])].derivatives()[static_cast<Eigen::Index>(j)] = 1.0;
   }
-  if (model) model->resize(data.series.size());
   std::array<double, 16> drift_basis{};
   // d z0 / d theta of each additive column through the current pass's
   // starting state (RestStateLane): minus the column's term summed over the
@@ -210,7 +212,7 @@ void jacobian_with(const ModelData& data, const ModelParams& params, const std::
       }
     };
   }
-  std::size_t r = 0;
+  std::size_t r = first_row;
   const std::vector<double>& measured = *data.fitted_force;
   auto row = [&](std::size_t i, const T& force, const T&, bool evaluated, double rate) {
     if (model) (*model)[i] = value_of(force);
@@ -235,7 +237,64 @@ void jacobian_with(const ModelData& data, const ModelParams& params, const std::
     }
     ++r;
   };
-  simulate_streamed<T>(data, params, dual, SampleSink<T>(row, model ? nullptr : rows.mask), plan.through_rest_state ? &rest : nullptr);
+  simulate_streamed<T>(data, params, dual, SampleSink<T>(row, model ? nullptr : rows.mask),
+                       plan.through_rest_state ? &rest : nullptr, begin, end);
+}
+
+// A piece of fewer rows is not simulated on a core of its own: a thread's
+// start would cost more than the piece saves.
+constexpr std::size_t kMinRowsPerPiece = 10000;
+
+// The selected rows before sample i.
+std::size_t rows_before(const RowSelection& rows, std::size_t i) {
+  if (rows.mask) {
+    return static_cast<std::size_t>(std::count_if(rows.mask->begin(), rows.mask->begin() + static_cast<std::ptrdiff_t>(i),
+                                                  [](char c) { return c != 0; }));
+  }
+  return static_cast<std::size_t>(std::lower_bound(rows.list->begin(), rows.list->end(), i) - rows.list->begin());
+}
+
+// The sample of selected row q (0 first).
+std::size_t sample_of_row(const RowSelection& rows, std::size_t q, std::size_t n) {
+  if (!rows.mask) return (*rows.list)[q];
+  std::size_t seen = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if ((*rows.mask)[i] && seen++ == q) return i;
+  }
+  return n;
+}
+
+// The simulation is sequential in time, and a fit ran on one core, idle
+// cores beside it where the other fits of its round had ended. Where a
+// simulation may start afresh at a pass start (pass_start_near), the record
+// is cut at the pass starts nearest equal shares of the rows, one piece per
+// core free (cores_free_for_caller), and the pieces are simulated at once:
+// each row is the one the whole simulation gives, bit for bit, so nothing
+// depends on the cuts (test
+// FrictionModel.ASimulationStartedAtAPassStartGivesTheFullSimulationsValues).
+// The first sample of each piece, 0 first.
+std::vector<std::size_t> piece_starts(const ModelData& data, const ModelParams& params, const RowSelection& rows) {
+  const std::size_t n = data.series.size();
+  const std::size_t pieces = std::min<std::size_t>(cores_free_for_caller(), rows.count / kMinRowsPerPiece);
+  std::vector<std::size_t> starts{0};
+  for (std::size_t j = 1; j < pieces; ++j) {
+    const std::size_t cut = pass_start_near(data, params, sample_of_row(rows, j * rows.count / pieces, n));
+    if (cut > starts.back()) starts.push_back(cut);
+  }
+  return starts;
+}
+
+template <class T>
+void jacobian_with(const ModelData& data, const ModelParams& params, const std::vector<double>& theta,
+                   const ColumnPlan& plan, const RowSelection& rows, double sign,
+                   Eigen::Ref<Eigen::MatrixXd> out, std::vector<double>* model, Eigen::VectorXd* residual) {
+  const std::size_t n = data.series.size();
+  if (model) model->resize(n);
+  const std::vector<std::size_t> starts = piece_starts(data, params, rows);
+  parallel_for(starts.size(), static_cast<unsigned>(starts.size()), [&](std::size_t j) {
+    const std::size_t begin = starts[j], end = j + 1 < starts.size() ? starts[j + 1] : n;
+    jacobian_range<T>(data, params, theta, plan, rows, sign, out, model, residual, begin, end, rows_before(rows, begin));
+  });
 }
 
 std::atomic<std::uint64_t> model_work{0};

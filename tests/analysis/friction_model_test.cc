@@ -1,7 +1,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <stdexcept>
 #include <string>
+#include <utility>
 
 #include <gtest/gtest.h>
 
@@ -14,7 +16,8 @@ namespace tribo::analysis {
 namespace {
 
 struct Fixture {
-  Fixture() : series(testing::single_load_run(5)), motion(segment_motion(series)), data(series, motion) {}
+  Fixture() : Fixture(testing::single_load_run(5)) {}
+  explicit Fixture(MeasuredSeries s) : series(std::move(s)), motion(segment_motion(series)), data(series, motion) {}
   ModelParams base() const {
     ModelStructure st;
     st.load_scaled = true;
@@ -228,6 +231,15 @@ TEST(FrictionModel, TheAutodiffSimulationsForceIsThePlainOneBitForBit) {
   }
 }
 
+// The value and every derivative, bit for bit.
+bool same_bits(const Dual& a, const Dual& b) {
+  bool same = std::memcmp(&a.value(), &b.value(), sizeof(double)) == 0 && a.derivatives().size() == b.derivatives().size();
+  for (Eigen::Index k = 0; same && k < a.derivatives().size(); ++k) {
+    same = std::memcmp(&a.derivatives()[k], &b.derivatives()[k], sizeof(double)) == 0;
+  }
+  return same;
+}
+
 // A fit reads its residual and Jacobian rows at its own samples only, and
 // with the pass start from rest the simulation leaves out what it ignores
 // up to the end of a hold (held-out passes, the holds): at every sample it
@@ -255,18 +267,77 @@ TEST(FrictionModel, ASinkThatIgnoresSamplesGetsTheFullSimulationsValuesAtThoseIt
       ++delivered;
       if (!taken[i]) return;
       ++taken_seen;
-      const Dual& want = full[i];
-      bool same = std::memcmp(&want.value(), &force.value(), sizeof(double)) == 0 &&
-                  want.derivatives().size() == force.derivatives().size();
-      for (Eigen::Index k = 0; same && k < want.derivatives().size(); ++k) {
-        same = std::memcmp(&want.derivatives()[k], &force.derivatives()[k], sizeof(double)) == 0;
-      }
-      differing += !same;
+      differing += !same_bits(full[i], force);
     };
     simulate_streamed<Dual>(f.data, p, theta, SampleSink<Dual>(check, &taken));
     EXPECT_EQ(differing, 0u) << (slip ? "slip law" : "ageing law");
     EXPECT_EQ(taken_seen, static_cast<std::size_t>(std::count(taken.begin(), taken.end(), 1)));
     EXPECT_LT(delivered, f.series.size() * 3 / 4);  // held-out passes and holds were left out
+  }
+}
+
+// With the pass start from rest, a simulation started at a pass start after
+// a hold (its contact age and rate-and-state variable advanced there first)
+// gives the full simulation's force and derivatives from there on, bit for
+// bit, with every effect that carries state across samples: so a fit
+// simulates a long record in pieces at once (model_fit.cc), and its Jacobian
+// is the one taken in one sequential run. Backlash carries its side
+// in contact over a hold: no such start.
+TEST(FrictionModel, ASimulationStartedAtAPassStartGivesTheFullSimulationsValues) {
+  MeasuredSeries three_loads = testing::synthetic_run({}, 5);
+  derive_motion(three_loads, 0);
+  const Fixture f(std::move(three_loads));
+  const std::size_t n = f.series.size();
+  for (bool slip : {false, true}) {
+    ModelStructure st;
+    st.load_scaled = true;
+    st.state_from_rest = true;
+    st.rate_state_slip_law = slip;
+    ModelParams p = base_params(f.data, st);
+    const ModelParams values = f.base();
+    for (const ParamSpec& spec : values.specs) p.set_value(spec.name, values.value(spec.name));
+    for (const auto& [e, initial] : std::vector<std::pair<Effect, std::vector<double>>>{
+             {Effect::kTiltOffset, {0.01}}, {Effect::kPreslidingHysteresis, {0.4}}, {Effect::kDwellStiction, {0.03, 2.0}},
+             {Effect::kFrictionalLag, {0.0213}}, {Effect::kRateState, {}}}) {
+      p = with_effect(p, e, f.data, initial);
+    }
+    const std::string law = slip ? "slip law" : "ageing law";
+    const std::size_t cut = pass_start_near(f.data, p, n / 2);
+    ASSERT_GT(cut, 0u) << law;
+    ASSERT_TRUE(f.data.at_rest[cut - 1] && !f.data.at_rest[cut]);
+
+    const std::vector<Dual> theta = seeded_duals(p.theta);
+    std::vector<Dual> full;
+    simulate_generic<Dual>(f.data, p, theta, full);
+    std::size_t delivered = 0, differing = 0;
+    auto check = [&](std::size_t i, const Dual& force, const Dual&) {
+      ++delivered;
+      differing += !same_bits(full[i], force);
+    };
+    simulate_streamed<Dual>(f.data, p, theta, SampleSink<Dual>(check), nullptr, cut);
+    EXPECT_EQ(delivered, n - cut) << law;
+    EXPECT_EQ(differing, 0u) << law;
+
+    // Every sample a row: enough rows (10 000 a piece) that the Jacobian is
+    // taken in pieces at once on two cores; each half alone, too few for
+    // two pieces, is taken in one sequential run.
+    std::vector<int> columns(p.theta.size());
+    for (std::size_t k = 0; k < columns.size(); ++k) columns[k] = static_cast<int>(k);
+    std::vector<std::size_t> rows(n), before(cut), after(n - cut);
+    for (std::size_t i = 0; i < n; ++i) (i < cut ? before[i] : after[i - cut]) = rows[i] = i;
+    ASSERT_GE(n, 20000u) << "too few rows for the Jacobian to be taken in pieces";
+    ASSERT_LT(std::max(cut, n - cut), 20000u) << "a half taken in pieces again";
+    const Eigen::MatrixXd whole = model_jacobian(f.data, p, p.theta, columns, rows);
+    const Eigen::MatrixXd first = model_jacobian(f.data, p, p.theta, columns, before);
+    const Eigen::MatrixXd second = model_jacobian(f.data, p, p.theta, columns, after);
+    EXPECT_TRUE((whole.topRows(static_cast<Eigen::Index>(cut)).array() == first.array()).all()) << law;
+    EXPECT_TRUE((whole.bottomRows(static_cast<Eigen::Index>(n - cut)).array() == second.array()).all()) << law;
+
+    const ModelParams with_play = with_effect(p, Effect::kBacklash, f.data, {0.05e-6});
+    EXPECT_EQ(pass_start_near(f.data, with_play, n / 2), 0u);
+    auto ignore = [](std::size_t, const double&, const double&) {};
+    EXPECT_THROW(simulate_streamed<double>(f.data, with_play, with_play.theta, SampleSink<double>(ignore), nullptr, cut),
+                 std::invalid_argument);
   }
 }
 
