@@ -18,9 +18,8 @@ namespace {
 struct Fixture {
   Fixture() : Fixture(testing::single_load_run(5)) {}
   explicit Fixture(MeasuredSeries s) : series(std::move(s)), motion(segment_motion(series)), data(series, motion) {}
-  ModelParams base() const {
-    ModelStructure st;
-    st.load_scaled = true;
+  // The contact's values in structure st (load-scaled: mu_c, mu_s).
+  ModelParams base(const ModelStructure& st) const {
     ModelParams p = base_params(data, st);
     p.set_value("mu_c", 0.10);
     p.set_value("mu_s", 0.143);
@@ -30,6 +29,11 @@ struct Fixture {
     p.set_value("Fv", 0.5);
     p.set_value("offset", 1e-6);
     return p;
+  }
+  ModelParams base() const {
+    ModelStructure st;
+    st.load_scaled = true;
+    return base(st);
   }
   MeasuredSeries series;
   MotionSegmentation motion;
@@ -123,8 +127,7 @@ TEST(FrictionModel, TheUnresolvedDitherSettlesSlidingOnTheLevelOverTheDitheredMe
   ASSERT_GE(plateau.size(), 4u);
   ModelStructure st = plain.structure;
   st.unresolved_dither = true;
-  ModelParams p = base_params(f.data, st);
-  for (const ParamSpec& spec : plain.specs) p.set_value(spec.name, plain.value(spec.name));
+  ModelParams p = f.base(st);
   p.set_value("dither_speed", fastest);
   const auto force = simulate(f.data, p);
   double lowest_share = 1;
@@ -151,8 +154,7 @@ TEST(FrictionModel, TheUnresolvedDithersJacobianMatchesFiniteDifferences) {
   const ModelParams plain = f.base();
   ModelStructure st = plain.structure;
   st.unresolved_dither = true;
-  ModelParams p = base_params(f.data, st);
-  for (const ParamSpec& spec : plain.specs) p.set_value(spec.name, plain.value(spec.name));
+  ModelParams p = f.base(st);
   p.set_value("dither_speed", 0.3 * f.data.speed_ref);
   expect_jacobian_matches_finite_differences(f.data, p);
 }
@@ -293,9 +295,7 @@ TEST(FrictionModel, ASimulationStartedAtAPassStartGivesTheFullSimulationsValues)
     st.load_scaled = true;
     st.state_from_rest = true;
     st.rate_state_slip_law = slip;
-    ModelParams p = base_params(f.data, st);
-    const ModelParams values = f.base();
-    for (const ParamSpec& spec : values.specs) p.set_value(spec.name, values.value(spec.name));
+    ModelParams p = f.base(st);
     for (const auto& [e, initial] : std::vector<std::pair<Effect, std::vector<double>>>{
              {Effect::kTiltOffset, {0.01}}, {Effect::kPreslidingHysteresis, {0.4}}, {Effect::kDwellStiction, {0.03, 2.0}},
              {Effect::kFrictionalLag, {0.0213}}, {Effect::kRateState, {}}}) {
@@ -359,9 +359,7 @@ TEST(FrictionModel, TheJacobiansAdditiveColumnsAreTheDualNumbersOwn) {
     st.load_scaled = true;
     st.fit_mass = true;
     st.state_from_rest = from_rest;
-    ModelParams p = base_params(f.data, st);
-    const ModelParams values = f.base();
-    for (std::size_t k = 0; k < values.specs.size(); ++k) p.set_value(values.specs[k].name, values.value(values.specs[k].name));
+    ModelParams p = f.base(st);
     p.set_value("mass", 2e-3);
     for (const auto& [e, initial] : std::vector<std::pair<Effect, std::vector<double>>>{
              {Effect::kTiltOffset, {0.01}}, {Effect::kDrift, {}}, {Effect::kDwellStiction, {0.03, 2.0}},
