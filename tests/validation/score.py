@@ -30,11 +30,17 @@ validation no per-file line is printed: the frozen set is scored, never read.
 
 usage: score.py TRIBO_FIT OUT_DIR --split dev|validation [--families a,b]
                 [--effects a,b] [--seeds 1,2] [--jobs 2] [--extra "ARGS"] [--reuse]
-(--reuse: take reports already in OUT_DIR instead of running the diagnosis again)
+                [--true-velocity]
+(--reuse: take reports already in OUT_DIR instead of running the diagnosis again;
+--true-velocity: an oracle, not the contract command: each record gets the
+generator's true tip velocity as a column, given as --velocity, which bounds
+what a better motion estimate could give; only for families whose generator
+returns its true motion, run(effect, seed, traces=True))
 """
 import argparse
 import concurrent.futures as cf
 import importlib.util
+import inspect
 import json
 import math
 import os
@@ -162,6 +168,30 @@ def named_effects(report):
     return list(dict.fromkeys(laws + accepted))
 
 
+TRUE_VELOCITY_COLUMN = "v_true_m_per_s"
+
+
+def gives_true_motion(module):
+    run = getattr(module, "run", None)
+    return run is not None and "traces" in inspect.signature(run).parameters
+
+
+def add_true_velocity(module, csv, effect, seed):
+    """Rewrite CSV with the generator's true velocity (m/s) at each record sample as a last column."""
+    with open(csv) as f:
+        lines = f.read().splitlines()
+    if lines[0].endswith("," + TRUE_VELOCITY_COLUMN):
+        return
+    _, rec = module.run(effect, seed, traces=True)
+    velocity = rec["v_true"]
+    if len(velocity) != len(lines) - 1:
+        raise RuntimeError(f"{csv}: {len(lines) - 1} samples but {len(velocity)} true velocities")
+    with open(csv, "w") as f:
+        f.write(lines[0] + "," + TRUE_VELOCITY_COLUMN + "\n")
+        for line, v in zip(lines[1:], velocity):
+            f.write(f"{line},{v:.9e}\n")
+
+
 def diagnose(tribo_fit, csv, extra, reuse):
     path = csv[:-4] + ".report.json"
     if reuse and os.path.exists(path):
@@ -177,13 +207,16 @@ def diagnose(tribo_fit, csv, extra, reuse):
     return json.loads(r.stdout), "", wall
 
 
-def score_file(family, module, base_effects, tribo_fit, out_dir, effect, seed, extra, reuse):
+def score_file(family, module, base_effects, tribo_fit, out_dir, effect, seed, extra, reuse, true_velocity=False):
     family_dir = os.path.join(out_dir, family)
     stem = None
     if reuse:
         stem = next((os.path.join(family_dir, f[:-len(".report.json")]) for f in sorted(os.listdir(family_dir))
                      if f.endswith(f"{effect}_seed{seed}.report.json")), None) if os.path.isdir(family_dir) else None
     csv = stem + ".csv" if stem else module.write(family_dir, effect, seed)
+    if true_velocity:
+        add_true_velocity(module, csv, effect, seed)
+        extra = extra + ["--velocity", TRUE_VELOCITY_COLUMN]
     with open(csv[:-4] + ".json") as f:
         truth = json.load(f)
     report, error, wall = diagnose(tribo_fit, csv, extra, reuse and stem is not None)
@@ -326,6 +359,8 @@ def main():
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--extra", default="", help="extra tribo-fit arguments")
     ap.add_argument("--reuse", action="store_true")
+    ap.add_argument("--true-velocity", action="store_true",
+                    help="give the generator's true velocity as --velocity (an oracle, not the contract command)")
     args = ap.parse_args()
     split = SPLIT_NAMES[args.split]
     with open(args.splits, "rb") as f:
@@ -340,6 +375,9 @@ def main():
             if module is None:
                 print(f"{family}: {spec['module']} is not in this tree; not scored")
                 continue
+            if args.true_velocity and not gives_true_motion(module):
+                sys.exit(f"{family}: its generator gives no true motion (run(..., traces=True)); --true-velocity "
+                         "is for families that do")
             effects = args.effects.split(",") if args.effects else [
                 e for e in module.EFFECTS if e not in spec.get("effects_excluded", [])]
             effects = [e for e in effects if e in module.EFFECTS]
@@ -349,7 +387,8 @@ def main():
             for e in effects:
                 for s in seeds:
                     jobs.append(pool.submit(score_file, family, module, spec.get("base_effects", []), tribo_fit,
-                                            args.out_dir, e, s, args.extra.split(), args.reuse))
+                                            args.out_dir, e, s, args.extra.split(), args.reuse,
+                                            args.true_velocity))
         rows = []
         for job in jobs:
             rows.append(job.result())
@@ -367,7 +406,8 @@ def main():
     with open(os.path.join(args.out_dir, f"score_{args.split}.md"), "w") as f:
         f.write(text)
     with open(os.path.join(args.out_dir, f"score_{args.split}.json"), "w") as f:
-        json.dump({"split": split, "command": sys.argv, "extra": args.extra, "summaries": summaries,
+        json.dump({"split": split, "command": sys.argv, "extra": args.extra,
+                   "true_velocity": args.true_velocity, "summaries": summaries,
                    "files": rows if split == "development" else []}, f, indent=1)
 
 
