@@ -83,6 +83,8 @@ def analysis_strength(effect, truth):
     generator's forms (tests/analysis/independent/transducer_sim.py); None otherwise."""
     if "analysis_strength" in truth:
         return truth["analysis_strength"]
+    if truth.get("family") == "servo_ipd":
+        return servo_ipd_analysis_strength(effect, truth)
     if truth.get("family") not in (None, "independent"):
         return None
     strength = truth.get("strength")
@@ -94,6 +96,35 @@ def analysis_strength(effect, truth):
         return strength
     if effect == "rate_state":  # levels x (1 + a ln v + ...): a mu_c in mu, the analysis's rs_a
         return truth["rate_state"]["a_mu"]
+    return None
+
+
+def servo_ipd_analysis_strength(effect, truth):
+    """servo_ipd's strength (tests/validation/families/servo_ipd/README.md, "Effects") in the
+    analysis's parameter where the two forms share one, else None. The lag is a pure delay of
+    the speed in both; the play's width is the analysis's gap; the asymmetry's fraction is of
+    the Coulomb level (the analysis's of both levels); the tilt reads N sin(theta) (tan within
+    6e-5 at 1 deg); the drift's settling D (1 - exp(-t/tau_d)) changes by D (1 - exp(-T/tau_d))
+    over a record of T s (the analysis's figure: the change from start to end); velocity
+    strengthening Fc c asinh(|v|/v_a) raises the level by mu_c c per e-fold of speed in the
+    friction coefficient where |v| >> v_a (asinh's slope is 0.71 of ln's at v_a, within 5 %
+    above 3 v_a: slower strokes see less, so the figure errs towards counting a miss).
+    Rate-and-state (b = 1.5 a, where the analysis's figure holds b = a), dwell stiction (both
+    levels, faded by slip) and load dependence (Derjaguin's adhesion load against a power law)
+    share none."""
+    strength = truth.get("strength")
+    if strength is None:
+        return None
+    if effect in ("frictional_lag", "direction_asymmetry", "backlash"):
+        return strength
+    if effect == "tilt_offset":
+        return math.tan(math.radians(strength))
+    if effect == "drift":
+        duration = truth["protocol"]["duration_s"]
+        tau = truth["effect_parameters"]["time_constant_s"]
+        return strength * (1.0 - math.exp(-duration / tau))
+    if effect == "velocity_strengthening":
+        return strength * truth["contact"]["mu_c"]
     return None
 
 

@@ -1,7 +1,10 @@
 """Checks of score.py's oracle column (--true-velocity): the generator's true velocity is added
 to a written record as its last column, once, and a record whose length does not match the
-generator's is an error. A stand-in generator keeps it fast (no family is simulated)."""
+generator's is an error. A stand-in generator keeps it fast (no family is simulated). And
+servo_ipd's injected strengths in the analysis's parameters, from the generator's own truth
+(its draws only, nothing simulated)."""
 
+import math
 import os
 import sys
 import tempfile
@@ -66,6 +69,47 @@ class TrueVelocityColumn(unittest.TestCase):
     def test_a_generator_of_another_length_is_an_error(self):
         with self.assertRaisesRegex(RuntimeError, "3 samples but 2 true velocities"):
             score.add_true_velocity(StandInGenerator([0.0, 1e-6]), self.csv, "none", 1)
+
+
+class ServoIpdStrengthInTheAnalysisParameter(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.generator = score.load_module("tests/validation/families/servo_ipd/generate.py")
+
+    def truth(self, effect, seed=3):
+        b = self.generator.build(effect, seed)
+        return self.generator.truth(effect, seed, b, {"substeps_per_tick": 1})
+
+    def test_the_shared_forms_are_converted_from_the_truth(self):
+        tilt = self.truth("tilt_offset")
+        self.assertAlmostEqual(score.analysis_strength("tilt_offset", tilt), math.tan(math.radians(0.6)), places=12)
+        for effect in ("frictional_lag", "direction_asymmetry", "backlash"):
+            self.assertEqual(score.analysis_strength(effect, self.truth(effect)), self.generator.DEFAULT_STRENGTH[effect])
+        vs = self.truth("velocity_strengthening")
+        self.assertAlmostEqual(score.analysis_strength("velocity_strengthening", vs), 0.06 * vs["contact"]["mu_c"],
+                               places=12)
+
+    def test_the_drift_is_its_change_over_the_record(self):
+        truth = self.truth("drift")
+        duration = truth["protocol"]["duration_s"]
+        tau = truth["effect_parameters"]["time_constant_s"]
+        change = score.analysis_strength("drift", truth)
+        # tau_d is 0.3-0.6 of the record: 81-96 % of the settled 60 uN.
+        self.assertTrue(0.81 * 60e-6 < change < 0.97 * 60e-6, change)
+        self.assertAlmostEqual(change, 60e-6 * (1 - math.exp(-duration / tau)), places=15)
+
+    def test_the_forms_that_share_no_parameter_have_none(self):
+        for effect in ("dwell_stiction", "load_dependence", "position_periodic", "presliding_hysteresis",
+                       "rate_state"):
+            self.assertIsNone(score.analysis_strength(effect, self.truth(effect)), effect)
+
+    def test_a_miss_below_the_reports_minimum_detectable_tilt_is_below_detection(self):
+        truth = self.truth("tilt_offset")
+        injected = score.analysis_strength("tilt_offset", truth)
+        report = {"rejected_effects": [{"name": "tilt_offset", "minimum_detectable": {"value": 2 * injected}}]}
+        self.assertLess(injected, score.minimum_detectable(report, "tilt_offset"))
+        report["rejected_effects"][0]["minimum_detectable"]["value"] = 0.5 * injected
+        self.assertGreater(injected, score.minimum_detectable(report, "tilt_offset"))
 
 
 if __name__ == "__main__":
