@@ -80,7 +80,8 @@ def in_vocabulary(effect, truth):
 def analysis_strength(effect, truth):
     """The injected strength in the analysis's own parameter, where the family's form shares
     one: the truth's `analysis_strength` when the family writes it, else the independent
-    generator's forms (tests/analysis/independent/transducer_sim.py); None otherwise."""
+    generator's forms (tests/analysis/independent/transducer_sim.py) or servo_ipd's
+    (servo_ipd_analysis_strength); None otherwise."""
     if "analysis_strength" in truth:
         return truth["analysis_strength"]
     if truth.get("family") == "servo_ipd":
@@ -103,8 +104,8 @@ def servo_ipd_analysis_strength(effect, truth):
     """servo_ipd's strength (tests/validation/families/servo_ipd/README.md, "Effects") in the
     analysis's parameter where the two forms share one, else None. The lag is a pure delay of
     the speed in both; the play's width is the analysis's gap; the asymmetry's fraction is of
-    the Coulomb level (the analysis's of both levels); the tilt reads N sin(theta) (tan within
-    6e-5 at 1 deg); the drift's settling D (1 - exp(-t/tau_d)) changes by D (1 - exp(-T/tau_d))
+    the Coulomb level (the analysis's of both levels); the tilt reads N sin(theta) (tan is
+    5.5e-5 larger at the default 0.6 deg); the drift's settling D (1 - exp(-t/tau_d)) changes by D (1 - exp(-T/tau_d))
     over a record of T s (the analysis's figure: the change from start to end); velocity
     strengthening Fc c asinh(|v|/v_a) raises the level by mu_c c per e-fold of speed in the
     friction coefficient where |v| >> v_a (asinh's slope is 0.71 of ln's at v_a, within 5 %
@@ -126,6 +127,12 @@ def servo_ipd_analysis_strength(effect, truth):
     if effect == "velocity_strengthening":
         return strength * truth["contact"]["mu_c"]
     return None
+
+
+def is_below_detection(right, injected, mds):
+    """A miss whose report's minimum detectable strength exceeds the injected one, both in the
+    analysis's parameter; a miss without either counts as identifiable."""
+    return not right and injected is not None and mds is not None and injected < mds
 
 
 def minimum_detectable(report, effect):
@@ -274,7 +281,7 @@ def score_file(family, module, base_effects, tribo_fit, out_dir, effect, seed, e
         row["right"] = first == effect
         injected = analysis_strength(effect, truth)
         mds = minimum_detectable(report, effect)
-        row["below_detection"] = (not row["right"] and injected is not None and mds is not None and injected < mds)
+        row["below_detection"] = is_below_detection(row["right"], injected, mds)
         row["injected_analysis_strength"], row["minimum_detectable"] = injected, mds
     else:
         row["kind"] = "oov"

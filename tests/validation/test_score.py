@@ -103,14 +103,22 @@ class ServoIpdStrengthInTheAnalysisParameter(unittest.TestCase):
                        "rate_state"):
             self.assertIsNone(score.analysis_strength(effect, self.truth(effect)), effect)
 
-    def test_a_miss_below_the_reports_minimum_detectable_tilt_is_below_detection(self):
-        truth = self.truth("tilt_offset")
-        injected = score.analysis_strength("tilt_offset", truth)
+    def test_a_tilt_miss_is_below_detection_only_under_the_reports_figure(self):
+        injected = score.analysis_strength("tilt_offset", self.truth("tilt_offset"))
         report = {"rejected_effects": [{"name": "tilt_offset", "minimum_detectable": {"value": 2 * injected}}]}
-        self.assertLess(injected, score.minimum_detectable(report, "tilt_offset"))
+        self.assertTrue(score.is_below_detection(False, injected, score.minimum_detectable(report, "tilt_offset")))
         report["rejected_effects"][0]["minimum_detectable"]["value"] = 0.5 * injected
-        self.assertGreater(injected, score.minimum_detectable(report, "tilt_offset"))
+        self.assertFalse(score.is_below_detection(False, injected, score.minimum_detectable(report, "tilt_offset")))
+        # No figure up to the searched strength: below detection; a named effect never is.
+        report["rejected_effects"][0]["minimum_detectable"]["value"] = None
+        self.assertTrue(score.is_below_detection(False, injected, score.minimum_detectable(report, "tilt_offset")))
+        self.assertFalse(score.is_below_detection(True, injected, math.inf))
 
+    def test_a_miss_of_a_form_without_a_shared_parameter_counts(self):
+        injected = score.analysis_strength("rate_state", self.truth("rate_state"))
+        self.assertFalse(score.is_below_detection(False, injected, 1.0))
+        withheld = {"rejected_effects": [{"name": "tilt_offset", "minimum_detectable": {"value": None, "withheld": "past bounds"}}]}
+        self.assertFalse(score.is_below_detection(False, 0.01, score.minimum_detectable(withheld, "tilt_offset")))
 
 if __name__ == "__main__":
     unittest.main()
